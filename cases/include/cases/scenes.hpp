@@ -1,0 +1,32 @@
+#pragma once
+// Scene drivers behind `lbdem run CASE.yaml`. The case file's top-level key
+// `scene` names the scene; each module family registers its scenes here.
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/config.hpp"
+
+namespace lbdem {
+
+// Command-line overrides; they win over the case file.
+struct RunOptions {
+  std::string backend = "auto";     // cuda | cpu | auto
+  std::optional<long> steps;        // overrides the case's step count
+  std::optional<std::string> output;  // overrides output.directory
+  bool overwrite = false;           // allow writing into a non-empty output folder
+  bool quiet = false;               // no progress lines (tests)
+};
+
+// Each family: the scene names it knows and its runner (returns an exit code;
+// throws lbdem::Error subclasses on bad input or divergence).
+std::vector<std::string> lbm_scene_names();
+int run_lbm_case(const Config& root, const RunOptions& opt);
+std::vector<std::string> dem_scene_names();
+int run_dem_case(const Config& root, const RunOptions& opt);
+
+// Looks up `scene` and runs it; unknown scene -> ConfigError with a suggestion.
+int run_case(const Config& root, const RunOptions& opt);
+std::vector<std::string> all_scene_names();
+
+}  // namespace lbdem

@@ -1,0 +1,82 @@
+#pragma once
+// Validated case files (YAML).
+//
+// Every read names its key; a missing key, a wrong type or an out-of-range
+// value throws ConfigError naming the file, the full key path, the value and
+// what would be valid. After a section has been read, finish() rejects keys
+// that were never asked for, suggesting the closest known key.
+#include <yaml-cpp/yaml.h>
+
+#include <array>
+#include <memory>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "core/error.hpp"
+
+namespace lbdem {
+
+class Config {
+ public:
+  // Loads a YAML file; throws ConfigError (unreadable file, syntax error with line).
+  static Config load_file(const std::string& path);
+  static Config from_string(const std::string& yaml, const std::string& source_name = "<string>");
+
+  const std::string& source() const { return *source_; }
+  const std::string& path() const { return path_; }  // dotted key path of this node ("" for root)
+  bool has(const std::string& key) const;
+
+  // Sections.
+  Config section(const std::string& key) const;                       // required
+  std::optional<Config> optional_section(const std::string& key) const;
+
+  // Scalars. Ranges are inclusive unless stated; `why` explains the limit.
+  double number(const std::string& key) const;
+  double number(const std::string& key, double def) const;
+  double number_in(const std::string& key, double lo, double hi, const std::string& why = "") const;
+  double number_in(const std::string& key, double def, double lo, double hi, const std::string& why = "") const;
+  double positive(const std::string& key) const;  // > 0
+  double positive(const std::string& key, double def) const;
+  long integer_in(const std::string& key, long lo, long hi) const;
+  long integer_in(const std::string& key, long def, long lo, long hi) const;
+  bool boolean(const std::string& key, bool def) const;
+  std::string text(const std::string& key) const;
+  std::string text(const std::string& key, const std::string& def) const;
+  std::string choice(const std::string& key, const std::vector<std::string>& valid) const;
+  std::string choice(const std::string& key, const std::string& def, const std::vector<std::string>& valid) const;
+  // Fixed-length number lists, e.g. [nx, ny, nz].
+  std::vector<double> numbers(const std::string& key, std::size_t min_len, std::size_t max_len) const;
+  std::vector<double> numbers(const std::string& key, const std::vector<double>& def, std::size_t min_len,
+                              std::size_t max_len) const;
+  std::vector<long> integers(const std::string& key, std::size_t min_len, std::size_t max_len, long lo,
+                             long hi) const;
+  // Sequence of sections (e.g. a list of walls).
+  std::vector<Config> sequence(const std::string& key) const;
+
+  // Throws if this node has keys never read (with a did-you-mean suggestion).
+  void finish() const;
+  // Marks a key as known without reading it (handled elsewhere).
+  void accept(const std::string& key) const;
+
+  // An error about key `key` of this node with the offending value shown.
+  [[noreturn]] void fail(const std::string& key, const std::string& what) const;
+  std::string full_key(const std::string& key) const;
+  std::string value_text(const std::string& key) const;
+
+ private:
+  Config(YAML::Node n, std::shared_ptr<std::string> src, std::string path)
+      : node_(std::move(n)), source_(std::move(src)), path_(std::move(path)),
+        used_(std::make_shared<std::set<std::string>>()) {}
+  YAML::Node get_node(const std::string& key) const;  // marks used, throws if missing
+  YAML::Node node_;
+  std::shared_ptr<std::string> source_;
+  std::string path_;
+  std::shared_ptr<std::set<std::string>> used_;
+};
+
+// Levenshtein distance, for suggestions.
+std::size_t edit_distance(const std::string& a, const std::string& b);
+
+}  // namespace lbdem

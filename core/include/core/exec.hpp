@@ -1,0 +1,84 @@
+#pragma once
+// Execution backends behind one interface.
+//
+// A kernel body is a small trivially-copyable functor with an
+// `LBDEM_HD void operator()(Index i) const`. for_each(exec, n, f) launches it
+// as a CUDA kernel (one thread per index) or runs it as an OpenMP loop. Never
+// capture `this` in a functor: pass views (pointer + extents) by value.
+#include <string>
+#include "core/error.hpp"
+#include "core/hd.hpp"
+
+namespace lbdem {
+
+enum class Backend { Host, Cuda };
+
+const char* to_string(Backend b);
+
+// True when this binary was built with the CUDA backend.
+constexpr bool cuda_compiled() {
+#if defined(LBDEM_HAVE_CUDA)
+  return true;
+#else
+  return false;
+#endif
+}
+
+// Empty when a CUDA device is usable; otherwise a sentence saying why not.
+std::string cuda_unavailable_reason();
+
+// Resolves "cuda", "cpu" (alias "host") or "auto". "auto" picks the GPU when
+// one is usable and otherwise logs once why it runs on the CPU. Asking for
+// "cuda" where none is usable throws ResourceError with the reason.
+Backend resolve_backend(const std::string& request);
+
+// Where and on which stream work runs.
+class Exec {
+ public:
+  explicit Exec(Backend b = Backend::Host) : backend_(b) {}
+  Backend backend() const { return backend_; }
+  bool on_device() const { return backend_ == Backend::Cuda; }
+#if defined(LBDEM_HAVE_CUDA)
+  cudaStream_t stream() const { return stream_; }
+  void set_stream(cudaStream_t s) { stream_ = s; }
+#endif
+  // Waits for all work queued on this Exec (no-op on the host).
+  void synchronize() const;
+
+ private:
+  Backend backend_;
+#if defined(LBDEM_HAVE_CUDA)
+  cudaStream_t stream_ = nullptr;
+#endif
+};
+
+[[noreturn]] void throw_not_compiled_for_cuda(const char* where);
+
+#if defined(__CUDACC__)
+template <class F>
+__global__ void for_each_kernel(Index n, F f) {
+  const Index i = static_cast<Index>(blockIdx.x) * blockDim.x + threadIdx.x;
+  if (i < n) f(i);
+}
+#endif
+
+// Runs f(i) for i in [0, n). Asynchronous on the CUDA backend.
+template <class F>
+void for_each(const Exec& ex, Index n, const F& f, int block_size = 256) {
+  if (n <= 0) return;
+  if (ex.on_device()) {
+#if defined(__CUDACC__)
+    const Index grid = (n + block_size - 1) / block_size;
+    for_each_kernel<<<static_cast<unsigned>(grid), block_size, 0, ex.stream()>>>(n, f);
+    LBDEM_CUDA_CHECK(cudaGetLastError());
+    return;
+#else
+    (void)block_size;
+    throw_not_compiled_for_cuda("for_each");
+#endif
+  }
+#pragma omp parallel for schedule(static)
+  for (Index i = 0; i < n; ++i) f(i);
+}
+
+}  // namespace lbdem

@@ -1,0 +1,68 @@
+#include "core/exec.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <string>
+
+#include "core/buffer.hpp"
+
+namespace lbdem {
+
+const char* to_string(Backend b) { return b == Backend::Cuda ? "cuda" : "cpu"; }
+
+void throw_cuda_error([[maybe_unused]] int code, const char* what, const char* file, int line) {
+#if defined(LBDEM_HAVE_CUDA)
+  const char* name = cudaGetErrorName(static_cast<cudaError_t>(code));
+  const char* msg = cudaGetErrorString(static_cast<cudaError_t>(code));
+#else
+  const char* name = "?";
+  const char* msg = "?";
+#endif
+  throw CudaError(std::string("CUDA call failed: ") + what + " -> " + name + " (" + msg + ") at " + file + ":" +
+                  std::to_string(line));
+}
+
+void throw_not_compiled_for_cuda(const char* where) {
+  throw Error(std::string(where) +
+              ": asked to run on the CUDA backend from a translation unit not compiled by nvcc "
+              "(kernel sources must end in .cu and be listed with lbdem_kernel_sources)");
+}
+
+std::string cuda_unavailable_reason() {
+#if defined(LBDEM_HAVE_CUDA)
+  int n = 0;
+  cudaError_t e = cudaGetDeviceCount(&n);
+  if (e != cudaSuccess) {
+    (void)cudaGetLastError();
+    return std::string("no usable CUDA device (") + cudaGetErrorString(e) + ")";
+  }
+  if (n == 0) return "no CUDA device found";
+  return {};
+#else
+  return "this build has no CUDA backend (nvcc was not found at configure time)";
+#endif
+}
+
+Backend resolve_backend(const std::string& request) {
+  if (request == "cpu" || request == "host") return Backend::Host;
+  if (request == "cuda" || request == "gpu") {
+    std::string why = cuda_unavailable_reason();
+    if (!why.empty()) throw ResourceError("--backend cuda: " + why + "; use --backend cpu or auto");
+    return Backend::Cuda;
+  }
+  if (request == "auto") {
+    std::string why = cuda_unavailable_reason();
+    if (why.empty()) return Backend::Cuda;
+    spdlog::info("backend auto: running on the CPU because {}", why);
+    return Backend::Host;
+  }
+  throw ConfigError("--backend: '" + request + "' is not a backend; valid: cuda, cpu, auto");
+}
+
+void Exec::synchronize() const {
+#if defined(LBDEM_HAVE_CUDA)
+  if (on_device()) LBDEM_CUDA_CHECK(cudaStreamSynchronize(stream_));
+#endif
+}
+
+}  // namespace lbdem
