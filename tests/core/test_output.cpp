@@ -1,0 +1,230 @@
+// HDF5/XDMF output, CSV time series and the output-folder policy.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+#include <unistd.h>
+
+#include "core/error.hpp"
+#include "core/output.hpp"
+
+namespace fs = std::filesystem;
+using namespace lbdem;
+
+namespace {
+
+// A fresh folder per test under the system temp dir, removed afterwards.
+struct TempDir {
+  fs::path path;
+  explicit TempDir(const std::string& tag) {
+    path = fs::temp_directory_path() /
+           ("lbdem_test_output_" + tag + "_" + std::to_string(static_cast<long>(::getpid())));
+    fs::remove_all(path);
+    fs::create_directories(path);
+  }
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(path, ec);
+  }
+  std::string str() const { return path.string(); }
+};
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+std::size_t count(const std::string& s, const std::string& sub) {
+  std::size_t n = 0;
+  for (auto pos = s.find(sub); pos != std::string::npos; pos = s.find(sub, pos + sub.size())) ++n;
+  return n;
+}
+
+// Minimal well-formedness: every <Tag ...> is closed in order (self-closing tags allowed).
+bool balanced_xml(const std::string& s) {
+  std::vector<std::string> stack;
+  std::size_t pos = 0;
+  while ((pos = s.find('<', pos)) != std::string::npos) {
+    const auto end = s.find('>', pos);
+    if (end == std::string::npos) return false;
+    std::string tag = s.substr(pos + 1, end - pos - 1);
+    pos = end + 1;
+    if (tag.empty() || tag[0] == '?' || tag[0] == '!') continue;
+    if (tag.back() == '/') continue;
+    if (tag[0] == '/') {
+      const std::string name = tag.substr(1);
+      if (stack.empty() || stack.back() != name) return false;
+      stack.pop_back();
+    } else {
+      stack.push_back(tag.substr(0, tag.find_first_of(" \t\n")));
+    }
+  }
+  return stack.empty();
+}
+
+}  // namespace
+
+TEST(Output, GridRoundTripAndXdmf) {
+  TempDir d("grid");
+  const long nx = 5, ny = 4, nz = 3;
+  const long n = nx * ny * nz;
+  std::vector<double> rho(n), u(3 * n);
+  for (long i = 0; i < n; ++i) {
+    rho[i] = 1.0 + 1e-13 * i + i;
+    for (int c = 0; c < 3; ++c) u[3 * i + c] = 0.1 * i - c / 3.0;
+  }
+  io::GridWriter w(d.str(), "fluid", {nx, ny, nz}, {0.0, -1.0, 2.0}, {0.5, 0.5, 0.5});
+  const std::string f0 = w.write(0, 0.0, {{"rho", 1, rho.data(), "kg/m^3"}, {"u", 3, u.data(), "m/s"}});
+  const std::string f1 = w.write(10, 0.25, {{"rho", 1, rho.data(), "kg/m^3"}, {"u", 3, u.data(), "m/s"}});
+  EXPECT_EQ(fs::path(f0).filename().string(), "fluid_00000000.h5");
+  EXPECT_EQ(fs::path(f1).filename().string(), "fluid_00000010.h5");
+  ASSERT_EQ(w.files().size(), 2u);
+
+  EXPECT_EQ(io::read_dataset(f1, "rho"), rho);  // bitwise: float64 round trip
+  EXPECT_EQ(io::read_dataset(f1, "u"), u);
+  EXPECT_THROW(io::read_dataset(f1, "nope"), Error);
+  EXPECT_THROW(io::read_dataset((d.path / "missing.h5").string(), "rho"), Error);
+
+  const std::string x = slurp(d.path / "fluid.xdmf");
+  EXPECT_TRUE(balanced_xml(x)) << x;
+  EXPECT_NE(x.find("CollectionType=\"Temporal\""), std::string::npos);
+  EXPECT_EQ(count(x, "TopologyType=\"3DCoRectMesh\" Dimensions=\"4 5 6\""), 2u);  // nodes = cells + 1, z y x
+  EXPECT_EQ(count(x, "GeometryType=\"ORIGIN_DXDYDZ\""), 2u);
+  EXPECT_EQ(count(x, "Center=\"Cell\""), 4u);
+  EXPECT_NE(x.find("fluid_00000000.h5:/rho"), std::string::npos);
+  EXPECT_NE(x.find("fluid_00000010.h5:/u"), std::string::npos);
+  EXPECT_NE(x.find("Dimensions=\"3 4 5 3\""), std::string::npos);  // vector field shape (nz ny nx 3)
+  EXPECT_NE(x.find("<Time Value=\"0.25\"/>"), std::string::npos);
+  // No temporary file left behind by the atomic rewrite.
+  for (const auto& e : fs::directory_iterator(d.path))
+    EXPECT_EQ(e.path().string().find(".tmp"), std::string::npos) << e.path();
+}
+
+TEST(Output, Grid2D) {
+  TempDir d("grid2d");
+  std::vector<double> phi(6 * 7);
+  for (std::size_t i = 0; i < phi.size(); ++i) phi[i] = static_cast<double>(i) * 0.5;
+  io::GridWriter w(d.str(), "flow", {6, 7, 1}, {0, 0, 0}, {1, 1, 1});
+  const auto f = w.write(3, 1.5, {{"phi", 1, phi.data(), "1"}});
+  EXPECT_EQ(io::read_dataset(f, "phi"), phi);
+  const std::string x = slurp(d.path / "flow.xdmf");
+  EXPECT_TRUE(balanced_xml(x));
+  EXPECT_NE(x.find("Dimensions=\"2 8 7\""), std::string::npos);
+}
+
+TEST(Output, ParticlesRoundTripAndXdmf) {
+  TempDir d("part");
+  const long n = 7;
+  std::vector<double> pos(3 * n), r(n), v(3 * n);
+  for (long i = 0; i < n; ++i) {
+    r[i] = 0.1 * (i + 1);
+    for (int c = 0; c < 3; ++c) {
+      pos[3 * i + c] = i + 0.25 * c;
+      v[3 * i + c] = -i * 1e-7 + c;
+    }
+  }
+  io::ParticleWriter w(d.str(), "particles");
+  const auto f = w.write(5, 2.0, n, pos.data(), {{"radius", 1, r.data()}, {"velocity", 3, v.data()}});
+  EXPECT_EQ(io::read_dataset(f, "positions"), pos);
+  EXPECT_EQ(io::read_dataset(f, "radius"), r);
+  EXPECT_EQ(io::read_dataset(f, "velocity"), v);
+  const std::string x = slurp(d.path / "particles.xdmf");
+  EXPECT_TRUE(balanced_xml(x)) << x;
+  EXPECT_NE(x.find("TopologyType=\"Polyvertex\" NumberOfElements=\"7\""), std::string::npos);
+  EXPECT_NE(x.find("GeometryType=\"XYZ\""), std::string::npos);
+  EXPECT_NE(x.find("particles_00000005.h5:/positions"), std::string::npos);
+  EXPECT_NE(x.find("particles_00000005.h5:/radius"), std::string::npos);
+  EXPECT_NE(x.find("particles_00000005.h5:/velocity"), std::string::npos);
+  EXPECT_NE(x.find("Name=\"velocity\" AttributeType=\"Vector\""), std::string::npos);
+}
+
+TEST(Output, TimeSeriesRows) {
+  TempDir d("ts");
+  const auto p = d.path / "forces.csv";
+  {
+    io::TimeSeries ts(p.string(), {"step", "time", "fx"});
+    ASSERT_TRUE(ts.is_open());
+    ts.append({1, 0.1, 1.0 / 3.0});
+    // Flushed: the row is on disk before the series closes.
+    EXPECT_NE(slurp(p).find("1,0.10000000000000001,0.33333333333333331"), std::string::npos) << slurp(p);
+    ts.append({2, 0.2, -2.5e-300});
+    EXPECT_THROW(ts.append({1, 2}), Error);
+  }
+  std::ifstream in(p);
+  std::string line;
+  std::vector<std::string> lines;
+  while (std::getline(in, line)) lines.push_back(line);
+  ASSERT_EQ(lines.size(), 3u);
+  EXPECT_EQ(lines[0], "step,time,fx");
+  EXPECT_DOUBLE_EQ(std::stod(lines[1].substr(lines[1].rfind(',') + 1)), 1.0 / 3.0);
+  EXPECT_EQ(std::stod(lines[2].substr(lines[2].rfind(',') + 1)), -2.5e-300);
+}
+
+TEST(Output, PrepareCreatesFolder) {
+  TempDir d("prep_new");
+  const auto sub = d.path / "a" / "b";
+  io::prepare_output_dir(sub.string(), false);
+  EXPECT_TRUE(fs::is_directory(sub));
+  EXPECT_TRUE(fs::is_empty(sub));                 // probe removed
+  io::prepare_output_dir(sub.string(), false);    // empty existing folder is fine
+}
+
+TEST(Output, PrepareRefusesNonEmptyAndKeepsFiles) {
+  TempDir d("prep_full");
+  { std::ofstream(d.path / "old.h5") << "keep me"; }
+  { std::ofstream(d.path / "notes.txt") << "mine"; }
+  try {
+    io::prepare_output_dir(d.str(), false);
+    FAIL() << "expected ConfigError";
+  } catch (const ConfigError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find(d.str()), std::string::npos) << msg;
+    EXPECT_NE(msg.find("--overwrite"), std::string::npos) << msg;
+  }
+  EXPECT_EQ(slurp(d.path / "old.h5"), "keep me");
+  EXPECT_EQ(slurp(d.path / "notes.txt"), "mine");
+
+  // With overwrite only the engine's own file types go.
+  { std::ofstream(d.path / "run.log") << "x"; }
+  { std::ofstream(d.path / "s.csv") << "x"; }
+  fs::create_directories(d.path / "keepdir");
+  io::prepare_output_dir(d.str(), true);
+  EXPECT_FALSE(fs::exists(d.path / "old.h5"));
+  EXPECT_FALSE(fs::exists(d.path / "run.log"));
+  EXPECT_FALSE(fs::exists(d.path / "s.csv"));
+  EXPECT_EQ(slurp(d.path / "notes.txt"), "mine");
+  EXPECT_TRUE(fs::is_directory(d.path / "keepdir"));
+}
+
+TEST(Output, PrepareRefusesUnwritable) {
+  // Under a regular file: fails even as root.
+  TempDir d("prep_bad");
+  { std::ofstream(d.path / "file") << "x"; }
+  const std::string bad = (d.path / "file" / "out").string();
+  try {
+    io::prepare_output_dir(bad, false);
+    FAIL() << "expected ConfigError";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find(bad), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(io::prepare_output_dir((d.path / "file").string(), true), ConfigError);
+  EXPECT_EQ(slurp(d.path / "file"), "x");
+}
+
+TEST(Output, WriterThrowsWithPathOnUnwritableFolder) {
+  TempDir d("w_bad");
+  { std::ofstream(d.path / "file") << "x"; }
+  io::GridWriter w((d.path / "file").string(), "g", {2, 2, 1}, {0, 0, 0}, {1, 1, 1});
+  std::vector<double> a(4, 1.0);
+  try {
+    w.write(0, 0.0, {{"a", 1, a.data(), ""}});
+    FAIL() << "expected Error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("g_00000000.h5"), std::string::npos) << e.what();
+  }
+}
