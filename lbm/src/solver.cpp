@@ -1,0 +1,41 @@
+#include "lbm/solver.hpp"
+
+#include "core/error.hpp"
+
+namespace lbdem::lbm {
+
+std::unique_ptr<LbmSolver> make_solver_d2q9_f32(const LbmSetup&, Backend);
+std::unique_ptr<LbmSolver> make_solver_d2q9_f64(const LbmSetup&, Backend);
+std::unique_ptr<LbmSolver> make_solver_d3q19_f32(const LbmSetup&, Backend);
+std::unique_ptr<LbmSolver> make_solver_d3q19_f64(const LbmSetup&, Backend);
+
+int lattice_q(LatticeKind k) { return k == LatticeKind::D2Q9 ? 9 : 19; }
+const char* to_string(LatticeKind k) { return k == LatticeKind::D2Q9 ? "D2Q9" : "D3Q19"; }
+const char* to_string(Precision p) { return p == Precision::FP32 ? "fp32" : "fp64"; }
+const char* to_string(CollisionKind k) { return k == CollisionKind::BGK ? "bgk" : "trt"; }
+const char* to_string(StreamKind k) { return k == StreamKind::AA ? "aa" : "two_lattice"; }
+
+std::size_t lbm_memory_estimate(const LbmSetup& s) {
+  const GridView g = make_grid_view(s.domain);
+  const std::size_t stride = static_cast<std::size_t>((g.n + 63) / 64 * 64);
+  const std::size_t tsize = s.precision == Precision::FP32 ? 4 : 8;
+  const std::size_t lattices = s.streaming == StreamKind::AA ? 1 : 2;
+  const std::size_t pops = stride * static_cast<std::size_t>(lattice_q(s.lattice)) * tsize * lattices;
+  const std::size_t macro = static_cast<std::size_t>(g.n) * 4 * sizeof(double);  // rho + u for output
+  return pops + macro + static_cast<std::size_t>(g.n);
+}
+
+std::unique_ptr<LbmSolver> make_lbm_solver(const LbmSetup& s, Backend b) {
+  if (s.tau <= 0.5) throw ConfigError("tau = " + std::to_string(s.tau) + ": must be > 0.5 (viscosity (tau-1/2)/3 > 0)");
+  if (s.collision == CollisionKind::TRT && !(s.magic > 0))
+    throw ConfigError("TRT magic parameter = " + std::to_string(s.magic) + ": must be > 0 (3/16 exact walls, 1/4 most stable)");
+  if (s.lattice == LatticeKind::D2Q9 && s.domain.local[2] != 1)
+    throw ConfigError("D2Q9 needs nz = 1, got " + std::to_string(s.domain.local[2]));
+  if (s.boundaries.count > kMaxBoundaries)
+    throw ConfigError("at most " + std::to_string(kMaxBoundaries) + " boundary kinds per case");
+  const bool f32 = s.precision == Precision::FP32;
+  if (s.lattice == LatticeKind::D2Q9) return f32 ? make_solver_d2q9_f32(s, b) : make_solver_d2q9_f64(s, b);
+  return f32 ? make_solver_d3q19_f32(s, b) : make_solver_d3q19_f64(s, b);
+}
+
+}  // namespace lbdem::lbm

@@ -1,0 +1,199 @@
+#pragma once
+// SolverImpl<L, T>: the LBM solver for one lattice and storage precision.
+// Included only by the per-combination kernel translation units.
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include "core/algorithms.hpp"
+#include "core/buffer.hpp"
+#include "lbm/solver.hpp"
+
+namespace lbdem::lbm {
+
+// Incoming (unshifted) populations to a [q*cells + cell] array, for tests.
+template <class L, class T, StreamKind S, int Parity>
+struct PopulationKernel {
+  PopView<T> src;
+  GridView g;
+  double* out;
+  LBDEM_HD void operator()(Index cell) const {
+    const Neighbours nb = neighbours<L>(g, cell);
+    double f[L::Q];
+    load_incoming<L, T, double, S, Parity>(src, nb, cell, f);
+    LBDEM_UNROLL
+    for (int q = 0; q < L::Q; ++q) out[q * g.n + cell] = f[q] + L::w[q];
+  }
+};
+
+template <class L, class T>
+class SolverImpl final : public LbmSolver {
+ public:
+  SolverImpl(const LbmSetup& s, Backend b) : s_(s), ex_(b) {
+    g_ = make_grid_view(s_.domain);
+    stride_ = (g_.n + 63) / 64 * 64;
+    f0_ = Buffer<T>(b, stride_ * L::Q);
+    if (s_.streaming == StreamKind::TwoLattice) f1_ = Buffer<T>(b, stride_ * L::Q);
+    flags_ = Buffer<std::uint8_t>(b, g_.n);
+    flags_.fill_zero();
+    f0_.fill_zero();
+    if (f1_.size()) f1_.fill_zero();
+    force_ = s_.body_force[0] != 0 || s_.body_force[1] != 0 || s_.body_force[2] != 0;
+    const Relaxation rx = relaxation(s_.collision, s_.tau, s_.magic);
+    omega_p_ = rx.omega_p;
+    omega_m_ = rx.omega_m;
+  }
+
+  void initialize(const std::vector<std::uint8_t>& flags, const std::vector<double>& rho,
+                  const std::vector<double>& u) override {
+    const auto n = static_cast<std::size_t>(g_.n);
+    if (flags.size() != n || rho.size() != n || u.size() != 3 * n)
+      throw Error("LbmSolver::initialize: field sizes do not match the grid (" + std::to_string(n) + " cells)");
+    flags_.copy_from_host(flags);
+    has_bnd_ = std::any_of(flags.begin(), flags.end(), [](std::uint8_t v) { return v != 0; });
+    ensure_macro_buffers();
+    rho_d_.copy_from_host(rho);
+    u_d_.copy_from_host(u);
+    const PopView<T> dst{f0_.data(), stride_};
+    if (s_.streaming == StreamKind::AA)
+      for_each(ex_, g_.n, InitKernel<L, T, StreamKind::AA>{dst, g_, rho_d_.data(), u_d_.data()});
+    else
+      for_each(ex_, g_.n, InitKernel<L, T, StreamKind::TwoLattice>{dst, g_, rho_d_.data(), u_d_.data()});
+    t_ = 0;
+    ex_.synchronize();
+  }
+
+  void step(long n) override {
+    for (long i = 0; i < n; ++i) {
+      if (s_.streaming == StreamKind::AA) {
+        if ((t_ & 1) == 0) dispatch<StreamKind::AA, 0>();
+        else dispatch<StreamKind::AA, 1>();
+      } else {
+        dispatch<StreamKind::TwoLattice, 0>();
+        f0_.swap(f1_);
+      }
+      ++t_;
+    }
+  }
+
+  void macroscopic(std::vector<double>& rho, std::vector<double>& u) override {
+    ensure_macro_buffers();
+    with_parity([&](auto S, auto P) {
+      for_each(ex_, g_.n,
+               MacroKernel<L, T, decltype(S)::value, decltype(P)::value>{
+                   src_view(), g_, has_bnd_ ? flags_.data() : nullptr,
+                   {s_.body_force[0], s_.body_force[1], s_.body_force[2]}, rho_d_.data(), u_d_.data()});
+    });
+    ex_.synchronize();
+    rho = rho_d_.to_vector();
+    u = u_d_.to_vector();
+  }
+
+  LbmDiagnostics diagnostics() override {
+    Diag d;
+    with_parity([&](auto S, auto P) {
+      d = transform_reduce(ex_, g_.n, Diag{}, DiagOp{},
+                           DiagKernel<L, T, decltype(S)::value, decltype(P)::value>{
+                               src_view(), g_, has_bnd_ ? flags_.data() : nullptr,
+                               {s_.body_force[0], s_.body_force[1], s_.body_force[2]}},
+                           scratch_);
+    });
+    LbmDiagnostics r;
+    r.fluid_cells = static_cast<long>(d.fluid_cells);
+    r.mass = static_cast<double>(d.fluid_cells) + d.mass_dev;
+    for (int k = 0; k < 3; ++k) r.momentum[static_cast<std::size_t>(k)] = d.mom[k];
+    r.max_speed = std::sqrt(d.u2max);
+    r.finite = d.nan_cell < 0;
+    auto xyz = [&](Index c) {
+      int x = -1, y = -1, z = -1;
+      if (c >= 0) g_.coords(c, x, y, z);
+      return std::array<long, 3>{x, y, z};
+    };
+    r.max_speed_cell = xyz(d.u2max_cell);
+    r.nonfinite_cell = xyz(d.nan_cell);
+    return r;
+  }
+
+  std::vector<double> populations() override {
+    Buffer<double> out(ex_.backend(), g_.n * L::Q);
+    with_parity([&](auto S, auto P) {
+      for_each(ex_, g_.n,
+               PopulationKernel<L, T, decltype(S)::value, decltype(P)::value>{src_view(), g_, out.data()});
+    });
+    ex_.synchronize();
+    return out.to_vector();
+  }
+
+  void synchronize() override { ex_.synchronize(); }
+  long steps_done() const override { return t_; }
+  std::size_t memory_bytes() const override {
+    return f0_.bytes() + f1_.bytes() + flags_.bytes() + rho_d_.bytes() + u_d_.bytes();
+  }
+  const LbmSetup& setup() const override { return s_; }
+  Backend backend() const override { return ex_.backend(); }
+  double bytes_per_cell_step() const override { return 2.0 * L::Q * sizeof(T); }
+
+ private:
+  template <StreamKind S_>
+  struct SK { static constexpr StreamKind value = S_; };
+  template <int P_>
+  struct PK { static constexpr int value = P_; };
+
+  // Calls fn(SK<scheme>, PK<parity of the next step>).
+  template <class Fn>
+  void with_parity(Fn&& fn) {
+    if (s_.streaming == StreamKind::AA) {
+      if ((t_ & 1) == 0) fn(SK<StreamKind::AA>{}, PK<0>{});
+      else fn(SK<StreamKind::AA>{}, PK<1>{});
+    } else {
+      fn(SK<StreamKind::TwoLattice>{}, PK<0>{});
+    }
+  }
+
+  PopView<T> src_view() const { return PopView<T>{f0_.data(), stride_}; }
+
+  void ensure_macro_buffers() {
+    if (rho_d_.size() != g_.n) rho_d_ = Buffer<double>(ex_.backend(), g_.n);
+    if (u_d_.size() != 3 * g_.n) u_d_ = Buffer<double>(ex_.backend(), 3 * g_.n);
+  }
+
+  template <StreamKind S, int P>
+  void dispatch() {
+    if (has_bnd_) {
+      if (force_) run<S, P, true, true>();
+      else run<S, P, true, false>();
+    } else {
+      if (force_) run<S, P, false, true>();
+      else run<S, P, false, false>();
+    }
+  }
+
+  template <StreamKind S, int P, bool B, bool F>
+  void run() {
+    StepKernel<L, T, S, P, B, F> k;
+    k.src = PopView<T>{f0_.data(), stride_};
+    k.dst = S == StreamKind::AA ? k.src : PopView<T>{f1_.data(), stride_};
+    k.g = g_;
+    k.flags = flags_.data();
+    k.bt = s_.boundaries;
+    k.coll.omega_p = static_cast<T>(omega_p_);
+    k.coll.omega_m = static_cast<T>(omega_m_);
+    for (int a = 0; a < 3; ++a) k.coll.F[a] = static_cast<T>(s_.body_force[static_cast<std::size_t>(a)]);
+    for_each(ex_, g_.n, k);
+  }
+
+  LbmSetup s_;
+  Exec ex_;
+  GridView g_;
+  Index stride_ = 0;
+  Buffer<T> f0_, f1_;
+  Buffer<std::uint8_t> flags_;
+  Buffer<double> rho_d_, u_d_;
+  Scratch scratch_;
+  bool has_bnd_ = false;
+  bool force_ = false;
+  double omega_p_ = 1, omega_m_ = 1;
+  long t_ = 0;
+};
+
+}  // namespace lbdem::lbm
