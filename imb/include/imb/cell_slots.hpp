@@ -1,0 +1,143 @@
+#pragma once
+// Particle → cell mapping for PSM: for every lattice cell, up to K (particle
+// index, solid fraction ε) slots. Filled every step on the backend where the
+// particles live; nothing is allocated per step and nothing comes back to the
+// host unless overflow() is asked.
+//
+// Grid convention (see solid_fraction.hpp): cell (i, j, k) covers
+// [i, i+1)×[j, j+1)×[k, k+1) in lattice units, linear index i + nx (j + ny k).
+// Particles may sit anywhere; on periodic axes every image is mapped (a cell
+// index wraps, the relative position uses the unwrapped image), on the other
+// axes the cells beyond the grid are skipped.
+//
+// Filling: one thread per (particle, cell of a fixed B^dim box), B =
+// ⌊2 R_max⌋ + 2 the widest bounding box in cells. Each thread evaluates ε of
+// its cell and, if ε > 0, takes a slot with an atomic increment of the cell's
+// count. Chosen over a per-cell gather because it needs no cell list of the
+// particles (imb links only core), no host round trip for sizes (B is known
+// from R_max), and keeps the expensive exact-ε threads of one particle in the
+// same warps; the cost is idle threads in the box corners (1 − π/6 of a cube)
+// and, for a polydisperse set, (R_max/R)^dim idle threads per small particle.
+// Atomic order makes the slot order non-deterministic, so a second pass sorts
+// each cell's slots by particle index (deterministic layout; default on).
+//
+// Overflow (more than K particles in one cell): the count keeps incrementing
+// past K (so it tells how many wanted in), the surplus (cell, particle) pairs
+// are logged, and overflow() returns the cell, its grid coordinates and every
+// particle involved. Nothing is silently dropped: check overflow() (or call
+// throw_if_overflow()) before using the slots.
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/buffer.hpp"
+#include "core/exec.hpp"
+#include "imb/fraction_table.hpp"
+#include "imb/particle_view.hpp"
+#include "imb/solid_fraction.hpp"
+
+namespace lbdem {
+struct Scratch;  // core/algorithms.hpp
+}
+
+namespace lbdem::imb {
+
+struct GridShape {
+  Index nx = 1, ny = 1, nz = 1;
+  std::array<bool, 3> periodic{true, true, true};
+  int dim() const { return nz == 1 ? 2 : 3; }
+  Index cells() const { return nx * ny * nz; }
+};
+
+// Slots seen by kernels (structure of arrays: slot k of cell c at k*ncells + c,
+// so a warp of consecutive cells reads consecutive words).
+struct CellSlotsView {
+  int* count = nullptr;      // per cell: overlapping particles (> K means overflow)
+  int* particle = nullptr;   // [k * ncells + cell]
+  double* eps = nullptr;     // [k * ncells + cell]
+  Index ncells = 0;
+  int K = 0;
+  LBDEM_HD int used(Index cell) const { return count[cell] < K ? count[cell] : K; }
+  LBDEM_HD int& particle_at(Index cell, int k) const { return particle[k * ncells + cell]; }
+  LBDEM_HD double& eps_at(Index cell, int k) const { return eps[k * ncells + cell]; }
+  // Σ_k ε_k of a cell (the total solid fraction a PSM weighting B(ε) starts from).
+  LBDEM_HD double total_eps(Index cell) const {
+    double s = 0.0;
+    const int m = used(cell);
+    for (int k = 0; k < m; ++k) s += eps[k * ncells + cell];
+    return s;
+  }
+};
+
+struct MapOptions {
+  FractionMethod method = FractionMethod::Exact;
+  // Largest radius among the particles (lattice units). It sizes the box each
+  // particle scans; <= 0 computes it (synchronous reduction). A particle larger
+  // than this is reported by overflow(), not silently clipped.
+  double max_radius = 0.0;
+  const FractionTable* table = nullptr;  // required for FractionMethod::Table (dim must match)
+  bool linear_normalised = true;        // Linear: use R_eff (volume-conserving) instead of R
+  bool sort_slots = true;               // deterministic slot order (by particle index)
+};
+
+struct OverflowReport {
+  bool overflow = false;          // some cell had more than K particles
+  bool radius_too_large = false;  // some particle exceeded MapOptions::max_radius
+  Index events = 0;               // number of (cell, particle) pairs that found no slot
+  Index cell = -1;                // first overflowing cell (lowest index among logged)
+  std::array<Index, 3> ijk{-1, -1, -1};
+  int count = 0;                  // particles that overlap that cell
+  std::vector<int> particles;     // every particle that overlaps it (slots + surplus, as logged)
+  int bad_particle = -1;          // a particle with radius > max_radius
+  std::string message;            // human-readable summary (empty when all is well)
+};
+
+class CellSlots {
+ public:
+  // K: slots per cell (case parameter, >= 1). overflow_log: surplus pairs kept for the report.
+  CellSlots(Backend b, GridShape grid, int K, int overflow_log = 1024);
+
+  // Clears and refills the slots from the particles (asynchronous on the device).
+  void map(const Exec& ex, const SphereView& particles, const MapOptions& opt);
+
+  // Synchronises and reads the overflow counters (small copies); empty report if fine.
+  OverflowReport overflow() const;
+  // Throws ResourceError with the report's message if overflow() finds a problem.
+  void throw_if_overflow() const;
+
+  CellSlotsView view() const { return {count_.data(), particle_.data(), eps_.data(), grid_.cells(), K_}; }
+  const GridShape& grid() const { return grid_; }
+  int K() const { return K_; }
+  Backend backend() const { return backend_; }
+
+  // Host copies (tests, output).
+  std::vector<int> counts_host() const { return count_.to_vector(); }
+  std::vector<int> particles_host() const { return particle_.to_vector(); }
+  std::vector<double> eps_host() const { return eps_.to_vector(); }
+  // Solid-fraction field Σ_k ε_k per cell (host copy), e.g. for output.
+  std::vector<double> total_eps_host() const;
+
+ private:
+  Backend backend_;
+  GridShape grid_;
+  int K_;
+  int log_cap_;
+  Buffer<int> count_, particle_;
+  Buffer<double> eps_;
+  // [0] surplus events, [1] radius errors, [2] a particle with too large a radius
+  Buffer<int> flags_;
+  Buffer<Index> log_cell_;
+  Buffer<int> log_particle_;
+  Index particles_mapped_ = 0;
+  std::shared_ptr<Scratch> scratch_;  // reduction storage (max radius), reused across steps
+};
+
+// Evaluates ε for n cells given by their centres relative to the particle
+// centre (rel: dim*n interleaved) and radii (n values) with one method, on a
+// backend (pointers live there). For tests, CPU/GPU comparison and benchmarks.
+void evaluate_fractions(const Exec& ex, FractionMethod method, int dim, const FractionTable* table, const double* rel,
+                        const double* radius, double* out, Index n);
+
+}  // namespace lbdem::imb

@@ -1,0 +1,17 @@
+#pragma once
+// The narrow view of particles the solid-fraction mapping needs: centres and
+// radii in lattice units, structure of arrays, on the backend that maps them.
+// 2D runs (disks) ignore z (it may be null).
+#include "core/hd.hpp"
+
+namespace lbdem::imb {
+
+struct SphereView {
+  const double* x = nullptr;
+  const double* y = nullptr;
+  const double* z = nullptr;
+  const double* r = nullptr;
+  Index n = 0;
+};
+
+}  // namespace lbdem::imb

@@ -1,0 +1,394 @@
+// Particle → cell slot mapping and batch fraction evaluation (imb/cell_slots.hpp).
+// One kernel body per method and dimension, run as a CUDA kernel or an OpenMP
+// loop by core's for_each. The lookup table lives in __constant__ memory of this
+// translation unit (constant symbols are per TU without relocatable device code).
+#include "imb/cell_slots.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "core/algorithms.hpp"
+#include "core/error.hpp"
+
+namespace lbdem::imb {
+
+namespace {
+
+#if defined(__CUDACC__)
+__constant__ float c_fraction_table[kTableCapacity];
+// Which table the constant bank holds (per process; device constant memory is
+// itself global state, so the cache key is too). 0: none.
+std::uint64_t g_uploaded_table = 0;
+#endif
+
+// Reads the table from constant memory on the device and from the host copy on the host.
+struct ConstTableAccess {
+  const float* host = nullptr;
+  LBDEM_HD float operator()(int i) const {
+#if defined(__CUDA_ARCH__)
+    return c_fraction_table[i];
+#else
+    return host[i];
+#endif
+  }
+};
+
+void upload_table(const Exec& ex, const FractionTable& t) {
+#if defined(__CUDACC__)
+  if (ex.on_device() && g_uploaded_table != t.id) {
+    LBDEM_CUDA_CHECK(cudaMemcpyToSymbolAsync(c_fraction_table, t.values.data(), t.values.size() * sizeof(float), 0,
+                                             cudaMemcpyHostToDevice, ex.stream()));
+    g_uploaded_table = t.id;
+  }
+#else
+  (void)ex;
+  (void)t;
+#endif
+}
+
+LBDEM_HD inline int atomic_inc(int* p) {
+#if defined(__CUDA_ARCH__)
+  return atomicAdd(p, 1);
+#else
+  return __atomic_fetch_add(p, 1, __ATOMIC_RELAXED);
+#endif
+}
+
+LBDEM_HD inline Index wrap(Index i, Index n) {
+  i %= n;
+  return i < 0 ? i + n : i;
+}
+
+// ε of one cell for one method; Dim 2 ignores rz.
+template <int Dim, FractionMethod M>
+struct Fraction {
+  TableGeometry g;
+  ConstTableAccess tab;
+  bool linear_normalised;
+  LBDEM_HD double operator()(double rx, double ry, double rz, double R) const {
+    if constexpr (M == FractionMethod::Exact) {
+      if constexpr (Dim == 3) return exact_fraction_3d(rx, ry, rz, R);
+      else return exact_fraction_2d(rx, ry, R);
+    } else if constexpr (M == FractionMethod::Table) {
+      if constexpr (Dim == 3) return table_fraction_3d(g, tab, rx, ry, rz, R);
+      else return table_fraction_2d(g, tab, rx, ry, R);
+    } else {
+      const double re = !linear_normalised ? R : (Dim == 3 ? linear_effective_radius_3d(R) : linear_effective_radius_2d(R));
+      const double d = Dim == 3 ? sqrt(rx * rx + ry * ry + rz * rz) : sqrt(rx * rx + ry * ry);
+      return linear_fraction(d, re);
+    }
+  }
+};
+
+template <int Dim, FractionMethod M>
+struct MapKernel {
+  SphereView p;
+  CellSlotsView s;
+  Fraction<Dim, M> frac;
+  Index nx, ny, nz;
+  bool per_x, per_y, per_z;
+  int B;             // box edge in cells
+  Index box;         // B^Dim
+  int* flags;        // [0] surplus events, [1] radius errors, [2] offending particle
+  Index* log_cell;
+  int* log_particle;
+  int log_cap;
+
+  // Maps the box coordinate l of axis (lo cell index i0, n cells, periodic?) to
+  // a grid index, or -1 when off a non-periodic grid.
+  LBDEM_HD static Index axis(Index g, Index n, bool periodic) {
+    if (periodic) return wrap(g, n);
+    return (g < 0 || g >= n) ? -1 : g;
+  }
+
+  LBDEM_HD void operator()(Index t) const {
+    const Index pi = t / box;
+    Index l = t - pi * box;
+    const double R = p.r[pi];
+    const double cx = p.x[pi], cy = p.y[pi], cz = Dim == 3 ? p.z[pi] : 0.5;
+    const Index i0 = static_cast<Index>(floor(cx - R)), j0 = static_cast<Index>(floor(cy - R));
+    const Index k0 = Dim == 3 ? static_cast<Index>(floor(cz - R)) : 0;
+    if (l == 0) {  // one thread per particle checks that its box fits
+      const Index need = static_cast<Index>(floor(2.0 * R)) + 2;
+      if (need > B) {
+        atomic_inc(&flags[1]);
+        flags[2] = static_cast<int>(pi);
+      }
+    }
+    const Index li = l % B;
+    l /= B;
+    const Index lj = l % B;
+    const Index lk = Dim == 3 ? l / B : 0;
+    const Index gi = i0 + li, gj = j0 + lj, gk = k0 + lk;
+    // Cells of the box beyond the particle's own bounding box.
+    if (gi > static_cast<Index>(floor(cx + R)) || gj > static_cast<Index>(floor(cy + R))) return;
+    if (Dim == 3 && gk > static_cast<Index>(floor(cz + R))) return;
+    const Index ci = axis(gi, nx, per_x), cj = axis(gj, ny, per_y);
+    const Index ck = Dim == 3 ? axis(gk, nz, per_z) : 0;
+    if (ci < 0 || cj < 0 || ck < 0) return;
+    const double eps = frac(gi + 0.5 - cx, gj + 0.5 - cy, gk + 0.5 - cz, R);
+    if (!(eps > 0.0)) return;
+    const Index cell = ci + nx * (cj + ny * ck);
+    const int slot = atomic_inc(&s.count[cell]);
+    if (slot < s.K) {
+      s.particle_at(cell, slot) = static_cast<int>(pi);
+      s.eps_at(cell, slot) = eps;
+    } else {
+      const int e = atomic_inc(&flags[0]);
+      if (e < log_cap) {
+        log_cell[e] = cell;
+        log_particle[e] = static_cast<int>(pi);
+      }
+    }
+  }
+};
+
+// Sorts each cell's used slots by particle index (insertion sort, K small).
+struct SortSlots {
+  CellSlotsView s;
+  LBDEM_HD void operator()(Index cell) const {
+    const int m = s.used(cell);
+    for (int a = 1; a < m; ++a) {
+      const int pa = s.particle_at(cell, a);
+      const double ea = s.eps_at(cell, a);
+      int b = a - 1;
+      while (b >= 0 && s.particle_at(cell, b) > pa) {
+        s.particle_at(cell, b + 1) = s.particle_at(cell, b);
+        s.eps_at(cell, b + 1) = s.eps_at(cell, b);
+        --b;
+      }
+      s.particle_at(cell, b + 1) = pa;
+      s.eps_at(cell, b + 1) = ea;
+    }
+  }
+};
+
+template <int Dim, FractionMethod M>
+struct EvalKernel {
+  Fraction<Dim, M> frac;
+  const double* rel;
+  const double* radius;
+  double* out;
+  LBDEM_HD void operator()(Index i) const {
+    const double rz = Dim == 3 ? rel[Dim * i + 2] : 0.0;
+    out[i] = frac(rel[Dim * i], rel[Dim * i + 1], rz, radius[i]);
+  }
+};
+
+template <int Dim, FractionMethod M>
+Fraction<Dim, M> make_fraction(const FractionTable* table, bool linear_normalised) {
+  Fraction<Dim, M> f{};
+  f.linear_normalised = linear_normalised;
+  if (table) {
+    f.g = table->geometry;
+    f.tab.host = table->values.data();
+  }
+  return f;
+}
+
+// Runtime (dim, method) → template instance, in one place.
+template <template <int, FractionMethod> class Body>
+struct Dispatch {
+  template <class... A>
+  static void run(int dim, FractionMethod m, A&&... a) {
+    if (dim == 3) {
+      switch (m) {
+        case FractionMethod::Exact: return Body<3, FractionMethod::Exact>::run(a...);
+        case FractionMethod::Table: return Body<3, FractionMethod::Table>::run(a...);
+        case FractionMethod::Linear: return Body<3, FractionMethod::Linear>::run(a...);
+      }
+    } else {
+      switch (m) {
+        case FractionMethod::Exact: return Body<2, FractionMethod::Exact>::run(a...);
+        case FractionMethod::Table: return Body<2, FractionMethod::Table>::run(a...);
+        case FractionMethod::Linear: return Body<2, FractionMethod::Linear>::run(a...);
+      }
+    }
+  }
+};
+
+void check_table(const FractionTable* table, int dim, const char* where) {
+  if (!table)
+    throw ConfigError(std::string(where) + ": solid-fraction method 'table' needs a table (build_fraction_table)");
+  if (table->geometry.dim != dim)
+    throw ConfigError(std::string(where) + ": the fraction table is " + std::to_string(table->geometry.dim) +
+                      "D but the grid is " + std::to_string(dim) + "D");
+}
+
+struct ZeroInts {
+  int* p;
+  LBDEM_HD void operator()(Index i) const { p[i] = 0; }
+};
+
+struct MaxRadius {
+  const double* r;
+  LBDEM_HD double operator()(Index i) const { return r[i]; }
+};
+struct MaxOp {
+  LBDEM_HD double operator()(double a, double b) const { return a > b ? a : b; }
+};
+
+template <int Dim, FractionMethod M>
+struct LaunchMap {
+  static void run(const Exec& ex, const SphereView& p, const CellSlotsView& s, const GridShape& g, const MapOptions& o,
+                  int B, int* flags, Index* log_cell, int* log_particle, int log_cap) {
+    MapKernel<Dim, M> k{};
+    k.p = p;
+    k.s = s;
+    k.frac = make_fraction<Dim, M>(o.table, o.linear_normalised);
+    k.nx = g.nx;
+    k.ny = g.ny;
+    k.nz = g.nz;
+    k.per_x = g.periodic[0];
+    k.per_y = g.periodic[1];
+    k.per_z = g.periodic[2];
+    k.B = B;
+    k.box = Dim == 3 ? static_cast<Index>(B) * B * B : static_cast<Index>(B) * B;
+    k.flags = flags;
+    k.log_cell = log_cell;
+    k.log_particle = log_particle;
+    k.log_cap = log_cap;
+    for_each(ex, p.n * k.box, k);
+  }
+};
+
+template <int Dim, FractionMethod M>
+struct LaunchEval {
+  static void run(const Exec& ex, const FractionTable* table, const double* rel, const double* radius, double* out,
+                  Index n) {
+    EvalKernel<Dim, M> k{make_fraction<Dim, M>(table, true), rel, radius, out};
+    for_each(ex, n, k);
+  }
+};
+
+}  // namespace
+
+CellSlots::CellSlots(Backend b, GridShape grid, int K, int overflow_log)
+    : backend_(b), grid_(grid), K_(K), log_cap_(overflow_log), scratch_(std::make_shared<Scratch>()) {
+  if (grid_.nx < 1 || grid_.ny < 1 || grid_.nz < 1)
+    throw ConfigError("CellSlots: grid " + std::to_string(grid_.nx) + "x" + std::to_string(grid_.ny) + "x" +
+                      std::to_string(grid_.nz) + " must have at least one cell per axis");
+  if (K_ < 1 || K_ > 64) throw ConfigError("CellSlots: K (slots per cell) = " + std::to_string(K_) + " must be in 1..64");
+  if (log_cap_ < 1) log_cap_ = 1;
+  const Index n = grid_.cells();
+  count_ = Buffer<int>(b, n);
+  particle_ = Buffer<int>(b, n * K_);
+  eps_ = Buffer<double>(b, n * K_);
+  flags_ = Buffer<int>(b, 4);
+  log_cell_ = Buffer<Index>(b, log_cap_);
+  log_particle_ = Buffer<int>(b, log_cap_);
+  count_.fill_zero();
+  flags_.fill_zero();
+}
+
+void CellSlots::map(const Exec& ex, const SphereView& particles, const MapOptions& opt) {
+  if (ex.backend() != backend_)
+    throw ConfigError(std::string("CellSlots::map: slots live on ") + to_string(backend_) + " but the Exec runs on " +
+                      to_string(ex.backend()));
+  const int dim = grid_.dim();
+  if (opt.method == FractionMethod::Table) {
+    check_table(opt.table, dim, "CellSlots::map");
+    upload_table(ex, *opt.table);
+  }
+  if (particles.n > 0 && (!particles.x || !particles.y || !particles.r || (dim == 3 && !particles.z)))
+    throw ConfigError("CellSlots::map: particle view has null position or radius arrays");
+  if (particles.n > static_cast<Index>(INT32_MAX))
+    throw ConfigError("CellSlots::map: " + std::to_string(particles.n) + " particles exceed the int32 slot index");
+  double rmax = opt.max_radius;
+  if (!(rmax > 0.0) && particles.n > 0) {
+    rmax = transform_reduce(ex, particles.n, 0.0, MaxOp{}, MaxRadius{particles.r}, *scratch_);
+  }
+  const int B = static_cast<int>(std::floor(2.0 * std::max(rmax, 0.0))) + 2;
+  const Index ns[3] = {grid_.nx, grid_.ny, grid_.nz};
+  for (int a = 0; a < dim; ++a)
+    if (grid_.periodic[a] && B > ns[a])
+      throw ConfigError("CellSlots::map: particle radius " + std::to_string(rmax) + " spans " + std::to_string(B) +
+                        " cells, more than the " + std::to_string(ns[a]) + " cells of periodic axis " +
+                        std::string(1, "xyz"[a]) + " (a particle would meet its own image)");
+  // Cleared on the Exec's stream (a kernel, not cudaMemset on the legacy stream), in order with the fill.
+  for_each(ex, grid_.cells(), ZeroInts{count_.data()});
+  for_each(ex, flags_.size(), ZeroInts{flags_.data()});
+  particles_mapped_ = particles.n;
+  if (particles.n == 0) return;
+  Dispatch<LaunchMap>::run(dim, opt.method, ex, particles, view(), grid_, opt, B, flags_.data(), log_cell_.data(),
+                           log_particle_.data(), log_cap_);
+  if (opt.sort_slots && K_ > 1) for_each(ex, grid_.cells(), SortSlots{view()});
+}
+
+OverflowReport CellSlots::overflow() const {
+  OverflowReport r;
+  if (backend_ == Backend::Cuda) {
+#if defined(LBDEM_HAVE_CUDA)
+    LBDEM_CUDA_CHECK(cudaDeviceSynchronize());
+#endif
+  }
+  const std::vector<int> flags = flags_.to_vector();
+  r.events = flags[0];
+  r.radius_too_large = flags[1] > 0;
+  r.bad_particle = r.radius_too_large ? flags[2] : -1;
+  r.overflow = flags[0] > 0;
+  std::ostringstream msg;
+  if (r.overflow) {
+    const Index logged = std::min<Index>(flags[0], log_cap_);
+    std::vector<Index> cells(static_cast<std::size_t>(logged));
+    std::vector<int> parts(static_cast<std::size_t>(logged));
+    log_cell_.copy_to_host(cells.data(), logged);
+    log_particle_.copy_to_host(parts.data(), logged);
+    r.cell = *std::min_element(cells.begin(), cells.end());
+    r.ijk = {r.cell % grid_.nx, (r.cell / grid_.nx) % grid_.ny, r.cell / (grid_.nx * grid_.ny)};
+    int cnt = 0;
+    count_.copy_to_host(&cnt, 1, r.cell);
+    r.count = cnt;
+    for (int k = 0; k < K_; ++k) {
+      int pk = -1;
+      particle_.copy_to_host(&pk, 1, static_cast<Index>(k) * grid_.cells() + r.cell);
+      r.particles.push_back(pk);
+    }
+    for (Index e = 0; e < logged; ++e)
+      if (cells[static_cast<std::size_t>(e)] == r.cell) r.particles.push_back(parts[static_cast<std::size_t>(e)]);
+    std::sort(r.particles.begin(), r.particles.end());
+    msg << "PSM cell slots overflow: cell (" << r.ijk[0] << ", " << r.ijk[1] << ", " << r.ijk[2] << ") [index "
+        << r.cell << "] is overlapped by " << r.count << " particles (";
+    for (std::size_t i = 0; i < r.particles.size(); ++i) msg << (i ? ", " : "") << r.particles[i];
+    msg << ") but K = " << K_ << " slots per cell; " << r.events
+        << " (cell, particle) pairs found no slot in all. Raise K (slots per cell) to at least " << r.count
+        << ", or check for overlapping particles.";
+  }
+  if (r.radius_too_large) {
+    if (r.overflow) msg << " ";
+    msg << "Particle " << r.bad_particle << " is larger than MapOptions::max_radius; its cells were clipped. "
+        << "Pass the true largest radius (or 0 to compute it).";
+  }
+  r.message = msg.str();
+  return r;
+}
+
+void CellSlots::throw_if_overflow() const {
+  const OverflowReport r = overflow();
+  if (r.overflow || r.radius_too_large) throw ResourceError(r.message);
+}
+
+std::vector<double> CellSlots::total_eps_host() const {
+  const auto cnt = counts_host();
+  const auto eps = eps_host();
+  const Index n = grid_.cells();
+  std::vector<double> out(static_cast<std::size_t>(n), 0.0);
+  for (Index c = 0; c < n; ++c) {
+    const int m = std::min(cnt[static_cast<std::size_t>(c)], K_);
+    for (int k = 0; k < m; ++k) out[static_cast<std::size_t>(c)] += eps[static_cast<std::size_t>(k * n + c)];
+  }
+  return out;
+}
+
+void evaluate_fractions(const Exec& ex, FractionMethod method, int dim, const FractionTable* table, const double* rel,
+                        const double* radius, double* out, Index n) {
+  if (dim != 2 && dim != 3) throw ConfigError("evaluate_fractions: dim = " + std::to_string(dim) + " (must be 2 or 3)");
+  if (method == FractionMethod::Table) {
+    check_table(table, dim, "evaluate_fractions");
+    upload_table(ex, *table);
+  }
+  Dispatch<LaunchEval>::run(dim, method, ex, table, rel, radius, out, n);
+}
+
+}  // namespace lbdem::imb
