@@ -66,3 +66,22 @@ void Exec::synchronize() const {
 }
 
 }  // namespace lbdem
+
+namespace lbdem {
+std::vector<std::string> cuda_device_descriptions() {
+  std::vector<std::string> out;
+#if defined(LBDEM_HAVE_CUDA)
+  if (!cuda_unavailable_reason().empty()) return out;
+  int n = 0;
+  LBDEM_CUDA_CHECK(cudaGetDeviceCount(&n));
+  for (int i = 0; i < n; ++i) {
+    cudaDeviceProp p{};
+    LBDEM_CUDA_CHECK(cudaGetDeviceProperties(&p, i));
+    out.push_back(std::to_string(i) + ": " + p.name + ", " + std::to_string(p.totalGlobalMem >> 20) + " MiB, " +
+                  std::to_string(p.multiProcessorCount) + " SMs, compute capability " + std::to_string(p.major) +
+                  "." + std::to_string(p.minor));
+  }
+#endif
+  return out;
+}
+}  // namespace lbdem

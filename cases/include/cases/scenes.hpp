@@ -16,6 +16,7 @@ struct RunOptions {
   std::optional<std::string> output;  // overrides output.directory
   bool overwrite = false;           // allow writing into a non-empty output folder
   bool quiet = false;               // no progress lines (tests)
+  bool validate_only = false;       // parse and check everything, then return 0 before any output
 };
 
 // Each family: the scene names it knows and its runner (returns an exit code;

@@ -6,6 +6,7 @@
 // as a CUDA kernel (one thread per index) or runs it as an OpenMP loop. Never
 // capture `this` in a functor: pass views (pointer + extents) by value.
 #include <string>
+#include <vector>
 #include "core/error.hpp"
 #include "core/hd.hpp"
 
@@ -81,4 +82,10 @@ void for_each(const Exec& ex, Index n, const F& f, int block_size = 256) {
   for (Index i = 0; i < n; ++i) f(i);
 }
 
+}  // namespace lbdem
+
+namespace lbdem {
+// One line per CUDA device (name, memory, multiprocessors, compute capability);
+// empty without a usable device.
+std::vector<std::string> cuda_device_descriptions();
 }  // namespace lbdem

@@ -1,0 +1,469 @@
+// Fluid-only scenes: channel (Poiseuille, or velocity inlet / pressure
+// outlet), Taylor-Green vortex (2D and 3D), lid-driven cavity, periodic box.
+// Parses and validates the whole case before touching the output folder.
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <functional>
+
+#include "cases/scenes.hpp"
+#include "core/buffer.hpp"
+#include "core/output.hpp"
+#include "core/progress.hpp"
+#include "core/units.hpp"
+#include "lbm/solver.hpp"
+
+namespace lbdem {
+
+std::vector<std::string> lbm_scene_names() { return {"channel", "taylor_green", "lid_driven_cavity", "periodic_box"}; }
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+struct Verification {
+  std::string name;
+  double value = 0;
+  std::string note;
+};
+
+struct LbmCase {
+  std::string scene;
+  lbm::LbmSetup setup;
+  Units units;
+  long steps = 0;
+  std::string outdir;
+  long out_interval = 0;
+  long diag_interval = 1000;
+  double max_mach = 0.3;
+  std::array<long, 3> fluid_cells{1, 1, 1};
+  std::array<int, 3> pad{0, 0, 0};  // boundary layers added below each axis
+  std::vector<std::uint8_t> flags;
+  std::vector<double> rho, u;
+  // Scene-specific reference, evaluated at the end (lattice units in/out).
+  std::function<std::vector<Verification>(long step, const std::vector<double>& rho, const std::vector<double>& u)> verify;
+};
+
+std::size_t idx(const LbmCase& c, long x, long y, long z) {
+  const auto& d = c.setup.domain.local;
+  return static_cast<std::size_t>(x + d[0] * (y + d[1] * z));
+}
+
+// Relative L2 norm of (u - ref) over fluid cells, velocity components only.
+double rel_l2(const LbmCase& c, const std::vector<double>& u, const std::function<std::array<double, 3>(long, long, long)>& ref) {
+  const auto& d = c.setup.domain.local;
+  double num = 0, den = 0;
+  for (long z = 0; z < d[2]; ++z)
+    for (long y = 0; y < d[1]; ++y)
+      for (long x = 0; x < d[0]; ++x) {
+        const auto i = idx(c, x, y, z);
+        if (c.flags[i]) continue;
+        const auto r = ref(x, y, z);
+        for (int a = 0; a < 3; ++a) {
+          const double e = u[3 * i + static_cast<std::size_t>(a)] - r[static_cast<std::size_t>(a)];
+          num += e * e;
+          den += r[static_cast<std::size_t>(a)] * r[static_cast<std::size_t>(a)];
+        }
+      }
+  return den > 0 ? std::sqrt(num / den) : std::sqrt(num);
+}
+
+LbmCase parse(const Config& root, const RunOptions& opt) {
+  LbmCase c;
+  c.scene = root.text("scene");
+  auto& s = c.setup;
+  s.lattice = root.choice("lattice", {"D2Q9", "D3Q19"}) == "D2Q9" ? lbm::LatticeKind::D2Q9 : lbm::LatticeKind::D3Q19;
+  const int D = s.lattice == lbm::LatticeKind::D2Q9 ? 2 : 3;
+  s.precision = root.choice("precision", "fp64", {"fp32", "fp64"}) == "fp32" ? lbm::Precision::FP32 : lbm::Precision::FP64;
+  s.streaming = root.choice("streaming", "aa", {"aa", "two_lattice"}) == "aa" ? lbm::StreamKind::AA : lbm::StreamKind::TwoLattice;
+
+  const Config coll = root.section("collision");
+  s.collision = coll.choice("model", "trt", {"bgk", "trt"}) == "bgk" ? lbm::CollisionKind::BGK : lbm::CollisionKind::TRT;
+  s.magic = coll.number_in("magic", 3.0 / 16.0, 1e-6, 100.0, "TRT magic parameter Lambda; 3/16 exact walls, 1/4 most stable");
+  std::optional<double> tau;
+  if (coll.has("tau")) tau = coll.number("tau");
+  coll.accept("tau");
+  coll.finish();
+
+  const Config fluid = root.section("fluid");
+  const double rho_si = fluid.positive("density");
+  const double nu_si = fluid.positive("kinematic_viscosity");
+  fluid.finish();
+
+  const Config dom = root.section("domain");
+  const auto cells = dom.integers("cells", static_cast<std::size_t>(D), static_cast<std::size_t>(D), 1, 1L << 16);
+  const double dx = dom.positive("spacing");
+  dom.finish();
+  for (int a = 0; a < D; ++a) c.fluid_cells[static_cast<std::size_t>(a)] = cells[static_cast<std::size_t>(a)];
+
+  const Config time = root.section("time");
+  std::optional<double> dt;
+  if (time.has("dt")) dt = time.positive("dt");
+  time.accept("dt");
+  const bool has_steps = time.has("steps"), has_end = time.has("end");
+  if (has_steps == has_end) time.fail(has_steps ? "end" : "steps", "give exactly one of 'time.steps' (a step count) or 'time.end' (seconds)");
+  long steps = has_steps ? time.integer_in("steps", 1, 1000000000000L) : 0;
+  double t_end = has_end ? time.positive("end") : 0;
+  time.accept("steps");
+  time.accept("end");
+  time.finish();
+
+  const auto out = root.optional_section("output");
+  c.outdir = out ? out->text("directory", "runs/" + c.scene) : "runs/" + c.scene;
+  c.out_interval = out ? out->integer_in("interval", 0, 0, 1000000000000L) : 0;
+  if (out) out->finish();
+  const auto diag = root.optional_section("diagnostics");
+  c.diag_interval = diag ? diag->integer_in("interval", 1000, 1, 1000000000L) : 1000;
+  c.max_mach = diag ? diag->number_in("max_mach", 0.3, 1e-6, 0.5, "lattice Mach number above which the run stops; 0.3 is the usual limit") : 0.3;
+  if (diag) diag->finish();
+
+  // Scene geometry: which axes are closed by boundary layers.
+  const Config sc = root.section(c.scene);
+  std::array<bool, 3> closed{false, false, false};
+  double u_ref = 0;
+  std::array<double, 3> accel{0, 0, 0};
+  std::array<double, 3> u0{0, 0, 0};
+  double U = 0;
+  std::string mode;
+  if (c.scene == "channel") {
+    mode = sc.choice("mode", "periodic", {"periodic", "inlet_outlet"});
+    closed[1] = true;
+    if (mode == "periodic") {
+      accel[0] = sc.positive("body_acceleration");
+      const double H = c.fluid_cells[1] * dx;
+      u_ref = accel[0] * H * H / (8 * nu_si);
+    } else {
+      closed[0] = true;
+      U = sc.positive("inlet_velocity");
+      u_ref = 1.5 * U;
+    }
+  } else if (c.scene == "taylor_green") {
+    U = sc.positive("velocity");
+    u_ref = U;
+    for (int a = 1; a < D; ++a)
+      if (cells[static_cast<std::size_t>(a)] != cells[0])
+        dom.fail("cells", "the Taylor-Green vortex needs equal cells on every axis");
+  } else if (c.scene == "lid_driven_cavity") {
+    U = sc.positive("lid_velocity");
+    u_ref = U;
+    for (int a = 0; a < D; ++a) closed[static_cast<std::size_t>(a)] = true;
+  } else {  // periodic_box
+    const auto a = sc.numbers("body_acceleration", {0, 0, 0}, 3, 3);
+    const auto v = sc.numbers("initial_velocity", {0, 0, 0}, 3, 3);
+    for (int k = 0; k < 3; ++k) {
+      accel[static_cast<std::size_t>(k)] = a[static_cast<std::size_t>(k)];
+      u0[static_cast<std::size_t>(k)] = v[static_cast<std::size_t>(k)];
+    }
+    if (D == 2 && (accel[2] != 0 || u0[2] != 0)) sc.fail("initial_velocity", "2D (D2Q9) cases have no z component: set it to 0");
+    u_ref = std::sqrt(u0[0] * u0[0] + u0[1] * u0[1] + u0[2] * u0[2]);
+    u_ref = sc.positive("reference_velocity", u_ref > 0 ? u_ref : 1e-3);
+  }
+  sc.finish();
+  root.finish();
+
+  UnitsRequest ur;
+  ur.dx = dx;
+  ur.nu = nu_si;
+  ur.rho = rho_si;
+  ur.tau = tau;
+  ur.dt = dt;
+  ur.u_ref = u_ref;
+  ur.max_mach = c.max_mach;
+  ur.where = root.source();
+  c.units = derive_units(ur);
+  s.tau = c.units.tau;
+  if (s.collision == lbm::CollisionKind::BGK && s.tau < 0.51)
+    throw ConfigError(root.source() + ": key 'collision.tau' = " + std::to_string(s.tau) +
+                      ": BGK is unstable this close to 0.5; use tau >= 0.51 or collision.model: trt");
+  if (has_end) steps = std::max<long>(1, std::lround(t_end / c.units.dt));
+  if (opt.steps) steps = *opt.steps;
+  c.steps = steps;
+  if (opt.output) c.outdir = *opt.output;
+
+  // Grid with boundary layers.
+  for (int a = 0; a < 3; ++a) c.pad[static_cast<std::size_t>(a)] = closed[static_cast<std::size_t>(a)] ? 1 : 0;
+  std::array<long, 3> n{};
+  for (int a = 0; a < 3; ++a) n[static_cast<std::size_t>(a)] = c.fluid_cells[static_cast<std::size_t>(a)] + 2 * c.pad[static_cast<std::size_t>(a)];
+  s.domain.global = s.domain.local = n;
+  for (int a = 0; a < 3; ++a) s.body_force[static_cast<std::size_t>(a)] = c.units.to_lattice_acceleration(accel[static_cast<std::size_t>(a)]);
+  return c;
+}
+
+}  // namespace
+
+// Defined below: runs a parsed case.
+static int run_parsed(LbmCase& c, const RunOptions& opt);
+
+int run_lbm_case(const Config& root, const RunOptions& opt) {
+  // Parse and validate everything first: bad input never touches output.
+  LbmCase c = parse(root, opt);
+  auto& s = c.setup;
+  const auto& n = s.domain.local;
+  const auto N = static_cast<std::size_t>(n[0] * n[1] * n[2]);
+  c.flags.assign(N, 0);
+  c.rho.assign(N, 1.0);
+  c.u.assign(3 * N, 0.0);
+  auto add = [&](lbm::BoundaryKind k, std::array<double, 3> u, double rho) {
+    auto& bt = s.boundaries;
+    const int i = bt.count++;
+    bt.kind[i] = k;
+    for (int a = 0; a < 3; ++a) bt.u[i][a] = u[static_cast<std::size_t>(a)];
+    bt.rho[i] = rho;
+    return static_cast<std::uint8_t>(i + 1);
+  };
+  const Units& U = c.units;
+  const Config sc = root.section(c.scene);
+  const double nu = s.tau > 0 ? (s.tau - 0.5) / 3.0 : 0;
+
+  if (c.scene == "channel") {
+    const std::uint8_t wall = add(lbm::BoundaryKind::Wall, {0, 0, 0}, 1);
+    const bool io = c.pad[0] == 1;
+    const double H = static_cast<double>(c.fluid_cells[1]);
+    double u_in = 0;
+    std::uint8_t in = 0, out = 0;
+    if (io) {
+      u_in = U.to_lattice_velocity(sc.number("inlet_velocity"));
+      in = add(lbm::BoundaryKind::Velocity, {u_in, 0, 0}, 1.0);
+      out = add(lbm::BoundaryKind::Pressure, {0, 0, 0}, 1.0);
+    }
+    for (long z = 0; z < n[2]; ++z)
+      for (long y = 0; y < n[1]; ++y)
+        for (long x = 0; x < n[0]; ++x) {
+          auto& f = c.flags[idx(c, x, y, z)];
+          if (y == 0 || y == n[1] - 1) f = wall;
+          else if (io && x == 0) f = in;
+          else if (io && x == n[0] - 1) f = out;
+        }
+    const double F = s.body_force[0];
+    c.verify = [&c, F, H, nu, io, u_in](long, const std::vector<double>&, const std::vector<double>& u) {
+      // Periodic: the Poiseuille parabola u = F y (H-y) / (2 nu). Inlet/outlet:
+      // plug inflow develops into the parabola of mean u_in (same shape).
+      const double scale = io ? 6.0 * u_in / (H * H) : F / (2 * nu);
+      const long x0 = io ? c.setup.domain.local[0] - 2 : 0;  // compare at the outlet end when developing
+      auto ref = [&](long x, long y, long) -> std::array<double, 3> {
+        if (io && x != x0) return {NAN, 0, 0};
+        const double yy = y - 0.5;
+        return {scale * yy * (H - yy), 0, 0};
+      };
+      double num = 0, den = 0;
+      const auto& d = c.setup.domain.local;
+      for (long z = 0; z < d[2]; ++z)
+        for (long y = 1; y < d[1] - 1; ++y)
+          for (long x = io ? x0 : 0; x <= (io ? x0 : d[0] - 1); ++x) {
+            const auto i = idx(c, x, y, z);
+            const double r = ref(x, y, z)[0];
+            num += (u[3 * i] - r) * (u[3 * i] - r);
+            den += r * r;
+          }
+      return std::vector<Verification>{
+          {"velocity_rel_l2_vs_parabola", std::sqrt(num / den),
+           io ? "outlet profile vs fully developed parabola (needs a long enough channel)"
+              : "Poiseuille profile vs analytic parabola (exact to round-off with TRT Lambda=3/16 at steady state)"}};
+    };
+  } else if (c.scene == "taylor_green") {
+    const double U0 = U.to_lattice_velocity(sc.number("velocity"));
+    const double L = static_cast<double>(c.fluid_cells[0]);
+    const double k = 2 * kPi / L;
+    const bool d3 = s.lattice == lbm::LatticeKind::D3Q19;
+    for (long z = 0; z < n[2]; ++z)
+      for (long y = 0; y < n[1]; ++y)
+        for (long x = 0; x < n[0]; ++x) {
+          const double X = k * (x + 0.5), Y = k * (y + 0.5), Z = k * (z + 0.5);
+          const auto i = idx(c, x, y, z);
+          if (!d3) {
+            c.u[3 * i] = -U0 * std::cos(X) * std::sin(Y);
+            c.u[3 * i + 1] = U0 * std::sin(X) * std::cos(Y);
+            c.rho[i] = 1.0 + 3.0 * (-U0 * U0 / 4 * (std::cos(2 * X) + std::cos(2 * Y)));
+          } else {
+            c.u[3 * i] = U0 * std::sin(X) * std::cos(Y) * std::cos(Z);
+            c.u[3 * i + 1] = -U0 * std::cos(X) * std::sin(Y) * std::cos(Z);
+            c.rho[i] = 1.0 + 3.0 * (U0 * U0 / 16 * (std::cos(2 * X) + std::cos(2 * Y)) * (std::cos(2 * Z) + 2));
+          }
+        }
+    c.verify = [&c, U0, k, nu, d3](long step, const std::vector<double>&, const std::vector<double>& u) {
+      const double t = static_cast<double>(step);
+      const double decay = std::exp(-(d3 ? 3.0 : 2.0) * nu * k * k * t);
+      auto ref = [&](long x, long y, long z) -> std::array<double, 3> {
+        const double X = k * (x + 0.5), Y = k * (y + 0.5), Z = k * (z + 0.5);
+        if (!d3) return {-U0 * std::cos(X) * std::sin(Y) * decay, U0 * std::sin(X) * std::cos(Y) * decay, 0};
+        return {U0 * std::sin(X) * std::cos(Y) * std::cos(Z) * decay, -U0 * std::cos(X) * std::sin(Y) * std::cos(Z) * decay, 0};
+      };
+      return std::vector<Verification>{{"velocity_rel_l2_vs_analytic", rel_l2(c, u, ref),
+                                        d3 ? "3D: viscous decay exp(-3 nu k^2 t), exact only as Re -> 0"
+                                           : "2D: exact Navier-Stokes solution"}};
+    };
+  } else if (c.scene == "lid_driven_cavity") {
+    const double ulid = U.to_lattice_velocity(sc.number("lid_velocity"));
+    const std::uint8_t wall = add(lbm::BoundaryKind::Wall, {0, 0, 0}, 1);
+    const std::uint8_t lid = add(lbm::BoundaryKind::Velocity, {ulid, 0, 0}, 1.0);
+    const bool d3 = s.lattice == lbm::LatticeKind::D3Q19;
+    for (long z = 0; z < n[2]; ++z)
+      for (long y = 0; y < n[1]; ++y)
+        for (long x = 0; x < n[0]; ++x) {
+          auto& f = c.flags[idx(c, x, y, z)];
+          // The lid row spans the full width, corners included.
+          if (y == n[1] - 1) f = lid;
+          else if (x == 0 || x == n[0] - 1 || y == 0 || (d3 && (z == 0 || z == n[2] - 1))) f = wall;
+        }
+    c.verify = [ulid](long, const std::vector<double>&, const std::vector<double>&) {
+      return std::vector<Verification>{{"lid_velocity_lattice", ulid, "no analytic reference; compare with Ghia et al. (1982) at Re = 100"}};
+    };
+  } else {  // periodic_box
+    const auto v = sc.numbers("initial_velocity", {0, 0, 0}, 3, 3);
+    for (std::size_t i = 0; i < N; ++i)
+      for (int a = 0; a < 3; ++a) c.u[3 * i + static_cast<std::size_t>(a)] = U.to_lattice_velocity(v[static_cast<std::size_t>(a)]);
+    c.verify = [&c](long step, const std::vector<double>&, const std::vector<double>& u) {
+      // Uniform flow plus uniform force: every cell has u0 + F t / rho exactly.
+      double worst = 0;
+      for (std::size_t i = 0; i < c.flags.size(); ++i)
+        for (int a = 0; a < 3; ++a) {
+          const double expect = c.u[3 * i + static_cast<std::size_t>(a)] + c.setup.body_force[static_cast<std::size_t>(a)] * (static_cast<double>(step) + 0.5);
+          worst = std::max(worst, std::abs(u[3 * i + static_cast<std::size_t>(a)] - expect));
+        }
+      return std::vector<Verification>{{"max_abs_velocity_error_lattice", worst, "uniform flow accelerated by the body force: u0 + F (t + 1/2)"}};
+    };
+  }
+  return run_parsed(c, opt);
+}
+
+static int run_parsed(LbmCase& c, const RunOptions& opt) {
+  auto& s = c.setup;
+  const Backend backend = resolve_backend(opt.backend);
+  // Memory: refuse up front rather than fail half-way.
+  const std::size_t need = lbm::lbm_memory_estimate(s);
+  const std::size_t have = backend_free_bytes(backend);
+  if (need > have) {
+    throw ConfigError("key 'domain.cells': the grid needs " + std::to_string(need >> 20) + " MiB but the " +
+                      to_string(backend) + " backend has " + std::to_string(have >> 20) +
+                      " MiB free; use fewer cells, precision: fp32, or streaming: aa");
+  }
+  if (opt.validate_only) return 0;
+  io::prepare_output_dir(c.outdir, opt.overwrite);
+
+  const Units& U = c.units;
+  const auto& n = s.domain.local;
+  const double fluid_cells = static_cast<double>(c.fluid_cells[0] * c.fluid_cells[1] * c.fluid_cells[2]);
+  if (!opt.quiet) {
+    spdlog::info("scene {}: {} {} {} {}, grid {}x{}x{} ({} fluid cells), backend {}", c.scene, to_string(s.lattice),
+                 to_string(s.collision), to_string(s.precision), to_string(s.streaming), n[0], n[1], n[2],
+                 static_cast<long>(fluid_cells), to_string(backend));
+    spdlog::info("units: dx = {:.6g} m, dt = {:.6g} s, tau = {:.6g}, {} steps = {:.6g} s; output in {}", U.dx, U.dt,
+                 U.tau, c.steps, c.steps * U.dt, c.outdir);
+  }
+  auto solver = lbm::make_lbm_solver(s, backend);
+  solver->initialize(c.flags, c.rho, c.u);
+
+  std::array<double, 3> origin{}, spacing{U.dx, U.dx, U.dx};
+  for (int a = 0; a < 3; ++a) origin[static_cast<std::size_t>(a)] = -c.pad[static_cast<std::size_t>(a)] * U.dx;
+  io::GridWriter writer(c.outdir, "fields", {n[0], n[1], n[2]}, origin, spacing);
+  io::TimeSeries series(c.outdir + "/diagnostics.csv",
+                        {"step", "time_s", "mass_rel_change", "momentum_x", "momentum_y", "momentum_z",
+                         "max_speed_m_s", "max_mach"});
+  std::vector<double> rho, u, flagd(c.flags.begin(), c.flags.end()), p;
+  auto write_fields = [&](long step) {
+    solver->macroscopic(rho, u);
+    p.resize(rho.size());
+    for (std::size_t i = 0; i < rho.size(); ++i) {
+      p[i] = c.flags[i] ? 0.0 : U.to_si_pressure(rho[i] - 1.0);
+      rho[i] *= U.rho;
+    }
+    for (auto& v : u) v = U.to_si_velocity(v);
+    writer.write(step, step * U.dt,
+                 {{"density", 1, rho.data(), "kg/m^3"}, {"velocity", 3, u.data(), "m/s"},
+                  {"pressure", 1, p.data(), "Pa (deviation from the reference)"},
+                  {"boundary", 1, flagd.data(), "0 fluid, k boundary entry"}});
+  };
+
+  PhaseTimer phases;
+  using clk = std::chrono::steady_clock;
+  auto secs = [](clk::time_point a) { return std::chrono::duration<double>(clk::now() - a).count(); };
+  const auto d0 = solver->diagnostics();
+  Progress prog(c.scene, c.steps, 5.0, opt.quiet);
+  long step = 0;
+  if (c.out_interval > 0) {
+    auto t = clk::now();
+    write_fields(0);
+    phases.add("output", secs(t));
+  }
+  while (step < c.steps) {
+    long next = std::min(c.steps, (step / c.diag_interval + 1) * c.diag_interval);
+    if (c.out_interval > 0) next = std::min(next, (step / c.out_interval + 1) * c.out_interval);
+    auto t = clk::now();
+    solver->step(next - step);
+    solver->synchronize();
+    phases.add("lbm", secs(t));
+    step = next;
+    if (step % c.diag_interval == 0 || step == c.steps) {
+      t = clk::now();
+      const auto d = solver->diagnostics();
+      const double vmax = U.to_si_velocity(d.max_speed);
+      const double ma = d.max_speed * std::sqrt(3.0);
+      series.append({static_cast<double>(step), step * U.dt, (d.mass - d0.mass) / d0.mass, d.momentum[0],
+                     d.momentum[1], d.momentum[2], vmax, ma});
+      phases.add("diagnostics", secs(t));
+      if (!d.finite) {
+        throw DivergenceError("diverged at step " + std::to_string(step) + " (t = " + std::to_string(step * U.dt) +
+                              " s): non-finite density or velocity at cell (" +
+                              std::to_string(d.nonfinite_cell[0]) + ", " + std::to_string(d.nonfinite_cell[1]) + ", " +
+                              std::to_string(d.nonfinite_cell[2]) + "). Output up to the last good step is kept in " +
+                              c.outdir + ". Lower the Mach number (smaller tau/dt), raise tau, or use collision.model: trt");
+      }
+      if (ma > c.max_mach) {
+        throw DivergenceError("stopped at step " + std::to_string(step) + ": lattice Mach number " + std::to_string(ma) +
+                              " (|u| = " + std::to_string(vmax) + " m/s) at cell (" + std::to_string(d.max_speed_cell[0]) +
+                              ", " + std::to_string(d.max_speed_cell[1]) + ", " + std::to_string(d.max_speed_cell[2]) +
+                              ") exceeds diagnostics.max_mach = " + std::to_string(c.max_mach) +
+                              ". Output up to the last good step is kept in " + c.outdir +
+                              ". Reduce the time step (tau) or the driving.");
+      }
+    }
+    if (c.out_interval > 0 && step % c.out_interval == 0) {
+      t = clk::now();
+      write_fields(step);
+      phases.add("output", secs(t));
+    }
+    if (prog.due()) prog.report(step, step * U.dt, fluid_cells / 1e6, "MLUPS");
+  }
+  // Final state always written.
+  if (c.out_interval == 0 || c.steps % c.out_interval != 0) {
+    auto t = clk::now();
+    write_fields(step);
+    phases.add("output", secs(t));
+  }
+  solver->macroscopic(rho, u);  // lattice units again for the verification
+  const auto checks = c.verify ? c.verify(step, rho, u) : std::vector<Verification>{};
+
+  const double lbm_s = phases.phases().count("lbm") ? phases.phases().at("lbm") : 0;
+  const double mlups = lbm_s > 0 ? fluid_cells * static_cast<double>(step) / lbm_s / 1e6 : 0;
+  std::ofstream js(c.outdir + "/summary.json");
+  js << "{\n  \"scene\": \"" << c.scene << "\",\n  \"lattice\": \"" << to_string(s.lattice) << "\",\n  \"collision\": \""
+     << to_string(s.collision) << "\",\n  \"precision\": \"" << to_string(s.precision) << "\",\n  \"streaming\": \""
+     << to_string(s.streaming) << "\",\n  \"backend\": \"" << to_string(backend) << "\",\n  \"steps\": " << step
+     << ",\n  \"dx_m\": " << U.dx << ",\n  \"dt_s\": " << U.dt << ",\n  \"tau\": " << U.tau
+     << ",\n  \"mlups\": " << mlups << ",\n  \"memory_bytes\": " << solver->memory_bytes() << ",\n  \"phases_s\": {";
+  bool first = true;
+  for (auto& [k, v] : phases.phases()) {
+    js << (first ? "" : ", ") << "\"" << k << "\": " << v;
+    first = false;
+  }
+  js << "},\n  \"verification\": {";
+  first = true;
+  for (auto& v : checks) {
+    js << (first ? "" : ", ") << "\"" << v.name << "\": " << v.value;
+    first = false;
+  }
+  js << "}\n}\n";
+  if (!opt.quiet) {
+    spdlog::info("done: {} steps in {} ({:.1f} MLUPS), memory {:.1f} MiB", step, format_duration(prog.elapsed()), mlups,
+                 solver->memory_bytes() / 1048576.0);
+    for (auto& [k, v] : phases.phases())
+      spdlog::info("  phase {:<12} {:8.3f} s ({:.1f}%)", k, v, 100.0 * v / std::max(1e-12, phases.total()));
+    for (auto& v : checks) spdlog::info("  check {} = {:.6e}  ({})", v.name, v.value, v.note);
+    spdlog::info("results: {}/fields.xdmf (open in ParaView), {}/diagnostics.csv, {}/summary.json", c.outdir, c.outdir, c.outdir);
+  }
+  return 0;
+}
+
+}  // namespace lbdem
