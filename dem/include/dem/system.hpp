@@ -1,0 +1,113 @@
+#pragma once
+// The DEM engine: particles resident on one backend, neighbour lists, contact
+// forces, walls, velocity-Verlet integration.
+//
+// One step (advance): kick v by dt/2 and drift x by dt -> if some particle
+// moved more than skin/2 since the last build, rebuild (sort by cell, reorder
+// particle arrays, rebuild the Verlet list, carry tangential histories) ->
+// forces -> kick v by dt/2. Consecutive half kicks are fused into one kernel;
+// the velocities are synchronised at the end of every advance() call.
+//
+// Host round trips in the time loop: one 16-byte read of a device flag per
+// step (the rebuild decision; nothing else), plus one more read on rebuild
+// steps (list overflow). No allocation after the first steps.
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "core/exec.hpp"
+#include "dem/contact.hpp"
+#include "dem/geometry.hpp"
+#include "dem/particle_view.hpp"
+#include "dem/particles.hpp"
+
+namespace lbdem::dem {
+
+enum class ForcePath {
+  Particle,  // each particle sums its own contacts over a full list: no atomics, bitwise reproducible
+  Pair,      // contacts compacted by a prefix sum, one thread per pair, atomic accumulation (Yu et al. 2024)
+};
+const char* to_string(ForcePath p);
+
+struct Material {
+  double stiffness = 0;            // k_n particle-particle [N/m]
+  double restitution = 1;          // e particle-particle, (0, 1]
+  double friction = 0;             // mu particle-particle
+  double wall_stiffness = 0;       // [N/m]
+  double wall_restitution = 1;
+  double wall_friction = 0;
+  double tangential_stiffness_ratio = 2.0 / 7.0;  // k_t / k_n
+  double tangential_damping_ratio = 0.5;          // eta_t / eta_n
+};
+
+struct DemParams {
+  std::array<double, 3> lo{0, 0, 0}, hi{1, 1, 1};
+  std::array<bool, 3> periodic{false, false, false};
+  std::vector<Wall> walls;   // normals need not be unit (normalised here)
+  Material material;
+  bool friction = false;     // tangential forces + rotation; compiled out when false
+  Vec3d gravity{};           // [m/s^2]
+  Vec3d body_force{};        // external force on every particle [N]
+  bool external_forcing = false;  // allocate ext_force/ext_torque (coupling input)
+  double dt = 0;             // [s]
+  double skin = 0;           // Verlet skin [m]; 0 -> 0.1 * smallest diameter... see resolve()
+  ForcePath path = ForcePath::Particle;
+  int neighbour_capacity = 0;     // per particle; 0 -> estimated, grown on overflow
+  double min_steps_per_collision = 50;  // refuse dt > t_c / this (Yu et al. use t_c/50)
+};
+
+// Smallest collision time among particle-particle and particle-wall contacts
+// of these particles [s] (smallest mass pairs; most elastic gives the shortest).
+double min_collision_time(const DemParams& p, const HostParticles& hp);
+// Throws ConfigError naming dt, t_c and the limit when dt > t_c / min_steps_per_collision.
+void check_time_step(const DemParams& p, const HostParticles& hp, const std::string& key = "time.dt");
+
+struct DemStats {
+  long steps = 0;
+  long rebuilds = 0;
+  int neighbour_capacity = 0;
+  double mean_neighbours = 0;  // at the last build
+};
+
+class DemSystem {
+ public:
+  DemSystem(Exec ex, DemParams params, const HostParticles& particles);
+  ~DemSystem();
+  DemSystem(const DemSystem&) = delete;
+  DemSystem& operator=(const DemSystem&) = delete;
+
+  // Advances `steps` velocity-Verlet steps.
+  void advance(long steps);
+  // Recomputes forces at the current state (rebuilding first if needed).
+  void compute_forces();
+  // Forces a neighbour-list rebuild (reorders the particle arrays).
+  void rebuild();
+
+  double time() const;
+  Index size() const;
+  const DemParams& params() const;
+  DemStats stats() const;
+  Backend backend() const;
+  ParticleView view();
+  // Particles in the current storage order, with their last forces.
+  HostParticles download() const;
+  // Pairs (by global id, a < b) in the Verlet list / currently overlapping.
+  std::vector<std::pair<std::int64_t, std::int64_t>> neighbour_pairs() const;
+  std::vector<std::pair<std::int64_t, std::int64_t>> contact_pairs() const;
+  double cell_size(int axis) const;
+  // Benchmark hooks: one phase alone (asynchronous on the device).
+  void bench_integrate();  // one fused kick+drift
+  void bench_forces();     // one force evaluation (no rebuild check)
+  void bench_rebuild();    // one full rebuild
+  void synchronize() const;
+
+  struct Impl;  // opaque; defined in dem/src/system_impl.hpp
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace lbdem::dem

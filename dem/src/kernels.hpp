@@ -1,0 +1,462 @@
+#pragma once
+// DEM kernel bodies: small trivially-copyable functors run by for_each on
+// either backend. Include only from kernel translation units (*.cu).
+#include <cstdint>
+
+#include "atomics.hpp"
+#include "core/exec.hpp"
+#include "core/hd.hpp"
+#include "dem/contact.hpp"
+#include "dem/geometry.hpp"
+#include "dem/particle_view.hpp"
+
+namespace lbdem::dem {
+
+struct PairIJ {
+  int i, j;
+};
+
+// Everything a per-particle or per-pair kernel reads, by pointer.
+struct State {
+  Real4 *pos, *vel, *omg, *frc, *trq;
+  Real4 *frc_old, *trq_old;  // forces of the previous step (velocity predictor)
+  const Real4 *extf, *extt;  // null when no coupling input
+  Real4* x0;                 // positions at the last build
+  const std::int64_t* gid;
+  int* nbr;
+  int* ncount;
+  Vec3d* hist;   // [s * n + i] tangential history (friction)
+  Vec3d* whist;  // [w * n + i]
+  Index n;
+  int cap;
+  Box box;
+  Walls walls;
+  ContactLaw pp, pw;
+  Vec3d gravity, body;
+  double dt, half_skin2, skin;
+  int* flags;
+};
+
+// Uniform cell grid over the box; cells at least the largest cutoff wide.
+struct Grid {
+  double lo[3];
+  double inv_cl[3];
+  int nc[3];
+  int periodic[3];
+  LBDEM_HD int coord(double x, int k) const {
+    int c = static_cast<int>(floor((x - lo[k]) * inv_cl[k]));
+    return c < 0 ? 0 : (c >= nc[k] ? nc[k] - 1 : c);
+  }
+  LBDEM_HD std::uint32_t cell(const Real4& p) const {
+    return static_cast<std::uint32_t>(coord(p.x, 0) + nc[0] * (coord(p.y, 1) + nc[1] * coord(p.z, 2)));
+  }
+};
+
+// ---------------------------------------------------------------- integration
+// Velocity Verlet with a velocity predictor for the velocity-dependent
+// contact forces (dashpot, tangential slip):
+//   v_{n+1/2} = v_n + dt/2 a_n,  x_{n+1} = x_n + dt v_{n+1/2},
+//   forces at (x_{n+1}, v~_{n+1} = v_{n+1/2} + dt/2 a_n),
+//   v_{n+1} = v_{n+1/2} + dt/2 a_{n+1}.
+// Between steps `vel` holds the predictor v~; the closing half kick of one
+// step and the opening half kick of the next are fused into this kernel
+// (synced = 1 when `vel` already holds v_n, at the start of advance()).
+// Evaluating the dashpot at v~ instead of v_{n+1/2} makes its impulse second
+// order in dt. Without damping this is plain velocity Verlet (symplectic).
+// Raises flags[0] when the displacement since the last build exceeds skin/2.
+template <bool Friction>
+struct KickDrift {
+  State s;
+  int synced;
+  LBDEM_HD void operator()(Index i) const {
+    Real4 v = s.vel[i];
+    const Real4 f = s.frc[i];
+    Real4 p = s.pos[i];
+    const double h = 0.5 * s.dt * v.w;
+    if (synced) {
+      v.x += h * f.x; v.y += h * f.y; v.z += h * f.z;
+    } else {
+      const Real4 fo = s.frc_old[i];
+      v.x += h * (2.0 * f.x - fo.x); v.y += h * (2.0 * f.y - fo.y); v.z += h * (2.0 * f.z - fo.z);
+    }
+    Vec3d x{p.x + s.dt * v.x, p.y + s.dt * v.y, p.z + s.dt * v.z};
+    x = s.box.wrap(x);
+    set_xyz(p, x);
+    v.x += h * f.x; v.y += h * f.y; v.z += h * f.z;
+    s.vel[i] = v;
+    s.pos[i] = p;
+    if constexpr (Friction) {
+      Real4 w = s.omg[i];
+      const Real4 t = s.trq[i];
+      const double b = 0.5 * s.dt * w.w;
+      if (synced) {
+        w.x += b * t.x; w.y += b * t.y; w.z += b * t.z;
+      } else {
+        const Real4 to = s.trq_old[i];
+        w.x += b * (2.0 * t.x - to.x); w.y += b * (2.0 * t.y - to.y); w.z += b * (2.0 * t.z - to.z);
+      }
+      w.x += b * t.x; w.y += b * t.y; w.z += b * t.z;
+      s.omg[i] = w;
+    }
+    const Vec3d d = s.box.min_image(x - xyz(s.x0[i]));
+    if (dot(d, d) > s.half_skin2) detail::atomic_set(&s.flags[0], 1);
+  }
+};
+
+// Closing half kick: v_{n+1} = v~_{n+1} - dt/2 a_n + dt/2 a_{n+1}.
+template <bool Friction>
+struct Kick {
+  State s;
+  LBDEM_HD void operator()(Index i) const {
+    Real4 v = s.vel[i];
+    const Real4 f = s.frc[i], fo = s.frc_old[i];
+    const double h = 0.5 * s.dt * v.w;
+    v.x += h * (f.x - fo.x); v.y += h * (f.y - fo.y); v.z += h * (f.z - fo.z);
+    s.vel[i] = v;
+    if constexpr (Friction) {
+      Real4 w = s.omg[i];
+      const Real4 t = s.trq[i], to = s.trq_old[i];
+      const double b = 0.5 * s.dt * w.w;
+      w.x += b * (t.x - to.x); w.y += b * (t.y - to.y); w.z += b * (t.z - to.z);
+      s.omg[i] = w;
+    }
+  }
+};
+
+// for_each, but tiny host problems run serially (an OpenMP region costs more
+// than a two-particle step, and the verification tests are tiny).
+template <class F>
+void launch(const Exec& ex, Index n, const F& f) {
+  if (!ex.on_device() && n < 4096) {
+    for (Index i = 0; i < n; ++i) f(i);
+    return;
+  }
+  for_each(ex, n, f);
+}
+
+// ------------------------------------------------------------------- cell list
+struct CellKey {
+  const Real4* pos;
+  Grid g;
+  std::uint32_t* key;
+  int* idx;
+  LBDEM_HD void operator()(Index i) const {
+    key[i] = g.cell(pos[i]);
+    idx[i] = static_cast<int>(i);
+  }
+};
+
+struct ClearCells {
+  int *start, *end;
+  LBDEM_HD void operator()(Index c) const { start[c] = 0; end[c] = 0; }
+};
+
+// Sorted keys -> [start, end) of each occupied cell.
+struct CellRange {
+  const std::uint32_t* key;
+  int *start, *end;
+  Index n;
+  LBDEM_HD void operator()(Index i) const {
+    const std::uint32_t k = key[i];
+    if (i == 0 || key[i - 1] != k) start[k] = static_cast<int>(i);
+    if (i == n - 1 || key[i + 1] != k) end[k] = static_cast<int>(i + 1);
+  }
+};
+
+// Reorders every per-particle array into cell order: dst[i] = src[perm[i]].
+struct Gather {
+  const int* perm;
+  const Real4 *pos, *vel, *omg, *frc, *trq, *frco, *trqo, *extf, *extt;
+  Real4 *pos2, *vel2, *omg2, *frc2, *trq2, *frco2, *trqo2, *extf2, *extt2;
+  const std::int64_t* gid;
+  std::int64_t* gid2;
+  const int* type;
+  int* type2;
+  const Vec3d* whist;
+  Vec3d* whist2;
+  int nwalls;
+  Index n;
+  LBDEM_HD void operator()(Index i) const {
+    const Index o = perm[i];
+    pos2[i] = pos[o]; vel2[i] = vel[o]; omg2[i] = omg[o]; frc2[i] = frc[o]; trq2[i] = trq[o];
+    frco2[i] = frco[o]; trqo2[i] = trqo[o];
+    if (extf) { extf2[i] = extf[o]; extt2[i] = extt[o]; }
+    gid2[i] = gid[o];
+    type2[i] = type[o];
+    if (whist)
+      for (int w = 0; w < nwalls; ++w) whist2[w * n + i] = whist[w * n + o];
+  }
+};
+
+// Verlet list: every j with |x_j - x_i| < r_i + r_j + skin, scanning the 27
+// (fewer on thin periodic axes) surrounding cells. With friction, each slot's
+// history is looked up by partner global id in the previous list: in i's own
+// old row, else in the partner's old row (negated, the pair path keeps only
+// the i<j copy).
+template <bool Friction>
+struct BuildList {
+  State s;
+  Grid g;
+  const int *cstart, *cend;
+  // Previous list (friction): indexed by the old order.
+  const int* perm;
+  const int *nbr_prev, *ncount_prev;
+  const Vec3d* hist_prev;
+  const std::int64_t* gid_prev;
+  int have_prev;
+  int prev_full;  // 1: both copies valid (particle path); 0: only partner old index > own
+
+  LBDEM_HD Vec3d lookup(Index i, Index j) const {
+    const Index oi = perm[i], oj = perm[j];
+    const std::int64_t gi = s.gid[i], gj = s.gid[j];
+    const int ci = ncount_prev[oi];
+    for (int q = 0; q < ci; ++q) {
+      const int o = nbr_prev[q * s.n + oi];
+      if ((prev_full || o > oi) && gid_prev[o] == gj) return hist_prev[q * s.n + oi];
+    }
+    const int cj = ncount_prev[oj];
+    for (int q = 0; q < cj; ++q) {
+      const int o = nbr_prev[q * s.n + oj];
+      if ((prev_full || o > oj) && gid_prev[o] == gi) return -hist_prev[q * s.n + oj];
+    }
+    return Vec3d{};
+  }
+
+  LBDEM_HD void operator()(Index i) const {
+    const Real4 pi = s.pos[i];
+    const Vec3d xi = xyz(pi);
+    int c[3] = {g.coord(pi.x, 0), g.coord(pi.y, 1), g.coord(pi.z, 2)};
+    int lo[3], hi[3];
+    for (int k = 0; k < 3; ++k) {
+      if (g.periodic[k] && g.nc[k] < 3) { lo[k] = 0; hi[k] = g.nc[k] - 1; }
+      else { lo[k] = -1; hi[k] = 1; }
+    }
+    int cnt = 0;
+    for (int dz = lo[2]; dz <= hi[2]; ++dz) {
+      int cz = c[2] + dz;
+      if (g.periodic[2]) cz = (cz + g.nc[2]) % g.nc[2];
+      else if (cz < 0 || cz >= g.nc[2]) continue;
+      for (int dy = lo[1]; dy <= hi[1]; ++dy) {
+        int cy = c[1] + dy;
+        if (g.periodic[1]) cy = (cy + g.nc[1]) % g.nc[1];
+        else if (cy < 0 || cy >= g.nc[1]) continue;
+        for (int dx = lo[0]; dx <= hi[0]; ++dx) {
+          int cx = c[0] + dx;
+          if (g.periodic[0]) cx = (cx + g.nc[0]) % g.nc[0];
+          else if (cx < 0 || cx >= g.nc[0]) continue;
+          const int cell = cx + g.nc[0] * (cy + g.nc[1] * cz);
+          const int e = cend[cell];
+          for (int j = cstart[cell]; j < e; ++j) {
+            if (j == i) continue;
+            const Real4 pj = s.pos[j];
+            const Vec3d d = s.box.min_image(xyz(pj) - xi);
+            const double rc = pi.w + pj.w + s.skin;
+            if (dot(d, d) < rc * rc) {
+              if (cnt < s.cap) {
+                s.nbr[cnt * s.n + i] = j;
+                if constexpr (Friction) s.hist[cnt * s.n + i] = have_prev ? lookup(i, j) : Vec3d{};
+              }
+              ++cnt;
+            }
+          }
+        }
+      }
+    }
+    s.ncount[i] = cnt < s.cap ? cnt : s.cap;
+    if (cnt > s.cap) {
+      detail::atomic_set(&s.flags[1], 1);
+      detail::atomic_max(&s.flags[2], cnt);
+    }
+    s.x0[i] = pi;
+  }
+};
+
+// ------------------------------------------------------------------- forces
+// Body force, gravity, coupling input and walls on particle i.
+template <bool Friction>
+LBDEM_HD LBDEM_FORCEINLINE void particle_forces(const State& s, Index i, const Real4& p, const Real4& v,
+                                                const Real4& w, Vec3d& F, Vec3d& T) {
+  const double m = 1.0 / v.w;
+  F = s.body + s.gravity * m;
+  T = Vec3d{};
+  if (s.extf) {
+    F += xyz(s.extf[i]);
+    T += xyz(s.extt[i]);
+  }
+  for (int k = 0; k < s.walls.count; ++k) {
+    const Wall& wl = s.walls.w[k];
+    const double h = dot(xyz(p) - wl.point, wl.normal);
+    const double delta = p.w - h;
+    Vec3d* xi = Friction ? &s.whist[k * s.n + i] : nullptr;
+    if (delta > 0.0) {
+      const Vec3d nv = -wl.normal;  // towards the wall
+      Vec3d vrel = xyz(v);
+      Vec3d hist{}, ft{};
+      if constexpr (Friction) {
+        vrel += cross(xyz(w) * p.w, nv);
+        hist = *xi;
+      }
+      F += contact_force<Friction>(s.pw, nv, delta, m, vrel, hist, s.dt, ft);
+      if constexpr (Friction) {
+        T += cross(nv * p.w, ft);
+        *xi = hist;
+      }
+    } else if constexpr (Friction) {
+      if (xi->x != 0.0 || xi->y != 0.0 || xi->z != 0.0) *xi = Vec3d{};
+    }
+  }
+}
+
+// Particle-parallel: particle i sums all its contacts over its full list.
+// Deterministic: fixed summation order, no atomics.
+template <bool Friction>
+struct ForceParticle {
+  State s;
+  LBDEM_HD void operator()(Index i) const {
+    const Real4 p = s.pos[i];
+    const Real4 v = s.vel[i];
+    Real4 w{0, 0, 0, 0};
+    if constexpr (Friction) w = s.omg[i];
+    Vec3d F, T;
+    particle_forces<Friction>(s, i, p, v, w, F, T);
+    const int cnt = s.ncount[i];
+    for (int q = 0; q < cnt; ++q) {
+      const Index slot = q * s.n + i;
+      const int j = s.nbr[slot];
+      const Real4 pj = s.pos[j];
+      const Vec3d d = s.box.min_image(xyz(pj) - xyz(p));
+      const double rs = p.w + pj.w;
+      const double d2 = dot(d, d);
+      if (d2 < rs * rs) {
+        const double dist = sqrt(d2);
+        const Vec3d nv = d * (1.0 / dist);
+        const Real4 vj = s.vel[j];
+        const double meff = 1.0 / (v.w + vj.w);
+        Vec3d vrel = xyz(v) - xyz(vj);
+        Vec3d hist{}, ft{};
+        if constexpr (Friction) {
+          const Real4 wj = s.omg[j];
+          vrel += cross(xyz(w) * p.w + xyz(wj) * pj.w, nv);
+          hist = s.hist[slot];
+        }
+        F += contact_force<Friction>(s.pp, nv, rs - dist, meff, vrel, hist, s.dt, ft);
+        if constexpr (Friction) {
+          T += cross(nv * p.w, ft);
+          s.hist[slot] = hist;
+        }
+      } else if constexpr (Friction) {
+        const Vec3d h = s.hist[slot];
+        if (h.x != 0.0 || h.y != 0.0 || h.z != 0.0) s.hist[slot] = Vec3d{};
+      }
+    }
+    s.frc[i] = Real4{F.x, F.y, F.z, 0.0};
+    if constexpr (Friction) s.trq[i] = Real4{T.x, T.y, T.z, 0.0};
+  }
+};
+
+// Pair path, stage 1: per-particle forces (body, walls) and the number of
+// overlapping partners j > i (resets the history of non-touching ones).
+template <bool Friction>
+struct PairInit {
+  State s;
+  int* ccount;
+  LBDEM_HD void operator()(Index i) const {
+    const Real4 p = s.pos[i];
+    const Real4 v = s.vel[i];
+    Real4 w{0, 0, 0, 0};
+    if constexpr (Friction) w = s.omg[i];
+    Vec3d F, T;
+    particle_forces<Friction>(s, i, p, v, w, F, T);
+    s.frc[i] = Real4{F.x, F.y, F.z, 0.0};
+    if constexpr (Friction) s.trq[i] = Real4{T.x, T.y, T.z, 0.0};
+    int c = 0;
+    const int cnt = s.ncount[i];
+    for (int q = 0; q < cnt; ++q) {
+      const Index slot = q * s.n + i;
+      const int j = s.nbr[slot];
+      if (j < i) continue;
+      const Real4 pj = s.pos[j];
+      const Vec3d d = s.box.min_image(xyz(pj) - xyz(p));
+      const double rs = p.w + pj.w;
+      if (dot(d, d) < rs * rs) ++c;
+      else if constexpr (Friction) {
+        const Vec3d h = s.hist[slot];
+        if (h.x != 0.0 || h.y != 0.0 || h.z != 0.0) s.hist[slot] = Vec3d{};
+      }
+    }
+    ccount[i] = c;
+  }
+};
+
+// Stage 2 (after the exclusive scan): write the compacted pairs. pairs[k].j
+// holds the list slot q (the partner is nbr[q * n + i]) so the history is found.
+struct PairFill {
+  State s;
+  const int* coffs;
+  PairIJ* pairs;
+  LBDEM_HD void operator()(Index i) const {
+    int k = coffs[i];
+    const Real4 p = s.pos[i];
+    const int cnt = s.ncount[i];
+    for (int q = 0; q < cnt; ++q) {
+      const int j = s.nbr[q * s.n + i];
+      if (j < i) continue;
+      const Real4 pj = s.pos[j];
+      const Vec3d d = s.box.min_image(xyz(pj) - xyz(p));
+      const double rs = p.w + pj.w;
+      if (dot(d, d) < rs * rs) pairs[k++] = PairIJ{static_cast<int>(i), q};
+    }
+  }
+};
+
+// Stage 3: one pair per thread (grid-stride over the device-held total), the
+// force added to both particles with atomics.
+template <bool Friction>
+struct PairForce {
+  State s;
+  const PairIJ* pairs;
+  const int* total;
+  Index workers;
+  LBDEM_HD void operator()(Index w0) const {
+    const Index np = *total;
+    for (Index k = w0; k < np; k += workers) {
+      const PairIJ pr = pairs[k];
+      const Index i = pr.i;
+      const Index slot = static_cast<Index>(pr.j) * s.n + i;
+      const int j = s.nbr[slot];
+      const Real4 p = s.pos[i], pj = s.pos[j];
+      const Real4 v = s.vel[i], vj = s.vel[j];
+      const Vec3d d = s.box.min_image(xyz(pj) - xyz(p));
+      const double rs = p.w + pj.w;
+      const double dist = sqrt(dot(d, d));
+      const Vec3d nv = d * (1.0 / dist);
+      const double meff = 1.0 / (v.w + vj.w);
+      Vec3d vrel = xyz(v) - xyz(vj);
+      Vec3d hist{}, ft{};
+      if constexpr (Friction) {
+        vrel += cross(xyz(s.omg[i]) * p.w + xyz(s.omg[j]) * pj.w, nv);
+        hist = s.hist[slot];
+      }
+      const Vec3d f = contact_force<Friction>(s.pp, nv, rs - dist, meff, vrel, hist, s.dt, ft);
+      detail::atomic_add(&s.frc[i].x, f.x);
+      detail::atomic_add(&s.frc[i].y, f.y);
+      detail::atomic_add(&s.frc[i].z, f.z);
+      detail::atomic_add(&s.frc[j].x, -f.x);
+      detail::atomic_add(&s.frc[j].y, -f.y);
+      detail::atomic_add(&s.frc[j].z, -f.z);
+      if constexpr (Friction) {
+        s.hist[slot] = hist;
+        const Vec3d ti = cross(nv * p.w, ft);
+        const Vec3d tj = cross(nv * pj.w, ft);
+        detail::atomic_add(&s.trq[i].x, ti.x);
+        detail::atomic_add(&s.trq[i].y, ti.y);
+        detail::atomic_add(&s.trq[i].z, ti.z);
+        detail::atomic_add(&s.trq[j].x, tj.x);
+        detail::atomic_add(&s.trq[j].y, tj.y);
+        detail::atomic_add(&s.trq[j].z, tj.z);
+      }
+    }
+  }
+};
+
+}  // namespace lbdem::dem

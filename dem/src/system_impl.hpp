@@ -1,0 +1,67 @@
+#pragma once
+// Private state of DemSystem, shared by its kernel translation units.
+#include <cstdint>
+
+#include "core/buffer.hpp"
+#include "dem/system.hpp"
+#include "kernels.hpp"
+
+namespace lbdem::dem {
+
+struct DemSystem::Impl {
+  Exec ex;
+  DemParams p;
+  Box box;
+  Walls walls;
+  ContactLaw pp, pw;
+  Grid grid;
+  Index n = 0;
+  int cap = 0;        // neighbour-list slots per particle
+  double skin = 0;
+  double time = 0;
+  long steps = 0, rebuilds = 0;
+  bool forces_valid = false;
+
+  // Particle arrays and their reorder twins (swapped at each rebuild).
+  Buffer<Real4> pos, vel, omg, frc, trq, frco, trqo, extf, extt, x0;
+  Buffer<Real4> pos2, vel2, omg2, frc2, trq2, frco2, trqo2, extf2, extt2;
+  Buffer<std::int64_t> gid, gid2;
+  Buffer<int> type, type2;
+  Buffer<Vec3d> whist, whist2;  // wall histories [w * n + i] (friction)
+
+  // Cell list.
+  Buffer<std::uint32_t> key, key_sorted;
+  Buffer<int> idx, perm;  // perm[new] = old index of the last rebuild
+  Buffer<int> cell_start, cell_end;
+  // Verlet list, column-major: slot s of particle i at [s * n + i].
+  Buffer<int> nbr, ncount, nbr_prev, ncount_prev;
+  Buffer<Vec3d> hist, hist_prev;
+  bool have_prev = false;
+  // Contact pairs (pair path): count -> exclusive scan -> fill.
+  Buffer<int> ccount, coffs;
+  Buffer<PairIJ> pairs;
+  // flags[0] rebuild needed, [1] list overflow, [2] largest neighbour count seen.
+  Buffer<int> flags;
+  Scratch scratch;
+
+  State state() const {
+    State s;
+    s.pos = pos.data(); s.vel = vel.data(); s.omg = omg.data(); s.frc = frc.data(); s.trq = trq.data();
+    s.frc_old = frco.data(); s.trq_old = trqo.data();
+    s.extf = extf.data(); s.extt = extt.data(); s.x0 = x0.data(); s.gid = gid.data();
+    s.nbr = nbr.data(); s.ncount = ncount.data(); s.n = n; s.cap = cap;
+    s.hist = hist.data(); s.whist = whist.data();
+    s.box = box; s.walls = walls; s.pp = pp; s.pw = pw;
+    s.gravity = p.gravity; s.body = p.body_force; s.dt = p.dt;
+    s.half_skin2 = 0.25 * skin * skin;
+    s.skin = skin;
+    s.flags = flags.data();
+    return s;
+  }
+};
+
+// Force evaluation, one instantiation per friction flag (own TU each).
+void run_forces_frictionless(DemSystem::Impl& m);
+void run_forces_frictional(DemSystem::Impl& m);
+
+}  // namespace lbdem::dem
