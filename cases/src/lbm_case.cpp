@@ -191,14 +191,33 @@ LbmCase parse(const Config& root, const RunOptions& opt) {
   return c;
 }
 
-}  // namespace
-
 // Defined below: runs a parsed case.
-static int run_parsed(LbmCase& c, const RunOptions& opt);
+int run_parsed(LbmCase& c, const RunOptions& opt);
+
+// Refuses grids that cannot fit, before anything is allocated: the solver's
+// device/host memory plus the host staging fields (flags, rho, u, pressure:
+// 1 + 5 doubles per cell) for set-up and output.
+void check_memory(const LbmCase& c, Backend backend) {
+  const std::size_t need = lbm::lbm_memory_estimate(c.setup);
+  const auto cells = static_cast<std::size_t>(lbm::make_grid_view(c.setup.domain).n);
+  const std::size_t host_need = cells * (1 + 5 * sizeof(double)) + (backend == Backend::Host ? need : 0);
+  const std::size_t have = backend_free_bytes(backend);
+  const std::size_t host_have = backend_free_bytes(Backend::Host);
+  if (need > have || host_need > host_have) {
+    const bool dev = need > have;
+    throw ConfigError("key 'domain.cells': the grid of " + std::to_string(cells) + " cells needs " +
+                      std::to_string((dev ? need : host_need) >> 20) + " MiB of " + (dev ? to_string(backend) : "host") +
+                      " memory but " + std::to_string((dev ? have : host_have) >> 20) +
+                      " MiB are free; use fewer cells, precision: fp32, or streaming: aa");
+  }
+}
+
+}  // namespace
 
 int run_lbm_case(const Config& root, const RunOptions& opt) {
   // Parse and validate everything first: bad input never touches output.
   LbmCase c = parse(root, opt);
+  check_memory(c, resolve_backend(opt.backend));
   auto& s = c.setup;
   const auto& n = s.domain.local;
   const auto N = static_cast<std::size_t>(n[0] * n[1] * n[2]);
@@ -328,17 +347,10 @@ int run_lbm_case(const Config& root, const RunOptions& opt) {
   return run_parsed(c, opt);
 }
 
-static int run_parsed(LbmCase& c, const RunOptions& opt) {
+namespace {
+int run_parsed(LbmCase& c, const RunOptions& opt) {
   auto& s = c.setup;
   const Backend backend = resolve_backend(opt.backend);
-  // Memory: refuse up front rather than fail half-way.
-  const std::size_t need = lbm::lbm_memory_estimate(s);
-  const std::size_t have = backend_free_bytes(backend);
-  if (need > have) {
-    throw ConfigError("key 'domain.cells': the grid needs " + std::to_string(need >> 20) + " MiB but the " +
-                      to_string(backend) + " backend has " + std::to_string(have >> 20) +
-                      " MiB free; use fewer cells, precision: fp32, or streaming: aa");
-  }
   if (opt.validate_only) return 0;
   io::prepare_output_dir(c.outdir, opt.overwrite);
 
@@ -466,4 +478,5 @@ static int run_parsed(LbmCase& c, const RunOptions& opt) {
   return 0;
 }
 
+}  // namespace
 }  // namespace lbdem

@@ -22,7 +22,7 @@ struct PopulationKernel {
     double f[L::Q];
     load_incoming<L, T, double, S, Parity>(src, nb, cell, f);
     LBDEM_UNROLL
-    for (int q = 0; q < L::Q; ++q) out[q * g.n + cell] = f[q] + L::w[q];
+    for (int q = 0; q < L::Q; ++q) out[q * g.n + cell] = f[q] + L::w(q);
   }
 };
 

@@ -17,12 +17,12 @@ void check_equilibrium_moments() {
   double m0 = 0, m1[3] = {0, 0, 0}, m2[3][3] = {};
   const double usq = u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
   for (int q = 0; q < L::Q; ++q) {
-    const double cu = L::c[q][0] * u[0] + L::c[q][1] * u[1] + L::c[q][2] * u[2];
-    const double feq = L::w[q] * rho * (1 + 3 * cu + 4.5 * cu * cu - 1.5 * usq);
+    const double cu = L::c(q, 0) * u[0] + L::c(q, 1) * u[1] + L::c(q, 2) * u[2];
+    const double feq = L::w(q) * rho * (1 + 3 * cu + 4.5 * cu * cu - 1.5 * usq);
     m0 += feq;
     for (int a = 0; a < 3; ++a) {
-      m1[a] += feq * L::c[q][a];
-      for (int b = 0; b < 3; ++b) m2[a][b] += feq * L::c[q][a] * L::c[q][b];
+      m1[a] += feq * L::c(q, a);
+      for (int b = 0; b < 3; ++b) m2[a][b] += feq * L::c(q, a) * L::c(q, b);
     }
   }
   EXPECT_NEAR(m0, rho, 1e-15);
@@ -36,10 +36,10 @@ void check_equilibrium_moments() {
 TEST(Lattice, OppositesPairUp) {
   for (int q = 0; q < D3Q19::Q; ++q) {
     EXPECT_EQ(D3Q19::opp(D3Q19::opp(q)), q);
-    for (int a = 0; a < 3; ++a) EXPECT_EQ(D3Q19::c[D3Q19::opp(q)][a], -D3Q19::c[q][a]);
+    for (int a = 0; a < 3; ++a) EXPECT_EQ(D3Q19::c(D3Q19::opp(q), a), -D3Q19::c(q, a));
   }
   for (int q = 0; q < D2Q9::Q; ++q)
-    for (int a = 0; a < 3; ++a) EXPECT_EQ(D2Q9::c[D2Q9::opp(q)][a], -D2Q9::c[q][a]);
+    for (int a = 0; a < 3; ++a) EXPECT_EQ(D2Q9::c(D2Q9::opp(q), a), -D2Q9::c(q, a));
 }
 
 TEST(Lattice, EquilibriumMomentsD2Q9) { check_equilibrium_moments<D2Q9>(); }
@@ -60,14 +60,14 @@ void check_collision_invariants(bool force) {
   double m0 = 0, j0[3] = {0, 0, 0};
   for (int q = 0; q < L::Q; ++q) {
     m0 += f[q];
-    for (int a = 0; a < 3; ++a) j0[a] += L::c[q][a] * f[q];
+    for (int a = 0; a < 3; ++a) j0[a] += L::c(q, a) * f[q];
   }
   double drho, u[3];
   c(f, drho, u);
   double m1 = 0, j1[3] = {0, 0, 0};
   for (int q = 0; q < L::Q; ++q) {
     m1 += f[q];
-    for (int a = 0; a < 3; ++a) j1[a] += L::c[q][a] * f[q];
+    for (int a = 0; a < 3; ++a) j1[a] += L::c(q, a) * f[q];
   }
   EXPECT_NEAR(m1, m0, 1e-16);
   for (int a = 0; a < 3; ++a) EXPECT_NEAR(j1[a] - j0[a], F[a], 1e-17);

@@ -31,9 +31,9 @@ struct Collider {
     LBDEM_UNROLL
     for (int q = 0; q < L::Q; ++q) {
       d += f[q];
-      if (L::c[q][0]) jx += L::c[q][0] * f[q];
-      if (L::c[q][1]) jy += L::c[q][1] * f[q];
-      if (L::c[q][2]) jz += L::c[q][2] * f[q];
+      if (L::c(q, 0)) jx += L::c(q, 0) * f[q];
+      if (L::c(q, 1)) jy += L::c(q, 1) * f[q];
+      if (L::c(q, 2)) jz += L::c(q, 2) * f[q];
     }
     const R rho = R(1) + d;
     const R inv_rho = R(1) / rho;
@@ -52,7 +52,7 @@ struct Collider {
     }
     // Rest population: symmetric only.
     {
-      const R w = R(L::w[0]);
+      const R w = R(L::w(0));
       const R eq = w * (d - rho * usq15);
       f[0] = f[0] - omega_p * (f[0] - eq);
       if constexpr (Force) f[0] += sp * w * (R(-3) * uF);
@@ -60,8 +60,8 @@ struct Collider {
     LBDEM_UNROLL
     for (int q = 1; q < L::Q; q += 2) {
       const int qb = q + 1;  // opposite
-      const R w = R(L::w[q]);
-      const R cu = R(L::c[q][0]) * ux + R(L::c[q][1]) * uy + R(L::c[q][2]) * uz;
+      const R w = R(L::w(q));
+      const R cu = R(L::c(q, 0)) * ux + R(L::c(q, 1)) * uy + R(L::c(q, 2)) * uz;
       const R eqp = w * (d + rho * (R(4.5) * cu * cu - usq15));
       const R eqm = w * rho * R(3) * cu;
       const R fp = R(0.5) * (f[q] + f[qb]);
@@ -71,7 +71,7 @@ struct Collider {
       R a = f[q] - dp - dm;
       R b = f[qb] - dp + dm;
       if constexpr (Force) {
-        const R cF = R(L::c[q][0]) * F[0] + R(L::c[q][1]) * F[1] + R(L::c[q][2]) * F[2];
+        const R cF = R(L::c(q, 0)) * F[0] + R(L::c(q, 1)) * F[1] + R(L::c(q, 2)) * F[2];
         const R Sp = sp * w * (R(9) * cu * cF - R(3) * uF);
         const R Sm = sm * w * R(3) * cF;
         a += Sp + Sm;

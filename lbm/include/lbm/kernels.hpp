@@ -75,9 +75,9 @@ LBDEM_HD LBDEM_FORCEINLINE void load_incoming(const PopView<T>& src, const Neigh
     if constexpr (S == StreamKind::AA && Parity == 0) {
       f[q] = static_cast<R>(src.f[q * src.stride + cell]);
     } else if constexpr (S == StreamKind::AA) {
-      f[q] = static_cast<R>(src.f[L::opp(q) * src.stride + nb.at(-L::c[q][0], -L::c[q][1], -L::c[q][2])]);
+      f[q] = static_cast<R>(src.f[L::opp(q) * src.stride + nb.at(-L::c(q, 0), -L::c(q, 1), -L::c(q, 2))]);
     } else {
-      f[q] = static_cast<R>(src.f[q * src.stride + nb.at(-L::c[q][0], -L::c[q][1], -L::c[q][2])]);
+      f[q] = static_cast<R>(src.f[q * src.stride + nb.at(-L::c(q, 0), -L::c(q, 1), -L::c(q, 2))]);
     }
   }
 }
@@ -86,14 +86,14 @@ LBDEM_HD LBDEM_FORCEINLINE void load_incoming(const PopView<T>& src, const Neigh
 // hits boundary entry `id` (shifted storage: g = f - w).
 template <class L, class R>
 LBDEM_HD LBDEM_FORCEINLINE R reflect(int q, R fq, const BoundaryTable& bt, int id, const R (&u)[3]) {
-  const R w = R(L::w[q]);
+  const R w = R(L::w(q));
   switch (bt.kind[id]) {
     case BoundaryKind::Velocity: {
-      const R cu = R(L::c[q][0]) * R(bt.u[id][0]) + R(L::c[q][1]) * R(bt.u[id][1]) + R(L::c[q][2]) * R(bt.u[id][2]);
+      const R cu = R(L::c(q, 0)) * R(bt.u[id][0]) + R(L::c(q, 1)) * R(bt.u[id][1]) + R(L::c(q, 2)) * R(bt.u[id][2]);
       return fq - R(6) * w * R(bt.rho[id]) * cu;
     }
     case BoundaryKind::Pressure: {
-      const R cu = R(L::c[q][0]) * u[0] + R(L::c[q][1]) * u[1] + R(L::c[q][2]) * u[2];
+      const R cu = R(L::c(q, 0)) * u[0] + R(L::c(q, 1)) * u[1] + R(L::c(q, 2)) * u[2];
       const R usq = u[0] * u[0] + u[1] * u[1] + u[2] * u[2];
       return -fq - R(2) * w + R(2) * w * R(bt.rho[id]) * (R(1) + R(4.5) * cu * cu - R(1.5) * usq);
     }
@@ -110,7 +110,7 @@ LBDEM_HD LBDEM_FORCEINLINE void store_outgoing(const PopView<T>& dst, const Neig
   LBDEM_UNROLL
   for (int q = 0; q < L::Q; ++q) {
     const int qb = L::opp(q);
-    const Index t = nb.at(L::c[q][0], L::c[q][1], L::c[q][2]);
+    const Index t = nb.at(L::c(q, 0), L::c(q, 1), L::c(q, 2));
     if constexpr (Bnd) {
       const int fl = flags[t];
       if (fl != 0) {
@@ -165,12 +165,12 @@ struct InitKernel {
     const double usq = ux * ux + uy * uy + uz * uz;
     LBDEM_UNROLL
     for (int q = 0; q < L::Q; ++q) {
-      const double cu = L::c[q][0] * ux + L::c[q][1] * uy + L::c[q][2] * uz;
-      const double geq = L::w[q] * ((r - 1.0) + r * (3.0 * cu + 4.5 * cu * cu - 1.5 * usq));
+      const double cu = L::c(q, 0) * ux + L::c(q, 1) * uy + L::c(q, 2) * uz;
+      const double geq = L::w(q) * ((r - 1.0) + r * (3.0 * cu + 4.5 * cu * cu - 1.5 * usq));
       if constexpr (S == StreamKind::AA) {
         dst.f[q * dst.stride + cell] = static_cast<T>(geq);
       } else {
-        dst.f[q * dst.stride + nb.at(-L::c[q][0], -L::c[q][1], -L::c[q][2])] = static_cast<T>(geq);
+        dst.f[q * dst.stride + nb.at(-L::c(q, 0), -L::c(q, 1), -L::c(q, 2))] = static_cast<T>(geq);
       }
     }
   }
@@ -200,7 +200,7 @@ struct MacroKernel {
     for (int q = 0; q < L::Q; ++q) {
       d += f[q];
       LBDEM_UNROLL
-      for (int a = 0; a < 3; ++a) j[a] += L::c[q][a] * f[q];
+      for (int a = 0; a < 3; ++a) j[a] += L::c(q, a) * f[q];
     }
     const double r = 1.0 + d;
     rho[cell] = r;
@@ -253,7 +253,7 @@ struct DiagKernel {
     for (int q = 0; q < L::Q; ++q) {
       d += f[q];
       LBDEM_UNROLL
-      for (int a = 0; a < 3; ++a) j[a] += L::c[q][a] * f[q];
+      for (int a = 0; a < 3; ++a) j[a] += L::c(q, a) * f[q];
     }
     const double rr = 1.0 + d;
     double u2 = 0;

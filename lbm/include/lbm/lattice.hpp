@@ -13,17 +13,17 @@ constexpr bool check_moments() {
   // kind the Navier-Stokes limit needs: sum w c_a^2 c_b^2 = cs^4 (a != b),
   // sum w c_a^4 = 3 cs^4.
   double s0 = 0;
-  for (int q = 0; q < L::Q; ++q) s0 += L::w[q];
+  for (int q = 0; q < L::Q; ++q) s0 += L::w(q);
   if (s0 < 1 - 1e-15 || s0 > 1 + 1e-15) return false;
   for (int a = 0; a < L::D; ++a) {
     double s1 = 0;
-    for (int q = 0; q < L::Q; ++q) s1 += L::w[q] * L::c[q][a];
+    for (int q = 0; q < L::Q; ++q) s1 += L::w(q) * L::c(q, a);
     if (s1 != 0) return false;
     for (int b = 0; b < L::D; ++b) {
       double s2 = 0, s4 = 0;
       for (int q = 0; q < L::Q; ++q) {
-        s2 += L::w[q] * L::c[q][a] * L::c[q][b];
-        s4 += L::w[q] * L::c[q][a] * L::c[q][a] * L::c[q][b] * L::c[q][b];
+        s2 += L::w(q) * L::c(q, a) * L::c(q, b);
+        s4 += L::w(q) * L::c(q, a) * L::c(q, a) * L::c(q, b) * L::c(q, b);
       }
       const double e2 = a == b ? 1.0 / 3.0 : 0.0;
       const double e4 = a == b ? 3.0 / 9.0 : 1.0 / 9.0;
@@ -31,7 +31,7 @@ constexpr bool check_moments() {
       if (s4 - e4 > 1e-15 || e4 - s4 > 1e-15) return false;
       for (int g = 0; g < L::D; ++g) {
         double s3 = 0;
-        for (int q = 0; q < L::Q; ++q) s3 += L::w[q] * L::c[q][a] * L::c[q][b] * L::c[q][g];
+        for (int q = 0; q < L::Q; ++q) s3 += L::w(q) * L::c(q, a) * L::c(q, b) * L::c(q, g);
         if (s3 != 0) return false;
       }
     }
@@ -39,8 +39,8 @@ constexpr bool check_moments() {
   for (int q = 0; q < L::Q; ++q) {
     const int o = L::opp(q);
     for (int a = 0; a < 3; ++a)
-      if (L::c[o][a] != -L::c[q][a]) return false;
-    if (L::w[o] != L::w[q]) return false;
+      if (L::c(o, a) != -L::c(q, a)) return false;
+    if (L::w(o) != L::w(q)) return false;
   }
   return true;
 }
@@ -51,10 +51,17 @@ struct D2Q9 {
   static constexpr int Q = 9;
   static constexpr const char* name = "D2Q9";
   // c[q] = (cx, cy, cz), cz = 0 in 2D so 2D and 3D share the index arithmetic.
-  static constexpr int c[Q][3] = {{0, 0, 0}, {1, 0, 0},  {-1, 0, 0}, {0, 1, 0},  {0, -1, 0},
-                                  {1, 1, 0}, {-1, -1, 0}, {1, -1, 0}, {-1, 1, 0}};
-  static constexpr double w[Q] = {4.0 / 9,  1.0 / 9,  1.0 / 9,  1.0 / 9, 1.0 / 9,
-                                  1.0 / 36, 1.0 / 36, 1.0 / 36, 1.0 / 36};
+  // Accessors rather than static arrays: constexpr functions are usable in
+  // device code, and with unrolled loops every lookup folds to a constant.
+  LBDEM_HD static constexpr int c(int q, int a) {
+    constexpr int v[Q][3] = {{0, 0, 0}, {1, 0, 0},   {-1, 0, 0}, {0, 1, 0},  {0, -1, 0},
+                             {1, 1, 0}, {-1, -1, 0}, {1, -1, 0}, {-1, 1, 0}};
+    return v[q][a];
+  }
+  LBDEM_HD static constexpr double w(int q) {
+    constexpr double v[Q] = {4.0 / 9, 1.0 / 9, 1.0 / 9, 1.0 / 9, 1.0 / 9, 1.0 / 36, 1.0 / 36, 1.0 / 36, 1.0 / 36};
+    return v[q];
+  }
   LBDEM_HD static constexpr int opp(int q) { return q == 0 ? 0 : ((q & 1) ? q + 1 : q - 1); }
 };
 
@@ -62,15 +69,21 @@ struct D3Q19 {
   static constexpr int D = 3;
   static constexpr int Q = 19;
   static constexpr const char* name = "D3Q19";
-  static constexpr int c[Q][3] = {{0, 0, 0},                                                  //
-                                  {1, 0, 0},   {-1, 0, 0},  {0, 1, 0},   {0, -1, 0},          //
-                                  {0, 0, 1},   {0, 0, -1},                                    //
-                                  {1, 1, 0},   {-1, -1, 0}, {1, -1, 0},  {-1, 1, 0},          //
-                                  {1, 0, 1},   {-1, 0, -1}, {1, 0, -1},  {-1, 0, 1},          //
-                                  {0, 1, 1},   {0, -1, -1}, {0, 1, -1},  {0, -1, 1}};
-  static constexpr double w[Q] = {1.0 / 3,  1.0 / 18, 1.0 / 18, 1.0 / 18, 1.0 / 18, 1.0 / 18, 1.0 / 18,
-                                  1.0 / 36, 1.0 / 36, 1.0 / 36, 1.0 / 36, 1.0 / 36, 1.0 / 36,
-                                  1.0 / 36, 1.0 / 36, 1.0 / 36, 1.0 / 36, 1.0 / 36, 1.0 / 36};
+  LBDEM_HD static constexpr int c(int q, int a) {
+    constexpr int v[Q][3] = {{0, 0, 0},                                               //
+                             {1, 0, 0},  {-1, 0, 0},  {0, 1, 0},  {0, -1, 0},          //
+                             {0, 0, 1},  {0, 0, -1},                                   //
+                             {1, 1, 0},  {-1, -1, 0}, {1, -1, 0}, {-1, 1, 0},          //
+                             {1, 0, 1},  {-1, 0, -1}, {1, 0, -1}, {-1, 0, 1},          //
+                             {0, 1, 1},  {0, -1, -1}, {0, 1, -1}, {0, -1, 1}};
+    return v[q][a];
+  }
+  LBDEM_HD static constexpr double w(int q) {
+    constexpr double v[Q] = {1.0 / 3,  1.0 / 18, 1.0 / 18, 1.0 / 18, 1.0 / 18, 1.0 / 18, 1.0 / 18,
+                             1.0 / 36, 1.0 / 36, 1.0 / 36, 1.0 / 36, 1.0 / 36, 1.0 / 36,
+                             1.0 / 36, 1.0 / 36, 1.0 / 36, 1.0 / 36, 1.0 / 36, 1.0 / 36};
+    return v[q];
+  }
   LBDEM_HD static constexpr int opp(int q) { return q == 0 ? 0 : ((q & 1) ? q + 1 : q - 1); }
 };
 
