@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# One call on the GPU machine: build with CUDA for sm_90, run the whole test
+# suite (host and CUDA backends), run the benchmarks; logs and JSON go to $OUT.
+#   scripts/gpu_run.sh [build] [test] [bench-lbm] [bench-dem] [bench-imb]   (default: all)
+set -uo pipefail
+here="$(cd "$(dirname "$0")/.." && pwd)"
+OUT="${OUT:-$here/out}"
+mkdir -p "$OUT"
+build="$here/build-gpu"
+steps=("$@")
+[ ${#steps[@]} -eq 0 ] && steps=(build test bench-lbm bench-dem bench-imb)
+commit="$(git -C "$here" rev-parse --short HEAD 2>/dev/null || echo unknown)"
+echo "commit $commit" | tee "$OUT/env.txt"
+nvidia-smi --query-gpu=name,memory.total,clocks.sm,clocks.mem --format=csv >> "$OUT/env.txt" 2>&1
+nproc >> "$OUT/env.txt"
+for s in "${steps[@]}"; do
+  case "$s" in
+    build)
+      cmake -S "$here" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DLBDEM_ENABLE_CUDA=ON \
+        -DCMAKE_CUDA_ARCHITECTURES=90 > "$OUT/build.log" 2>&1 &&
+      cmake --build "$build" -j"$(nproc)" >> "$OUT/build.log" 2>&1
+      echo "build exit $?"; tail -3 "$OUT/build.log" ;;
+    test)
+      (cd "$build" && ctest --output-on-failure -j4 --timeout 600 > "$OUT/ctest.log" 2>&1)
+      echo "ctest exit $?"; tail -15 "$OUT/ctest.log" ;;
+    bench-lbm)
+      "$build/bench/lbm/lbdem_bench_lbm" --out "$OUT/bench_lbm.json" > "$OUT/bench_lbm.log" 2>&1
+      echo "bench-lbm exit $?"; tail -40 "$OUT/bench_lbm.log" ;;
+    bench-dem)
+      [ -x "$build/bench/dem/lbdem_bench_dem" ] &&
+      "$build/bench/dem/lbdem_bench_dem" --out "$OUT/bench_dem.json" > "$OUT/bench_dem.log" 2>&1
+      echo "bench-dem exit $?"; tail -30 "$OUT/bench_dem.log" ;;
+    bench-imb)
+      [ -x "$build/bench/imb/lbdem_bench_imb" ] &&
+      "$build/bench/imb/lbdem_bench_imb" --out "$OUT/bench_imb.json" > "$OUT/bench_imb.log" 2>&1
+      echo "bench-imb exit $?"; tail -20 "$OUT/bench_imb.log" ;;
+    *) echo "unknown step $s"; exit 2 ;;
+  esac
+done
