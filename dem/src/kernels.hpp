@@ -146,9 +146,16 @@ struct CellKey {
   }
 };
 
+// Empties the cells occupied at the previous build (keys still sorted from
+// it): O(N) instead of O(cells), which matters for big, sparse boxes.
 struct ClearCells {
+  const std::uint32_t* old_key;
   int *start, *end;
-  LBDEM_HD void operator()(Index c) const { start[c] = 0; end[c] = 0; }
+  LBDEM_HD void operator()(Index i) const {
+    const std::uint32_t c = old_key[i];
+    start[c] = 0;
+    end[c] = 0;
+  }
 };
 
 // Sorted keys -> [start, end) of each occupied cell.

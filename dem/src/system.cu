@@ -158,6 +158,8 @@ DemSystem::DemSystem(Exec ex, DemParams params, const HostParticles& hp) : impl_
   m.perm = Buffer<int>(be, n);
   m.cell_start = Buffer<int>(be, total);
   m.cell_end = Buffer<int>(be, total);
+  m.cell_start.fill_zero();
+  m.cell_end.fill_zero();
   m.ncount = Buffer<int>(be, n);
   if (p.friction) m.ncount_prev = Buffer<int>(be, n);
   m.ccount = Buffer<int>(be, n + 1);
@@ -196,6 +198,9 @@ void DemSystem::rebuild() {
   Impl& m = *impl_;
   const Index n = m.n;
   if (n == 0) return;
+  // 0. Empty the cells of the previous build (its sorted keys are still there).
+  if (m.have_cells) launch(m.ex, n, ClearCells{m.key_sorted.data(), m.cell_start.data(), m.cell_end.data()});
+  m.have_cells = true;
   // 1. Cell of every particle; radix sort by cell.
   launch(m.ex, n, CellKey{m.pos.data(), m.grid, m.key.data(), m.idx.data()});
   sort_pairs(m.ex, m.key.data(), m.key_sorted.data(), m.idx.data(), m.perm.data(), n, m.scratch);
@@ -212,8 +217,6 @@ void DemSystem::rebuild() {
   m.whist.swap(m.whist2);
   // gid2 now holds the old order's ids (history lookup by partner id).
   // 3. Cell ranges.
-  const Index ncells = m.cell_start.size();
-  launch(m.ex, ncells, ClearCells{m.cell_start.data(), m.cell_end.data()});
   launch(m.ex, n, CellRange{m.key_sorted.data(), m.cell_start.data(), m.cell_end.data(), n});
   // 4. Verlet list (keeping the previous one for the history hand-over).
   if (m.p.friction) {

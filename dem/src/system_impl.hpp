@@ -21,6 +21,7 @@ struct DemSystem::Impl {
   double time = 0;
   long steps = 0, rebuilds = 0;
   bool forces_valid = false;
+  bool have_cells = false;  // key_sorted holds the previous build's keys
 
   // Particle arrays and their reorder twins (swapped at each rebuild).
   Buffer<Real4> pos, vel, omg, frc, trq, frco, trqo, extf, extt, x0;
