@@ -18,7 +18,7 @@ for s in "${steps[@]}"; do
     build)
       cmake -S "$here" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DLBDEM_ENABLE_CUDA=ON \
         -DCMAKE_CUDA_ARCHITECTURES=90 > "$OUT/build.log" 2>&1 &&
-      cmake --build "$build" -j"$(nproc)" >> "$OUT/build.log" 2>&1
+      cmake --build "$build" -j"$(nproc)" -- -k 0 >> "$OUT/build.log" 2>&1
       echo "build exit $?"; tail -3 "$OUT/build.log" ;;
     test)
       (cd "$build" && ctest --output-on-failure -j4 --timeout 600 > "$OUT/ctest.log" 2>&1)

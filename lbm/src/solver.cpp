@@ -33,6 +33,9 @@ std::unique_ptr<LbmSolver> make_lbm_solver(const LbmSetup& s, Backend b) {
     throw ConfigError("D2Q9 needs nz = 1, got " + std::to_string(s.domain.local[2]));
   if (s.boundaries.count > kMaxBoundaries)
     throw ConfigError("at most " + std::to_string(kMaxBoundaries) + " boundary kinds per case");
+  const GridView g = make_grid_view(s.domain);
+  if (g.n >= (Index{1} << 31))
+    throw ConfigError("domain of " + std::to_string(g.n) + " cells: one rank holds fewer than 2^31 cells; split the domain across ranks");
   const bool f32 = s.precision == Precision::FP32;
   if (s.lattice == LatticeKind::D2Q9) return f32 ? make_solver_d2q9_f32(s, b) : make_solver_d2q9_f64(s, b);
   return f32 ? make_solver_d3q19_f32(s, b) : make_solver_d3q19_f64(s, b);

@@ -32,11 +32,11 @@ namespace lbdem::lbm {
 enum class StreamKind { AA, TwoLattice };
 
 // Neighbour offsets of one cell with periodic wrap on every axis.
+// 32-bit offsets (fewer than 2^31 cells per rank); widened only when added to
+// the 64-bit slab offset q*stride.
 struct Neighbours {
-  Index ox[3], oy[3], oz[3];
-  template <int cx, int cy, int cz>
-  LBDEM_HD Index at() const { return ox[cx + 1] + oy[cy + 1] + oz[cz + 1]; }
-  LBDEM_HD Index at(int cx, int cy, int cz) const { return ox[cx + 1] + oy[cy + 1] + oz[cz + 1]; }
+  unsigned ox[3], oy[3], oz[3];
+  LBDEM_HD Index at(int cx, int cy, int cz) const { return static_cast<Index>(ox[cx + 1] + oy[cy + 1] + oz[cz + 1]); }
 };
 
 template <class L>
@@ -44,18 +44,19 @@ LBDEM_HD LBDEM_FORCEINLINE Neighbours neighbours(const GridView& g, Index cell) 
   int x, y, z;
   g.coords(cell, x, y, z);
   Neighbours nb;
-  nb.ox[0] = x == 0 ? g.nx - 1 : x - 1;
-  nb.ox[1] = x;
-  nb.ox[2] = x == g.nx - 1 ? 0 : x + 1;
-  nb.oy[0] = static_cast<Index>(y == 0 ? g.ny - 1 : y - 1) * g.nx;
-  nb.oy[1] = static_cast<Index>(y) * g.nx;
-  nb.oy[2] = static_cast<Index>(y == g.ny - 1 ? 0 : y + 1) * g.nx;
+  nb.ox[0] = static_cast<unsigned>(x == 0 ? g.nx - 1 : x - 1);
+  nb.ox[1] = static_cast<unsigned>(x);
+  nb.ox[2] = static_cast<unsigned>(x == g.nx - 1 ? 0 : x + 1);
+  const auto nx = static_cast<unsigned>(g.nx), nxy = static_cast<unsigned>(g.nxy);
+  nb.oy[0] = static_cast<unsigned>(y == 0 ? g.ny - 1 : y - 1) * nx;
+  nb.oy[1] = static_cast<unsigned>(y) * nx;
+  nb.oy[2] = static_cast<unsigned>(y == g.ny - 1 ? 0 : y + 1) * nx;
   if constexpr (L::D == 3) {
-    nb.oz[0] = static_cast<Index>(z == 0 ? g.nz - 1 : z - 1) * g.nxy;
-    nb.oz[1] = static_cast<Index>(z) * g.nxy;
-    nb.oz[2] = static_cast<Index>(z == g.nz - 1 ? 0 : z + 1) * g.nxy;
+    nb.oz[0] = static_cast<unsigned>(z == 0 ? g.nz - 1 : z - 1) * nxy;
+    nb.oz[1] = static_cast<unsigned>(z) * nxy;
+    nb.oz[2] = static_cast<unsigned>(z == g.nz - 1 ? 0 : z + 1) * nxy;
   } else {
-    nb.oz[0] = nb.oz[1] = nb.oz[2] = static_cast<Index>(z) * g.nxy;
+    nb.oz[0] = nb.oz[1] = nb.oz[2] = static_cast<unsigned>(z) * nxy;
   }
   return nb;
 }
