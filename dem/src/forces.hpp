@@ -16,7 +16,7 @@ void force_step(DemSystem::Impl& m) {
   // Pair path (Yu et al. 2024, Sec. 3): count contacts per particle, prefix
   // sum, fill the compacted pair array, then one thread per pair.
   launch(m.ex, m.n, PairInit<Friction>{s, m.ccount.data()});
-  exclusive_scan(m.ex, m.ccount.data(), m.coffs.data(), m.n + 1, m.scratch);
+  exclusive_scan(m.ex, m.ccount.data(), m.coffs.data(), m.n + 1, m.scratch());
   launch(m.ex, m.n, PairFill{s, m.coffs.data(), m.pairs.data()});
   // The pair count stays on the device: a fixed number of workers strides over it.
   const Index workers = m.n;

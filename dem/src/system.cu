@@ -2,9 +2,11 @@
 // velocity-Verlet time loop.
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <set>
 
-#include <fmt/format.h>
+#include <sstream>
+#include <string>
 
 #include "core/algorithms.hpp"
 #include "core/error.hpp"
@@ -14,7 +16,31 @@ namespace lbdem::dem {
 
 namespace {
 
+// "{}" placeholders filled in order (fmt's headers do not compile under nvcc
+// in this toolchain, and this TU must).
+void fmtx_rest(std::ostringstream& o, const char* f) { o << f; }
+template <class A, class... R>
+void fmtx_rest(std::ostringstream& o, const char* f, const A& a, const R&... r) {
+  const char* p = std::strstr(f, "{}");
+  if (!p) { o << f; return; }
+  o.write(f, p - f);
+  o << a;
+  fmtx_rest(o, p + 2, r...);
+}
+template <class... A>
+std::string fmtx(const char* f, const A&... a) {
+  std::ostringstream o;
+  o.precision(6);
+  fmtx_rest(o, f, a...);
+  return o.str();
+}
+
 Real4 r4(const Vec3d& v, double w) { return Real4{v.x, v.y, v.z, w}; }
+
+struct CountAt {
+  const int* c;
+  LBDEM_HD int operator()(Index i) const { return c[i]; }
+};
 
 template <class T>
 void upload(Buffer<T>& b, Backend be, const std::vector<T>& v, Index n) {
@@ -32,28 +58,29 @@ void run_forces(DemSystem::Impl& m) {
 DemSystem::DemSystem(Exec ex, DemParams params, const HostParticles& hp) : impl_(std::make_unique<Impl>()) {
   Impl& m = *impl_;
   m.ex = ex;
+  m.scratch_ptr = std::make_unique<Scratch>();
   m.p = std::move(params);
   DemParams& p = m.p;
   const Backend be = ex.backend();
   m.n = hp.size();
-  if (m.n >= (Index{1} << 30)) throw ResourceError(fmt::format("DEM: {} particles exceed the 2^30 limit of 32-bit list indices", m.n));
+  if (m.n >= (Index{1} << 30)) throw ResourceError(fmtx(("DEM: {} particles exceed the 2^30 limit of 32-bit list indices"), m.n));
   if (hp.r.size() != static_cast<std::size_t>(m.n) || hp.mass.size() != static_cast<std::size_t>(m.n))
     throw ConfigError("DEM: particle arrays of different lengths");
 
   // Box and walls.
   for (int k = 0; k < 3; ++k) {
     if (!(p.hi[k] > p.lo[k]))
-      throw ConfigError(fmt::format("domain: hi[{}] = {} must exceed lo[{}] = {}", k, p.hi[k], k, p.lo[k]));
+      throw ConfigError(fmtx(("domain: hi[{}] = {} must exceed lo[{}] = {}"), k, p.hi[k], k, p.lo[k]));
     m.box.lo[k] = p.lo[k];
     m.box.len[k] = p.hi[k] - p.lo[k];
     m.box.periodic[k] = p.periodic[k] ? 1 : 0;
   }
   if (static_cast<int>(p.walls.size()) > kMaxWalls)
-    throw ConfigError(fmt::format("walls: {} walls given, at most {} supported", p.walls.size(), kMaxWalls));
+    throw ConfigError(fmtx(("walls: {} walls given, at most {} supported"), p.walls.size(), kMaxWalls));
   for (std::size_t k = 0; k < p.walls.size(); ++k) {
     Wall w = p.walls[k];
     const double len = norm(w.normal);
-    if (!(len > 0)) throw ConfigError(fmt::format("walls[{}].normal: must be a non-zero vector", k));
+    if (!(len > 0)) throw ConfigError(fmtx(("walls[{}].normal: must be a non-zero vector"), k));
     w.normal = w.normal * (1.0 / len);
     m.walls.w[k] = w;
   }
@@ -61,7 +88,7 @@ DemSystem::DemSystem(Exec ex, DemParams params, const HostParticles& hp) : impl_
 
   const Material& mat = p.material;
   auto check_e = [](double e, const char* key) {
-    if (!(e > 0 && e <= 1)) throw ConfigError(fmt::format("material.{}: {} must be in (0, 1]", key, e));
+    if (!(e > 0 && e <= 1)) throw ConfigError(fmtx(("material.{}: {} must be in (0, 1]"), key, e));
   };
   check_e(mat.restitution, "restitution");
   check_e(mat.wall_restitution, "wall_restitution");
@@ -76,7 +103,7 @@ DemSystem::DemSystem(Exec ex, DemParams params, const HostParticles& hp) : impl_
   // Neighbour search geometry.
   double rmax = 0, rmin = 1e300;
   for (double r : hp.r) {
-    if (!(r > 0)) throw ConfigError(fmt::format("particles: radius {} must be > 0", r));
+    if (!(r > 0)) throw ConfigError(fmtx(("particles: radius {} must be > 0"), r));
     rmax = std::max(rmax, r);
     rmin = std::min(rmin, r);
   }
@@ -86,8 +113,8 @@ DemSystem::DemSystem(Exec ex, DemParams params, const HostParticles& hp) : impl_
   long long total = 1;
   for (int k = 0; k < 3; ++k) {
     if (p.periodic[k] && m.box.len[k] < 2 * rc)
-      throw ConfigError(fmt::format("domain: periodic length {} along axis {} is below twice the largest cutoff "
-                                    "2*(2 r_max + skin) = {}: enlarge the box or lower the skin",
+      throw ConfigError(fmtx(("domain: periodic length {} along axis {} is below twice the largest cutoff "
+                                    "2*(2 r_max + skin) = {}: enlarge the box or lower the skin"),
                                     m.box.len[k], k, 2 * rc));
     m.grid.nc[k] = std::max(1, static_cast<int>(std::min(1e9, std::floor(m.box.len[k] / rc))));
   }
@@ -111,7 +138,7 @@ DemSystem::DemSystem(Exec ex, DemParams params, const HostParticles& hp) : impl_
   for (Index i = 0; i < n; ++i) {
     Vec3d x = m.box.wrap(hp.x[i]);
     pos[i] = r4(x, hp.r[i]);
-    if (!(hp.mass[i] > 0)) throw ConfigError(fmt::format("particles: mass {} of particle {} must be > 0", hp.mass[i], i));
+    if (!(hp.mass[i] > 0)) throw ConfigError(fmtx(("particles: mass {} of particle {} must be > 0"), hp.mass[i], i));
     vel[i] = r4(hp.v[i], 1.0 / hp.mass[i]);
     omg[i] = r4(hp.w.empty() ? Vec3d{} : hp.w[i], 1.0 / sphere_inertia(hp.mass[i], hp.r[i]));
   }
@@ -169,6 +196,26 @@ DemSystem::DemSystem(Exec ex, DemParams params, const HostParticles& hp) : impl_
   m.flags.fill_zero();
   m.cap = p.neighbour_capacity > 0 ? p.neighbour_capacity : 32;
   rebuild();
+  if (p.neighbour_capacity == 0 && n > 0) {
+    // Fit the capacity to what the first build needed (x1.5 + 8 headroom,
+    // grown again on overflow): list and history memory scale with it.
+    const int* cnt = m.ncount.data();
+    const int mx = transform_reduce(m.ex, n, 0, MaxOp{}, CountAt{cnt}, m.scratch());
+    const int fit = ((mx * 3 / 2 + 8 + 7) / 8) * 8;
+    if (fit < m.cap) {
+      m.cap = fit;
+      if (p.friction) {
+        // Drop the stale previous list: the next rebuild starts afresh.
+        m.have_prev = false;
+      }
+      m.nbr = Buffer<int>();
+      m.hist = Buffer<Vec3d>();
+      m.pairs = Buffer<PairIJ>();
+      m.nbr_prev = Buffer<int>();
+      m.hist_prev = Buffer<Vec3d>();
+      rebuild();
+    }
+  }
   m.rebuilds = 0;  // the initial build is not counted
 }
 
@@ -203,7 +250,7 @@ void DemSystem::rebuild() {
   m.have_cells = true;
   // 1. Cell of every particle; radix sort by cell.
   launch(m.ex, n, CellKey{m.pos.data(), m.grid, m.key.data(), m.idx.data()});
-  sort_pairs(m.ex, m.key.data(), m.key_sorted.data(), m.idx.data(), m.perm.data(), n, m.scratch);
+  sort_pairs(m.ex, m.key.data(), m.key_sorted.data(), m.idx.data(), m.perm.data(), n, m.scratch());
   // 2. Reorder all particle arrays into cell order (locality for the force loop).
   Gather g{m.perm.data(), m.pos.data(),  m.vel.data(),  m.omg.data(),   m.frc.data(),   m.trq.data(),
            m.frco.data(), m.trqo.data(), m.extf.data(), m.extt.data(),  m.pos2.data(),  m.vel2.data(),
@@ -291,91 +338,5 @@ Index DemSystem::size() const { return impl_->n; }
 const DemParams& DemSystem::params() const { return impl_->p; }
 Backend DemSystem::backend() const { return impl_->ex.backend(); }
 double DemSystem::cell_size(int axis) const { return 1.0 / impl_->grid.inv_cl[axis]; }
-
-DemStats DemSystem::stats() const {
-  const Impl& m = *impl_;
-  DemStats s;
-  s.steps = m.steps;
-  s.rebuilds = m.rebuilds;
-  s.neighbour_capacity = m.cap;
-  if (m.n > 0) {
-    std::vector<int> c = m.ncount.to_vector();
-    double sum = 0;
-    for (Index i = 0; i < m.n; ++i) sum += c[i];
-    s.mean_neighbours = sum / static_cast<double>(m.n);
-  }
-  return s;
-}
-
-ParticleView DemSystem::view() {
-  Impl& m = *impl_;
-  ParticleView v;
-  v.pos_r = m.pos.data();
-  v.vel_im = m.vel.data();
-  v.omega_ii = m.omg.data();
-  v.ext_force = m.extf.data();
-  v.ext_torque = m.extt.data();
-  v.force = m.frc.data();
-  v.torque = m.trq.data();
-  v.n = m.n;
-  return v;
-}
-
-HostParticles DemSystem::download() const {
-  const Impl& m = *impl_;
-  m.ex.synchronize();
-  HostParticles h;
-  const Index n = m.n;
-  std::vector<Real4> pos = m.pos.to_vector(), vel = m.vel.to_vector(), omg = m.omg.to_vector(),
-                     frc = m.frc.to_vector(), trq = m.trq.to_vector();
-  h.id = m.gid.to_vector();
-  h.type = m.type.to_vector();
-  h.id.resize(n);
-  h.type.resize(n);
-  for (Index i = 0; i < n; ++i) {
-    h.x.push_back(xyz(pos[i]));
-    h.r.push_back(pos[i].w);
-    h.v.push_back(xyz(vel[i]));
-    h.mass.push_back(1.0 / vel[i].w);
-    h.w.push_back(xyz(omg[i]));
-    h.f.push_back(xyz(frc[i]));
-    h.t.push_back(m.p.friction ? xyz(trq[i]) : Vec3d{});
-  }
-  return h;
-}
-
-std::vector<std::pair<std::int64_t, std::int64_t>> DemSystem::neighbour_pairs() const {
-  const Impl& m = *impl_;
-  std::vector<std::pair<std::int64_t, std::int64_t>> out;
-  if (m.n == 0) return out;
-  std::vector<int> nbr = m.nbr.to_vector(), cnt = m.ncount.to_vector();
-  std::vector<std::int64_t> gid = m.gid.to_vector();
-  for (Index i = 0; i < m.n; ++i)
-    for (int q = 0; q < cnt[i]; ++q) {
-      const int j = nbr[q * m.n + i];
-      if (j > i) out.emplace_back(std::min(gid[i], gid[j]), std::max(gid[i], gid[j]));
-    }
-  std::sort(out.begin(), out.end());
-  return out;
-}
-
-std::vector<std::pair<std::int64_t, std::int64_t>> DemSystem::contact_pairs() const {
-  const Impl& m = *impl_;
-  std::vector<std::pair<std::int64_t, std::int64_t>> out;
-  if (m.n == 0) return out;
-  std::vector<int> nbr = m.nbr.to_vector(), cnt = m.ncount.to_vector();
-  std::vector<std::int64_t> gid = m.gid.to_vector();
-  std::vector<Real4> pos = m.pos.to_vector();
-  for (Index i = 0; i < m.n; ++i)
-    for (int q = 0; q < cnt[i]; ++q) {
-      const int j = nbr[q * m.n + i];
-      if (j <= i) continue;
-      const Vec3d d = m.box.min_image(xyz(pos[j]) - xyz(pos[i]));
-      const double rs = pos[i].w + pos[j].w;
-      if (dot(d, d) < rs * rs) out.emplace_back(std::min(gid[i], gid[j]), std::max(gid[i], gid[j]));
-    }
-  std::sort(out.begin(), out.end());
-  return out;
-}
 
 }  // namespace lbdem::dem

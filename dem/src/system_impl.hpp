@@ -1,10 +1,15 @@
 #pragma once
 // Private state of DemSystem, shared by its kernel translation units.
 #include <cstdint>
+#include <memory>
 
 #include "core/buffer.hpp"
 #include "dem/system.hpp"
 #include "kernels.hpp"
+
+namespace lbdem {
+struct Scratch;  // core/algorithms.hpp (kernel TUs only)
+}
 
 namespace lbdem::dem {
 
@@ -43,7 +48,8 @@ struct DemSystem::Impl {
   Buffer<PairIJ> pairs;
   // flags[0] rebuild needed, [1] list overflow, [2] largest neighbour count seen.
   Buffer<int> flags;
-  Scratch scratch;
+  std::unique_ptr<Scratch> scratch_ptr;  // complete type in the .cu TUs only
+  Scratch& scratch() { return *scratch_ptr; }
 
   State state() const {
     State s;
