@@ -173,3 +173,35 @@ TEST_F(BadInput, CheckCommandRefusesToo) {
 }
 
 }  // namespace
+
+namespace {
+
+TEST(Watchdog, StopsWithDiagnosisAndKeepsOutput) {
+  // A periodic box accelerated far past the Mach limit: the up-front check
+  // passes (reference speed 0.01 m/s), the watchdog must stop the run with
+  // the step, the cell and the value, exit 3, and keep the output written
+  // before the failure.
+  const fs::path dir = fs::temp_directory_path() / ("lbdem_watchdog_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  std::ofstream(dir / "case.yaml") << R"(scene: periodic_box
+lattice: D2Q9
+collision: {model: bgk, tau: 0.8}
+fluid: {density: 1.0, kinematic_viscosity: 1.0e-5}
+domain: {cells: [8, 8], spacing: 1.0e-3}
+periodic_box: {body_acceleration: [2000.0, 0, 0], reference_velocity: 0.01}
+time: {steps: 5000}
+output: {interval: 10}
+diagnostics: {interval: 10, max_mach: 0.3}
+)";
+  const auto r = run("run " + (dir / "case.yaml").string() + " --backend cpu --quiet --output " + (dir / "out").string());
+  EXPECT_EQ(r.code, 3) << r.out;
+  EXPECT_NE(r.out.find("Mach"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("at step"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("at cell ("), std::string::npos) << r.out;
+  EXPECT_TRUE(fs::exists(dir / "out" / "fields.xdmf"));
+  EXPECT_TRUE(fs::exists(dir / "out" / "fields_00000000.h5"));
+  fs::remove_all(dir);
+}
+
+}  // namespace

@@ -6,7 +6,14 @@
 #define LBDEM_HD __host__ __device__
 #define LBDEM_DEVICE __device__
 #define LBDEM_FORCEINLINE __forceinline__
+// nvcc compiles a .cu file twice: for the device (__CUDA_ARCH__ defined) and
+// for the host, where the loop must be unrolled by the host compiler so that
+// lattice constants fold exactly as in a plain C++ build.
+#if defined(__CUDA_ARCH__)
 #define LBDEM_UNROLL _Pragma("unroll")
+#else
+#define LBDEM_UNROLL _Pragma("GCC unroll 32")
+#endif
 #else
 #define LBDEM_HD
 #define LBDEM_DEVICE

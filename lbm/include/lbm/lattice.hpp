@@ -46,6 +46,26 @@ constexpr bool check_moments() {
 }
 }  // namespace detail
 
+// Velocity sets and weights, listed once. Device code reads them from
+// constexpr locals (folded to immediates in unrolled loops); host code from
+// namespace-scope tables (nvcc's host pass does not unroll, and a local table
+// would be rebuilt on every call).
+#define LBDEM_D2Q9_C {{0, 0, 0}, {1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {1, 1, 0}, {-1, -1, 0}, {1, -1, 0}, {-1, 1, 0}}
+#define LBDEM_D2Q9_W {4.0 / 9, 1.0 / 9, 1.0 / 9, 1.0 / 9, 1.0 / 9, 1.0 / 36, 1.0 / 36, 1.0 / 36, 1.0 / 36}
+#define LBDEM_D3Q19_C                                                                                          \
+  {{0, 0, 0},  {1, 0, 0},   {-1, 0, 0}, {0, 1, 0},  {0, -1, 0}, {0, 0, 1},   {0, 0, -1},                     \
+   {1, 1, 0},  {-1, -1, 0}, {1, -1, 0}, {-1, 1, 0}, {1, 0, 1},  {-1, 0, -1}, {1, 0, -1},                     \
+   {-1, 0, 1}, {0, 1, 1},   {0, -1, -1}, {0, 1, -1}, {0, -1, 1}}
+#define LBDEM_D3Q19_W                                                                                          \
+  {1.0 / 3,  1.0 / 18, 1.0 / 18, 1.0 / 18, 1.0 / 18, 1.0 / 18, 1.0 / 18, 1.0 / 36, 1.0 / 36, 1.0 / 36,       \
+   1.0 / 36, 1.0 / 36, 1.0 / 36, 1.0 / 36, 1.0 / 36, 1.0 / 36, 1.0 / 36, 1.0 / 36, 1.0 / 36}
+namespace detail {
+inline constexpr int d2q9_c[9][3] = LBDEM_D2Q9_C;
+inline constexpr double d2q9_w[9] = LBDEM_D2Q9_W;
+inline constexpr int d3q19_c[19][3] = LBDEM_D3Q19_C;
+inline constexpr double d3q19_w[19] = LBDEM_D3Q19_W;
+}  // namespace detail
+
 struct D2Q9 {
   static constexpr int D = 2;
   static constexpr int Q = 9;
@@ -54,13 +74,20 @@ struct D2Q9 {
   // Accessors rather than static arrays: constexpr functions are usable in
   // device code, and with unrolled loops every lookup folds to a constant.
   LBDEM_HD static constexpr int c(int q, int a) {
-    constexpr int v[Q][3] = {{0, 0, 0}, {1, 0, 0},   {-1, 0, 0}, {0, 1, 0},  {0, -1, 0},
-                             {1, 1, 0}, {-1, -1, 0}, {1, -1, 0}, {-1, 1, 0}};
+#if defined(__CUDA_ARCH__)
+    constexpr int v[Q][3] = LBDEM_D2Q9_C;
     return v[q][a];
+#else
+    return detail::d2q9_c[q][a];
+#endif
   }
   LBDEM_HD static constexpr double w(int q) {
-    constexpr double v[Q] = {4.0 / 9, 1.0 / 9, 1.0 / 9, 1.0 / 9, 1.0 / 9, 1.0 / 36, 1.0 / 36, 1.0 / 36, 1.0 / 36};
+#if defined(__CUDA_ARCH__)
+    constexpr double v[Q] = LBDEM_D2Q9_W;
     return v[q];
+#else
+    return detail::d2q9_w[q];
+#endif
   }
   LBDEM_HD static constexpr int opp(int q) { return q == 0 ? 0 : ((q & 1) ? q + 1 : q - 1); }
 };
@@ -70,19 +97,20 @@ struct D3Q19 {
   static constexpr int Q = 19;
   static constexpr const char* name = "D3Q19";
   LBDEM_HD static constexpr int c(int q, int a) {
-    constexpr int v[Q][3] = {{0, 0, 0},                                               //
-                             {1, 0, 0},  {-1, 0, 0},  {0, 1, 0},  {0, -1, 0},          //
-                             {0, 0, 1},  {0, 0, -1},                                   //
-                             {1, 1, 0},  {-1, -1, 0}, {1, -1, 0}, {-1, 1, 0},          //
-                             {1, 0, 1},  {-1, 0, -1}, {1, 0, -1}, {-1, 0, 1},          //
-                             {0, 1, 1},  {0, -1, -1}, {0, 1, -1}, {0, -1, 1}};
+#if defined(__CUDA_ARCH__)
+    constexpr int v[Q][3] = LBDEM_D3Q19_C;
     return v[q][a];
+#else
+    return detail::d3q19_c[q][a];
+#endif
   }
   LBDEM_HD static constexpr double w(int q) {
-    constexpr double v[Q] = {1.0 / 3,  1.0 / 18, 1.0 / 18, 1.0 / 18, 1.0 / 18, 1.0 / 18, 1.0 / 18,
-                             1.0 / 36, 1.0 / 36, 1.0 / 36, 1.0 / 36, 1.0 / 36, 1.0 / 36,
-                             1.0 / 36, 1.0 / 36, 1.0 / 36, 1.0 / 36, 1.0 / 36, 1.0 / 36};
+#if defined(__CUDA_ARCH__)
+    constexpr double v[Q] = LBDEM_D3Q19_W;
     return v[q];
+#else
+    return detail::d3q19_w[q];
+#endif
   }
   LBDEM_HD static constexpr int opp(int q) { return q == 0 ? 0 : ((q & 1) ? q + 1 : q - 1); }
 };
