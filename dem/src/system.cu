@@ -219,7 +219,27 @@ DemSystem::DemSystem(Exec ex, DemParams params, const HostParticles& hp) : impl_
   m.rebuilds = 0;  // the initial build is not counted
 }
 
-DemSystem::~DemSystem() = default;
+DemSystem::~DemSystem() {
+#if defined(LBDEM_HAVE_CUDA)
+  if (impl_ && impl_->flags_pinned) cudaFreeHost(impl_->flags_pinned);
+#endif
+}
+
+namespace {
+// The rebuild flag: a 4-byte device-to-host read into page-locked memory on
+// the Exec's stream (the one host round trip per step).
+int read_rebuild_flag(DemSystem::Impl& m) {
+  if (!m.ex.on_device()) return m.flags.data()[0];
+#if defined(LBDEM_HAVE_CUDA)
+  if (!m.flags_pinned) LBDEM_CUDA_CHECK(cudaMallocHost(reinterpret_cast<void**>(&m.flags_pinned), sizeof(int)));
+  LBDEM_CUDA_CHECK(cudaMemcpyAsync(m.flags_pinned, m.flags.data(), sizeof(int), cudaMemcpyDeviceToHost, m.ex.stream()));
+  LBDEM_CUDA_CHECK(cudaStreamSynchronize(m.ex.stream()));
+  return *m.flags_pinned;
+#else
+  return 0;
+#endif
+}
+}  // namespace
 
 namespace {
 
@@ -250,7 +270,10 @@ void DemSystem::rebuild() {
   m.have_cells = true;
   // 1. Cell of every particle; radix sort by cell.
   launch(m.ex, n, CellKey{m.pos.data(), m.grid, m.key.data(), m.idx.data()});
-  sort_pairs(m.ex, m.key.data(), m.key_sorted.data(), m.idx.data(), m.perm.data(), n, m.scratch());
+  // Only the bits a cell index can use: fewer radix passes on the GPU.
+  int bits = 1;
+  while (bits < 32 && (Index{1} << bits) < m.cell_start.size()) ++bits;
+  sort_pairs(m.ex, m.key.data(), m.key_sorted.data(), m.idx.data(), m.perm.data(), n, m.scratch(), 0, bits);
   // 2. Reorder all particle arrays into cell order (locality for the force loop).
   Gather g{m.perm.data(), m.pos.data(),  m.vel.data(),  m.omg.data(),   m.frc.data(),   m.trq.data(),
            m.frco.data(), m.trqo.data(), m.extf.data(), m.extt.data(),  m.pos2.data(),  m.vel2.data(),
@@ -303,7 +326,6 @@ void DemSystem::advance(long steps) {
   }
   if (!m.forces_valid) compute_forces();
   const double dt = m.p.dt;
-  int f[4];
   for (long s = 0; s < steps; ++s) {
     const State st = m.state();
     if (m.p.friction) launch(m.ex, m.n, KickDrift<true>{st, s == 0});
@@ -311,8 +333,7 @@ void DemSystem::advance(long steps) {
     // The forces just used become the "old" ones of the velocity predictor.
     m.frc.swap(m.frco);
     if (m.p.friction) m.trq.swap(m.trqo);
-    m.flags.copy_to_host(f, 1);  // rebuild decision: the one small read per step
-    if (f[0]) rebuild();
+    if (read_rebuild_flag(m)) rebuild();  // the one small read per step
     run_forces(m);
     m.time += dt;
     ++m.steps;

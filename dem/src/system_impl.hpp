@@ -48,6 +48,7 @@ struct DemSystem::Impl {
   Buffer<PairIJ> pairs;
   // flags[0] rebuild needed, [1] list overflow, [2] largest neighbour count seen.
   Buffer<int> flags;
+  int* flags_pinned = nullptr;  // page-locked host copy of flags[0] (CUDA backend)
   std::unique_ptr<Scratch> scratch_ptr;  // complete type in the .cu TUs only
   Scratch& scratch() { return *scratch_ptr; }
 
