@@ -188,12 +188,16 @@ int main(int argc, char** argv) {
       drel.copy_from_host(rel_r);
       drad.copy_from_host(rad_r);
       Exec ex(b);
-      for (FractionMethod m : methods) {
+      for (int mi = 0; mi < 4; ++mi) {
+        const FractionMethod m = mi < 3 ? methods[mi] : FractionMethod::Table;
+        const bool in_constant = mi < 3;
+        if (!in_constant && b != Backend::Cuda) continue;
         const int reps = b == Backend::Cuda ? 11 : (m == FractionMethod::Exact ? 3 : 11);
         const double t = median_time(reps, ex, [&] {
-          evaluate_fractions(ex, m, dim, &tab, drel.data(), drad.data(), dout.data(), nn);
+          evaluate_fractions(ex, m, dim, &tab, drel.data(), drad.data(), dout.data(), nn, in_constant);
         });
-        costs.push_back({dim, to_string(m), to_string(b), t / nn * 1e9, static_cast<long>(nn)});
+        costs.push_back({dim, in_constant ? to_string(m) : std::string("table(global)"), to_string(b), t / nn * 1e9,
+                         static_cast<long>(nn)});
       }
     }
   }
@@ -222,15 +226,19 @@ int main(int argc, char** argv) {
       SphereView v{bx.data(), by.data(), bz.data(), br.data(), np};
       CellSlots slots(b, GridShape{L, L, L, {true, true, true}}, 12);
       Exec ex(b);
-      for (FractionMethod m : methods) {
+      for (int mi = 0; mi < 4; ++mi) {
+        const FractionMethod m = mi < 3 ? methods[mi] : FractionMethod::Table;
+        if (mi == 3 && b != Backend::Cuda) continue;
         MapOptions o;
         o.method = m;
         o.table = &t3;
         o.max_radius = 5.0;
+        o.table_in_constant = mi < 3;
         const int reps = b == Backend::Cuda ? 7 : ((m == FractionMethod::Exact && np > 1000) ? 1 : 3);
         const double t = median_time(reps, ex, [&] { slots.map(ex, v, o); });
         const auto rep = slots.overflow();
-        maps.push_back({to_string(m), to_string(b), np, t * 1e3, static_cast<long>(rep.events)});
+        maps.push_back({mi < 3 ? to_string(m) : std::string("table(global)"), to_string(b), np, t * 1e3,
+                        static_cast<long>(rep.events)});
       }
     }
   }

@@ -22,12 +22,15 @@ __constant__ float c_fraction_table[kTableCapacity];
 std::uint64_t g_uploaded_table = 0;
 #endif
 
-// Reads the table from constant memory on the device and from the host copy on the host.
+// Reads the table on the device from constant memory (global == nullptr; the
+// first paper's choice) or from a global-memory copy through the read-only
+// cache (__ldg); on the host from the host copy.
 struct ConstTableAccess {
   const float* host = nullptr;
+  const float* global = nullptr;
   LBDEM_HD float operator()(int i) const {
 #if defined(__CUDA_ARCH__)
-    return c_fraction_table[i];
+    return global ? __ldg(global + i) : c_fraction_table[i];
 #else
     return host[i];
 #endif
@@ -177,12 +180,13 @@ struct EvalKernel {
 };
 
 template <int Dim, FractionMethod M>
-Fraction<Dim, M> make_fraction(const FractionTable* table, bool linear_normalised) {
+Fraction<Dim, M> make_fraction(const FractionTable* table, bool linear_normalised, const float* global_table) {
   Fraction<Dim, M> f{};
   f.linear_normalised = linear_normalised;
   if (table) {
     f.g = table->geometry;
     f.tab.host = table->values.data();
+    f.tab.global = global_table;
   }
   return f;
 }
@@ -232,11 +236,11 @@ struct MaxOp {
 template <int Dim, FractionMethod M>
 struct LaunchMap {
   static void run(const Exec& ex, const SphereView& p, const CellSlotsView& s, const GridShape& g, const MapOptions& o,
-                  int B, int* flags, Index* log_cell, int* log_particle, int log_cap) {
+                  int B, int* flags, Index* log_cell, int* log_particle, int log_cap, const float* global_table) {
     MapKernel<Dim, M> k{};
     k.p = p;
     k.s = s;
-    k.frac = make_fraction<Dim, M>(o.table, o.linear_normalised);
+    k.frac = make_fraction<Dim, M>(o.table, o.linear_normalised, global_table);
     k.nx = g.nx;
     k.ny = g.ny;
     k.nz = g.nz;
@@ -256,8 +260,8 @@ struct LaunchMap {
 template <int Dim, FractionMethod M>
 struct LaunchEval {
   static void run(const Exec& ex, const FractionTable* table, const double* rel, const double* radius, double* out,
-                  Index n) {
-    EvalKernel<Dim, M> k{make_fraction<Dim, M>(table, true), rel, radius, out};
+                  Index n, const float* global_table) {
+    EvalKernel<Dim, M> k{make_fraction<Dim, M>(table, true, global_table), rel, radius, out};
     for_each(ex, n, k);
   }
 };
@@ -287,9 +291,19 @@ void CellSlots::map(const Exec& ex, const SphereView& particles, const MapOption
     throw ConfigError(std::string("CellSlots::map: slots live on ") + to_string(backend_) + " but the Exec runs on " +
                       to_string(ex.backend()));
   const int dim = grid_.dim();
+  const float* global_table = nullptr;
   if (opt.method == FractionMethod::Table) {
     check_table(opt.table, dim, "CellSlots::map");
-    upload_table(ex, *opt.table);
+    if (opt.table_in_constant || !ex.on_device()) {
+      upload_table(ex, *opt.table);
+    } else {
+      if (global_table_id_ != opt.table->id) {  // copied once per table, not per step
+        global_table_.reserve_discard(backend_, static_cast<Index>(opt.table->values.size()));
+        global_table_.copy_from_host(opt.table->values);
+        global_table_id_ = opt.table->id;
+      }
+      global_table = global_table_.data();
+    }
   }
   if (particles.n > 0 && (!particles.x || !particles.y || !particles.r || (dim == 3 && !particles.z)))
     throw ConfigError("CellSlots::map: particle view has null position or radius arrays");
@@ -312,7 +326,7 @@ void CellSlots::map(const Exec& ex, const SphereView& particles, const MapOption
   particles_mapped_ = particles.n;
   if (particles.n == 0) return;
   Dispatch<LaunchMap>::run(dim, opt.method, ex, particles, view(), grid_, opt, B, flags_.data(), log_cell_.data(),
-                           log_particle_.data(), log_cap_);
+                           log_particle_.data(), log_cap_, global_table);
   if (opt.sort_slots && K_ > 1) for_each(ex, grid_.cells(), SortSlots{view()});
 }
 
@@ -382,13 +396,20 @@ std::vector<double> CellSlots::total_eps_host() const {
 }
 
 void evaluate_fractions(const Exec& ex, FractionMethod method, int dim, const FractionTable* table, const double* rel,
-                        const double* radius, double* out, Index n) {
+                        const double* radius, double* out, Index n, bool table_in_constant) {
   if (dim != 2 && dim != 3) throw ConfigError("evaluate_fractions: dim = " + std::to_string(dim) + " (must be 2 or 3)");
+  Buffer<float> global;  // test/bench helper: allocating here is fine (not in a time loop)
   if (method == FractionMethod::Table) {
     check_table(table, dim, "evaluate_fractions");
-    upload_table(ex, *table);
+    if (table_in_constant || !ex.on_device()) {
+      upload_table(ex, *table);
+    } else {
+      global = Buffer<float>(ex.backend(), static_cast<Index>(table->values.size()));
+      global.copy_from_host(table->values);
+    }
   }
-  Dispatch<LaunchEval>::run(dim, method, ex, table, rel, radius, out, n);
+  Dispatch<LaunchEval>::run(dim, method, ex, table, rel, radius, out, n, global.data());
+  ex.synchronize();  // `global` must outlive the kernel
 }
 
 }  // namespace lbdem::imb

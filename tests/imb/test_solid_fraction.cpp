@@ -75,6 +75,20 @@ TEST(SolidFractionExact, AnalyticCells) {
   EXPECT_NEAR(disk_rect_area(2.0, 0, 10, 0, 10), M_PI, 1e-13);
 }
 
+// The piecewise disk–rectangle area against the independent four-quadrant
+// inclusion–exclusion form, on random rectangles cutting the circle.
+TEST(SolidFractionExact, DiskRectPiecewiseMatchesQuadrantForm) {
+  std::mt19937_64 g(3);
+  std::uniform_real_distribution<double> U(-1.0, 1.0);
+  for (int i = 0; i < 2000; ++i) {
+    const double r = 0.2 + 10.0 * (U(g) + 1.0);
+    const double x0 = r * 1.2 * U(g), y0 = r * 1.2 * U(g), dx = 0.01 + std::fabs(U(g)) * r, dy = 0.01 + std::fabs(U(g));
+    const double q = detail::disk_quadrant_area(r, x0 + dx, y0 + dy) - detail::disk_quadrant_area(r, x0, y0 + dy) -
+                     detail::disk_quadrant_area(r, x0 + dx, y0) + detail::disk_quadrant_area(r, x0, y0);
+    ASSERT_NEAR(disk_rect_area(r, x0, x0 + dx, y0, y0 + dy), q, 1e-12 * r * r) << r << " " << x0 << " " << y0;
+  }
+}
+
 TEST(SolidFractionExact, DeepInsideOneOutsideZero) {
   for (const auto& m : {FractionMethod::Exact}) {
     (void)m;

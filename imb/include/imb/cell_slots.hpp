@@ -80,6 +80,11 @@ struct MapOptions {
   const FractionTable* table = nullptr;  // required for FractionMethod::Table (dim must match)
   bool linear_normalised = true;        // Linear: use R_eff (volume-conserving) instead of R
   bool sort_slots = true;               // deterministic slot order (by particle index)
+  // Table on the device: in __constant__ memory (the first paper's choice) or in
+  // global memory read through the read-only cache. Constant memory serialises a
+  // warp's reads of different addresses, and table lookups of neighbouring cells
+  // hit different nodes; bench/imb measures both.
+  bool table_in_constant = true;
 };
 
 struct OverflowReport {
@@ -131,13 +136,16 @@ class CellSlots {
   Buffer<Index> log_cell_;
   Buffer<int> log_particle_;
   Index particles_mapped_ = 0;
+  Buffer<float> global_table_;       // device copy of the table when !table_in_constant
+  std::uint64_t global_table_id_ = 0;
   std::shared_ptr<Scratch> scratch_;  // reduction storage (max radius), reused across steps
 };
 
 // Evaluates ε for n cells given by their centres relative to the particle
 // centre (rel: dim*n interleaved) and radii (n values) with one method, on a
 // backend (pointers live there). For tests, CPU/GPU comparison and benchmarks.
+// Synchronous.
 void evaluate_fractions(const Exec& ex, FractionMethod method, int dim, const FractionTable* table, const double* rel,
-                        const double* radius, double* out, Index n);
+                        const double* radius, double* out, Index n, bool table_in_constant = true);
 
 }  // namespace lbdem::imb
