@@ -43,7 +43,7 @@ struct DemCase {
 };
 
 HostParticles read_particles(const Config& pc, const DemParams& p, std::uint64_t& seed_out) {
-  const std::string init = pc.choice("init", {"list", "csv", "lattice", "random"});
+  const std::string init = pc.choice("init", {"list", "csv", "hdf5", "lattice", "random"});
   const double rho = pc.positive("density", 2600.0);
   HostParticles hp;
   if (init == "list") {
@@ -58,11 +58,11 @@ HostParticles read_particles(const Config& pc, const DemParams& p, std::uint64_t
       hp.add(x, r, d, v, w);
       it.finish();
     }
-  } else if (init == "csv") {
+  } else if (init == "csv" || init == "hdf5") {
     std::filesystem::path f = pc.text("file");
     if (f.is_relative() && std::filesystem::exists(pc.source()))
       f = std::filesystem::path(pc.source()).parent_path() / f;
-    hp = dem::read_particles_csv(f.string(), rho);
+    hp = init == "csv" ? dem::read_particles_csv(f.string(), rho) : dem::read_particles_h5(f.string(), rho);
   } else if (init == "lattice") {
     const auto cnt = pc.integers("count", 3, 3, 1, 100000000);
     const Vec3d origin = vec3(pc.numbers("origin", 3, 3));
@@ -220,7 +220,7 @@ DemCase read_case(const Config& root, const RunOptions& opt) {
 void write_particles(io::ParticleWriter& w, const dem::DemSystem& sys, long step) {
   const HostParticles h = sys.download();
   const Index n = h.size();
-  std::vector<double> pos(3 * n), vel(3 * n), omg(3 * n), frc(3 * n), rad(n), id(n);
+  std::vector<double> pos(3 * n), vel(3 * n), omg(3 * n), frc(3 * n), rad(n), id(n), mass(n);
   for (Index i = 0; i < n; ++i) {
     for (int k = 0; k < 3; ++k) {
       pos[3 * i + k] = h.x[i][k];
@@ -230,10 +230,11 @@ void write_particles(io::ParticleWriter& w, const dem::DemSystem& sys, long step
     }
     rad[i] = h.r[i];
     id[i] = static_cast<double>(h.id[i]);
+    mass[i] = h.mass[i];
   }
   w.write(step, sys.time(), n, pos.data(),
           {{"radius", 1, rad.data()}, {"velocity", 3, vel.data()}, {"angular_velocity", 3, omg.data()},
-           {"force", 3, frc.data()}, {"id", 1, id.data()}});
+           {"force", 3, frc.data()}, {"id", 1, id.data()}, {"mass", 1, mass.data()}});
 }
 
 std::vector<double> series_row(const dem::DemSystem& sys, long step, const std::vector<std::int64_t>& track) {

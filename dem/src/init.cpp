@@ -12,6 +12,7 @@
 #include <fmt/format.h>
 
 #include "core/error.hpp"
+#include "core/output.hpp"
 #include "dem/contact.hpp"
 
 namespace lbdem::dem {
@@ -61,6 +62,38 @@ HostParticles read_particles_csv(const std::string& path, double default_density
     hp.add({get("x", 0), get("y", 0), get("z", 0)}, r, rho, {get("vx", 0), get("vy", 0), get("vz", 0)},
            {get("wx", 0), get("wy", 0), get("wz", 0)}, static_cast<int>(get("type", 0)),
            col.count("id") ? static_cast<std::int64_t>(get("id", 0)) : -1);
+  }
+  return hp;
+}
+
+HostParticles read_particles_h5(const std::string& path, double default_density) {
+  auto optional = [&](const char* name) {
+    try {
+      return io::read_dataset(path, name);
+    } catch (const std::exception&) {
+      return std::vector<double>{};
+    }
+  };
+  std::vector<double> x, r;
+  try {
+    x = io::read_dataset(path, "positions");
+    r = io::read_dataset(path, "radius");
+  } catch (const std::exception& e) {
+    throw ConfigError(fmt::format("particles.file: '{}' is not a particle snapshot with 'positions' and 'radius' ({})",
+                                  path, e.what()));
+  }
+  const std::size_t n = r.size();
+  if (x.size() != 3 * n)
+    throw ConfigError(fmt::format("particles.file: '{}': {} positions for {} radii", path, x.size() / 3, n));
+  const std::vector<double> v = optional("velocity"), w = optional("angular_velocity"), id = optional("id"),
+                            m = optional("mass");
+  HostParticles hp;
+  for (std::size_t i = 0; i < n; ++i) {
+    const Vec3d vel = v.size() == 3 * n ? Vec3d{v[3 * i], v[3 * i + 1], v[3 * i + 2]} : Vec3d{};
+    const Vec3d om = w.size() == 3 * n ? Vec3d{w[3 * i], w[3 * i + 1], w[3 * i + 2]} : Vec3d{};
+    hp.add({x[3 * i], x[3 * i + 1], x[3 * i + 2]}, r[i], default_density, vel, om, 0,
+           id.size() == n ? static_cast<std::int64_t>(id[i]) : -1);
+    if (m.size() == n) hp.mass.back() = m[i];
   }
   return hp;
 }

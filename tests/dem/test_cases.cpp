@@ -8,6 +8,7 @@
 
 #include "cases/scenes.hpp"
 #include "core/error.hpp"
+#include "core/output.hpp"
 
 using namespace lbdem;
 namespace fs = std::filesystem;
@@ -38,6 +39,32 @@ TEST(DemCases, AllCaseFilesRun) {
     ++n;
   }
   EXPECT_GE(n, 4);
+}
+
+// A snapshot written by one run restarts another (init: hdf5): same ids,
+// positions, velocities and masses.
+TEST(DemCases, RestartFromHdf5Snapshot) {
+  const fs::path out = fs::temp_directory_path() / "lbdem_test_dem_restart";
+  const fs::path out2 = fs::temp_directory_path() / "lbdem_test_dem_restart2";
+  const Config cfg = Config::load_file((fs::path(LBDEM_SOURCE_DIR) / "cases" / "dem_03_stacked_particles.yaml").string());
+  ASSERT_EQ(run_case(cfg, quick(out, 10)), 0);
+  const fs::path snap = out / "particles_00000010.h5";
+  ASSERT_TRUE(fs::exists(snap));
+  const std::string yaml = "scene: dem\n"
+                           "domain: {lo: [-2.0e-3, -1.0e-3, -2.0e-3], hi: [2.0e-3, 3.0e-3, 2.0e-3]}\n"
+                           "walls: [{point: [0, 0, 0], normal: [0, 1, 0]}, {point: [0, 1.8e-3, 0], normal: [0, -1, 0]}]\n"
+                           "physics: {gravity: [0, -9.80665, 0]}\n"
+                           "material: {stiffness: 1.0e3, restitution: 1.0}\n"
+                           "particles: {init: hdf5, file: " + snap.string() + "}\n"
+                           "time: {steps: 0}\n"
+                           "output: {directory: x}\n";
+  ASSERT_EQ(run_case(Config::from_string(yaml), quick(out2, 0)), 0);
+  const auto a = io::read_dataset(snap.string(), "positions");
+  const auto b = io::read_dataset((out2 / "particles_00000000.h5").string(), "positions");
+  EXPECT_EQ(a, b);
+  EXPECT_EQ(io::read_dataset(snap.string(), "mass"), io::read_dataset((out2 / "particles_00000000.h5").string(), "mass"));
+  fs::remove_all(out);
+  fs::remove_all(out2);
 }
 
 TEST(DemCases, BadInputIsRefusedWithTheKey) {

@@ -13,6 +13,11 @@ namespace lbdem::dem {
 // Throws ConfigError naming the file, the line and the column on bad input.
 HostParticles read_particles_csv(const std::string& path, double default_density);
 
+// A particle snapshot written by the DEM scene driver (io::ParticleWriter
+// datasets): positions and radius required; velocity, angular_velocity, id,
+// mass (else from default_density) used when present. Restarts a settled bed.
+HostParticles read_particles_h5(const std::string& path, double default_density);
+
 // count[0] x count[1] x count[2] particles at origin + (i,j,k) * spacing.
 HostParticles lattice_particles(const Vec3d& origin, const std::array<long, 3>& count, const Vec3d& spacing,
                                 double radius, double density);
