@@ -230,38 +230,52 @@ struct BuildList {
   }
 
   LBDEM_HD void operator()(Index i) const {
+    // Members into locals: the list stores are ints and would otherwise force
+    // reloads of every int member (aliasing) in the inner loop.
     const Real4 pi = s.pos[i];
     const Vec3d xi = xyz(pi);
-    int c[3] = {g.coord(pi.x, 0), g.coord(pi.y, 1), g.coord(pi.z, 2)};
+    const Real4* pos = s.pos;
+    int* nbr = s.nbr;
+    const Index n = s.n;
+    const int cap = s.cap;
+    const double skin = s.skin;
+    const Box box = s.box;
+    const int nc0 = g.nc[0], nc1 = g.nc[1], nc2 = g.nc[2];
+    const int c[3] = {g.coord(pi.x, 0), g.coord(pi.y, 1), g.coord(pi.z, 2)};
     int lo[3], hi[3];
     for (int k = 0; k < 3; ++k) {
       if (g.periodic[k] && g.nc[k] < 3) { lo[k] = 0; hi[k] = g.nc[k] - 1; }
       else { lo[k] = -1; hi[k] = 1; }
     }
+    // Neighbour cell coordinate: wrapped on periodic axes (one compare: the
+    // offset is at most one cell), -1 when outside a closed axis.
+    auto wrap = [](int x, int nc, int per) {
+      if (x < 0) return per ? x + nc : -1;
+      if (x >= nc) return per ? x - nc : -1;
+      return x;
+    };
     int cnt = 0;
     for (int dz = lo[2]; dz <= hi[2]; ++dz) {
-      int cz = c[2] + dz;
-      if (g.periodic[2]) cz = (cz + g.nc[2]) % g.nc[2];
-      else if (cz < 0 || cz >= g.nc[2]) continue;
+      const int cz = wrap(c[2] + dz, nc2, g.periodic[2]);
+      if (cz < 0) continue;
       for (int dy = lo[1]; dy <= hi[1]; ++dy) {
-        int cy = c[1] + dy;
-        if (g.periodic[1]) cy = (cy + g.nc[1]) % g.nc[1];
-        else if (cy < 0 || cy >= g.nc[1]) continue;
+        const int cy = wrap(c[1] + dy, nc1, g.periodic[1]);
+        if (cy < 0) continue;
+        const int row = nc0 * (cy + nc1 * cz);
         for (int dx = lo[0]; dx <= hi[0]; ++dx) {
-          int cx = c[0] + dx;
-          if (g.periodic[0]) cx = (cx + g.nc[0]) % g.nc[0];
-          else if (cx < 0 || cx >= g.nc[0]) continue;
-          const int cell = cx + g.nc[0] * (cy + g.nc[1] * cz);
+          const int cx = wrap(c[0] + dx, nc0, g.periodic[0]);
+          if (cx < 0) continue;
+          const int cell = cx + row;
           const int e = cend[cell];
           for (int j = cstart[cell]; j < e; ++j) {
             if (j == i) continue;
-            const Real4 pj = s.pos[j];
-            const Vec3d d = s.box.min_image(xyz(pj) - xi);
-            const double rc = pi.w + pj.w + s.skin;
+            const Real4 pj = pos[j];
+            const Vec3d d = box.min_image(xyz(pj) - xi);
+            const double rc = pi.w + pj.w + skin;
             if (dot(d, d) < rc * rc) {
-              if (cnt < s.cap) {
-                s.nbr[cnt * s.n + i] = j;
-                if constexpr (Friction) s.hist[cnt * s.n + i] = have_prev ? lookup(i, j) : Vec3d{};
+              if (cnt < cap) {
+                nbr[cnt * n + i] = j;
+                if constexpr (Friction) s.hist[cnt * n + i] = have_prev ? lookup(i, j) : Vec3d{};
               }
               ++cnt;
             }
@@ -269,8 +283,8 @@ struct BuildList {
         }
       }
     }
-    s.ncount[i] = cnt < s.cap ? cnt : s.cap;
-    if (cnt > s.cap) {
+    s.ncount[i] = cnt < cap ? cnt : cap;
+    if (cnt > cap) {
       detail::atomic_set(&s.flags[1], 1);
       detail::atomic_max(&s.flags[2], cnt);
     }

@@ -265,15 +265,40 @@ void DemSystem::rebuild() {
   Impl& m = *impl_;
   const Index n = m.n;
   if (n == 0) return;
-  // 0. Empty the cells of the previous build (its sorted keys are still there).
-  if (m.have_cells) launch(m.ex, n, ClearCells{m.key_sorted.data(), m.cell_start.data(), m.cell_end.data()});
-  m.have_cells = true;
-  // 1. Cell of every particle; radix sort by cell.
+  // 1. Cell of every particle, then sort by cell.
   launch(m.ex, n, CellKey{m.pos.data(), m.grid, m.key.data(), m.idx.data()});
-  // Only the bits a cell index can use: fewer radix passes on the GPU.
-  int bits = 1;
-  while (bits < 32 && (Index{1} << bits) < m.cell_start.size()) ++bits;
-  sort_pairs(m.ex, m.key.data(), m.key_sorted.data(), m.idx.data(), m.perm.data(), n, m.scratch(), 0, bits);
+  const bool host = !m.ex.on_device();
+  if (host) {
+    // Host: a stable counting sort by cell (O(N + cells)), which yields the
+    // cell ranges as a by-product; far cheaper than a comparison sort.
+    const std::uint32_t* key = m.key.data();
+    std::uint32_t* ks = m.key_sorted.data();
+    int *start = m.cell_start.data(), *end = m.cell_end.data(), *perm = m.perm.data();
+    const Index ncells = m.cell_start.size();
+    std::fill(end, end + ncells, 0);
+    for (Index i = 0; i < n; ++i) ++end[key[i]];
+    int run = 0;
+    for (Index c = 0; c < ncells; ++c) {
+      const int cnt = end[c];
+      start[c] = run;
+      end[c] = run;  // fill cursor; ends at start + count
+      run += cnt;
+    }
+    for (Index i = 0; i < n; ++i) {
+      const int at = end[key[i]]++;
+      perm[at] = static_cast<int>(i);
+      ks[at] = key[i];
+    }
+  } else {
+    // Device: empty the cells of the previous build (its sorted keys are
+    // still there: O(N), not O(cells)), then a CUB radix sort over only the
+    // bits a cell index can use.
+    if (m.have_cells) launch(m.ex, n, ClearCells{m.key_sorted.data(), m.cell_start.data(), m.cell_end.data()});
+    m.have_cells = true;
+    int bits = 1;
+    while (bits < 32 && (Index{1} << bits) < m.cell_start.size()) ++bits;
+    sort_pairs(m.ex, m.key.data(), m.key_sorted.data(), m.idx.data(), m.perm.data(), n, m.scratch(), 0, bits);
+  }
   // 2. Reorder all particle arrays into cell order (locality for the force loop).
   Gather g{m.perm.data(), m.pos.data(),  m.vel.data(),  m.omg.data(),   m.frc.data(),   m.trq.data(),
            m.frco.data(), m.trqo.data(), m.extf.data(), m.extt.data(),  m.pos2.data(),  m.vel2.data(),
@@ -287,7 +312,7 @@ void DemSystem::rebuild() {
   m.whist.swap(m.whist2);
   // gid2 now holds the old order's ids (history lookup by partner id).
   // 3. Cell ranges.
-  launch(m.ex, n, CellRange{m.key_sorted.data(), m.cell_start.data(), m.cell_end.data(), n});
+  if (!host) launch(m.ex, n, CellRange{m.key_sorted.data(), m.cell_start.data(), m.cell_end.data(), n});
   // 4. Verlet list (keeping the previous one for the history hand-over).
   if (m.p.friction) {
     m.nbr.swap(m.nbr_prev);
