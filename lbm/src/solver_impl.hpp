@@ -132,6 +132,25 @@ class SolverImpl final : public LbmSolver {
   const LbmSetup& setup() const override { return s_; }
   Backend backend() const override { return ex_.backend(); }
   double bytes_per_cell_step() const override { return 2.0 * L::Q * sizeof(T); }
+  LbmRaw raw() override {
+    LbmRaw r;
+    r.src = f0_.data();
+    r.dst = s_.streaming == StreamKind::AA ? f0_.data() : f1_.data();
+    r.stride = stride_;
+    r.grid = g_;
+    r.flags = flags_.data();
+    r.has_boundaries = has_bnd_;
+    r.step = t_;
+    r.omega_p = omega_p_;
+    r.omega_m = omega_m_;
+    r.body_force = s_.body_force;
+    r.boundaries = s_.boundaries;
+    return r;
+  }
+  void commit_external_step() override {
+    if (s_.streaming == StreamKind::TwoLattice) f0_.swap(f1_);
+    ++t_;
+  }
 
  private:
   template <StreamKind S_>

@@ -43,6 +43,21 @@ struct LbmDiagnostics {
   long fluid_cells = 0;
 };
 
+// What a coupling module (imb/) needs to run its own stream-collide kernel on
+// a solver's populations: storage, grid, boundaries, relaxation, step parity.
+struct LbmRaw {
+  void* src = nullptr;   // populations read this step (AA: also written)
+  void* dst = nullptr;   // populations written this step (two-lattice), == src for AA
+  Index stride = 0;
+  GridView grid;
+  const std::uint8_t* flags = nullptr;
+  bool has_boundaries = false;
+  long step = 0;         // steps done; AA parity = step & 1
+  double omega_p = 1, omega_m = 1;
+  std::array<double, 3> body_force{0, 0, 0};
+  BoundaryTable boundaries;
+};
+
 class LbmSolver {
  public:
   virtual ~LbmSolver() = default;
@@ -62,6 +77,11 @@ class LbmSolver {
   // Bytes a step must move per fluid cell (populations read + written), for
   // bandwidth figures.
   virtual double bytes_per_cell_step() const = 0;
+  // Coupling hook: raw() describes the next step; after an external kernel
+  // has performed it, commit_external_step() advances the step (and swaps the
+  // two lattices of the two-lattice scheme).
+  virtual LbmRaw raw() = 0;
+  virtual void commit_external_step() = 0;
 };
 
 // Bytes the solver will allocate for this setup (to refuse cases that cannot fit).

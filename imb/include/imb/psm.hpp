@@ -1,0 +1,226 @@
+#pragma once
+// Partially saturated cells (Noble & Torczynski 1998; first paper Eqs. 1-3).
+//
+// Per cell with solid fractions eps_k of the overlapping particles k:
+//   eps = min(1, sum eps_k),  B = eps (tau - 1/2) / ((1 - eps) + (tau - 1/2))   (or B = eps),
+//   B_k = B eps_k / eps,
+//   f_q* = f_q - (1 - B) [omega+ (f+_q - eq+_q) + omega- (f-_q - eq-_q)]      (TRT; BGK: omega+ = omega-)
+//          + sum_k B_k Omega^S_{q,k} + (1 - B) S_q,
+// with the solid operator either
+//   NEBB (paper Eq. 2):  Omega^S_q = f_qbar - f_q + f^eq_q(rho, V_k) - f^eq_qbar(rho, u), or
+//   superposition:       Omega^S_q = f^eq_q(rho, V_k) - f^post_q  (f^post the fluid post-collision value),
+// V_k = v_k + w_k x (x_cell - x_k) the particle's velocity at the cell centre.
+// The hydrodynamic force on particle k from this cell is minus the momentum
+// the solid term gives the fluid: F_k = - sum_q B_k Omega^S_{q,k} c_q (lattice
+// units per step; the paper's Eq. 3 with the sign of the action on the solid),
+// torque (x_cell - x_k) x F_k. Forces are written per (slot, cell) and then
+// gathered per particle (deterministic: no atomics).
+#include <cmath>
+#include <cstdint>
+
+#include "core/hd.hpp"
+#include "imb/cell_slots.hpp"
+#include "lbm/kernels.hpp"
+
+namespace lbdem::imb {
+
+enum class PsmVariant { NEBB, Superposition };
+enum class PsmWeight { NobleTorczynski, Linear };
+
+// Narrow particle view for the coupling (lattice units, SoA).
+struct PsmParticles {
+  const double* x = nullptr;
+  const double* y = nullptr;
+  const double* z = nullptr;
+  const double* r = nullptr;
+  const double* vx = nullptr;
+  const double* vy = nullptr;
+  const double* vz = nullptr;
+  const double* wx = nullptr;
+  const double* wy = nullptr;
+  const double* wz = nullptr;
+  Index n = 0;
+};
+
+// Per (slot, cell) force and torque on the slot's particle: component a of
+// slot k of cell c at (a * K + k) * ncells + c, a = 0..5 (Fx Fy Fz Tx Ty Tz).
+struct SlotForceView {
+  double* v = nullptr;
+  Index ncells = 0;
+  int K = 0;
+  LBDEM_HD double& at(int a, int k, Index cell) const { return v[(static_cast<Index>(a) * K + k) * ncells + cell]; }
+};
+
+// Minimum-image displacement on a periodic axis of length n (cells).
+LBDEM_HD inline double min_image(double d, double n, bool periodic) {
+  if (!periodic) return d;
+  if (d > 0.5 * n) d -= n;
+  else if (d < -0.5 * n) d += n;
+  return d;
+}
+
+template <class L, class T, lbm::StreamKind S, int Parity, bool Bnd, PsmVariant V>
+struct PsmStepKernel {
+  using R = T;
+  lbm::PopView<T> src, dst;
+  lbm::GridView g;
+  const std::uint8_t* flags;
+  lbm::BoundaryTable bt;
+  R omega_p, omega_m, F[3];
+  double tau;
+  PsmWeight weight;
+  bool periodic[3];
+  CellSlotsView slots;
+  PsmParticles p;
+  SlotForceView out;
+
+  LBDEM_HD void operator()(Index cell) const {
+    if constexpr (Bnd) {
+      if (flags[cell] != 0) return;
+    }
+    const lbm::Neighbours nb = lbm::neighbours<L>(g, cell);
+    R f[L::Q];
+    lbm::load_incoming<L, T, R, S, Parity>(src, nb, cell, f);
+    const int m = slots.used(cell);
+    R u[3];
+    if (m == 0) {
+      lbm::Collider<L, R, true> coll;
+      coll.omega_p = omega_p;
+      coll.omega_m = omega_m;
+      for (int a = 0; a < 3; ++a) coll.F[a] = F[a];
+      R drho;
+      coll(f, drho, u);
+      lbm::store_outgoing<L, T, R, S, Parity, Bnd>(dst, nb, cell, f, flags, bt, u);
+      return;
+    }
+    // Moments (shifted populations, see lbm/collision.hpp).
+    R d = 0, j[3] = {0, 0, 0};
+    LBDEM_UNROLL
+    for (int q = 0; q < L::Q; ++q) {
+      d += f[q];
+      LBDEM_UNROLL
+      for (int a = 0; a < 3; ++a) j[a] += R(L::c(q, a)) * f[q];
+    }
+    const R rho = R(1) + d;
+    for (int a = 0; a < 3; ++a) u[a] = (j[a] + R(0.5) * F[a]) / rho;
+    const R usq15 = R(1.5) * (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+    R eq[L::Q];
+    LBDEM_UNROLL
+    for (int q = 0; q < L::Q; ++q) {
+      const R cu = R(L::c(q, 0)) * u[0] + R(L::c(q, 1)) * u[1] + R(L::c(q, 2)) * u[2];
+      eq[q] = R(L::w(q)) * (d + rho * (R(3) * cu + R(4.5) * cu * cu - usq15));
+    }
+    // Weights.
+    double eps_tot = 0;
+    for (int k = 0; k < m; ++k) eps_tot += slots.eps_at(cell, k);
+    const double eps = eps_tot < 1.0 ? eps_tot : 1.0;
+    const double tm = tau - 0.5;
+    const double Btot = weight == PsmWeight::Linear ? eps : eps * tm / ((1.0 - eps) + tm);
+    // Fluid collision (TRT split), weighted by (1 - B), plus (1 - B) Guo forcing.
+    R post[L::Q], out_f[L::Q];
+    {
+      const R uF = u[0] * F[0] + u[1] * F[1] + u[2] * F[2];
+      const R sp = R(1) - R(0.5) * omega_p, sm = R(1) - R(0.5) * omega_m;
+      const R w0 = R(L::w(0));
+      post[0] = f[0] - omega_p * (f[0] - eq[0]);
+      R S0 = sp * w0 * (R(-3) * uF);
+      out_f[0] = f[0] - R(1 - Btot) * omega_p * (f[0] - eq[0]) + R(1 - Btot) * S0;
+      LBDEM_UNROLL
+      for (int q = 1; q < L::Q; q += 2) {
+        const int qb = q + 1;
+        const R w = R(L::w(q));
+        const R cu = R(L::c(q, 0)) * u[0] + R(L::c(q, 1)) * u[1] + R(L::c(q, 2)) * u[2];
+        const R cF = R(L::c(q, 0)) * F[0] + R(L::c(q, 1)) * F[1] + R(L::c(q, 2)) * F[2];
+        const R dp = omega_p * (R(0.5) * (f[q] + f[qb]) - R(0.5) * (eq[q] + eq[qb]));
+        const R dm = omega_m * (R(0.5) * (f[q] - f[qb]) - R(0.5) * (eq[q] - eq[qb]));
+        const R Sp = sp * w * (R(9) * cu * cF - R(3) * uF), Sm = sm * w * R(3) * cF;
+        post[q] = f[q] - dp - dm;
+        post[qb] = f[qb] - dp + dm;
+        out_f[q] = f[q] - R(1 - Btot) * (dp + dm) + R(1 - Btot) * (Sp + Sm);
+        out_f[qb] = f[qb] - R(1 - Btot) * (dp - dm) + R(1 - Btot) * (Sp - Sm);
+      }
+    }
+    // Solid terms, one per overlapping particle.
+    int x, y, zc;
+    g.coords(cell, x, y, zc);
+    const double xc[3] = {x + 0.5, y + 0.5, zc + 0.5};
+    const double len[3] = {double(g.nx), double(g.ny), double(g.nz)};
+    for (int k = 0; k < m; ++k) {
+      const int pi = slots.particle_at(cell, k);
+      const double Bk = eps_tot > 0 ? Btot * slots.eps_at(cell, k) / eps_tot : 0.0;
+      const double px[3] = {p.x[pi], p.y[pi], p.z ? p.z[pi] : 0.5};
+      double rr[3];
+      for (int a = 0; a < 3; ++a) rr[a] = min_image(xc[a] - px[a], len[a], periodic[a]);
+      if (L::D == 2) rr[2] = 0;
+      const double w3[3] = {p.wx ? p.wx[pi] : 0.0, p.wy ? p.wy[pi] : 0.0, p.wz ? p.wz[pi] : 0.0};
+      const R vs[3] = {R(p.vx[pi] + w3[1] * rr[2] - w3[2] * rr[1]), R(p.vy[pi] + w3[2] * rr[0] - w3[0] * rr[2]),
+                       R(L::D == 3 ? p.vz[pi] + w3[0] * rr[1] - w3[1] * rr[0] : 0.0)};
+      const R vsq15 = R(1.5) * (vs[0] * vs[0] + vs[1] * vs[1] + vs[2] * vs[2]);
+      double mom[3] = {0, 0, 0};
+      LBDEM_UNROLL
+      for (int q = 0; q < L::Q; ++q) {
+        const R cv = R(L::c(q, 0)) * vs[0] + R(L::c(q, 1)) * vs[1] + R(L::c(q, 2)) * vs[2];
+        const R eqs = R(L::w(q)) * (d + rho * (R(3) * cv + R(4.5) * cv * cv - vsq15));
+        R om;
+        if constexpr (V == PsmVariant::NEBB) om = f[L::opp(q)] - f[q] + eqs - eq[L::opp(q)];
+        else om = eqs - post[q];
+        const R bo = R(Bk) * om;
+        out_f[q] += bo;
+        LBDEM_UNROLL
+        for (int a = 0; a < 3; ++a) mom[a] += double(L::c(q, a)) * double(bo);
+      }
+      // Force on the particle = - momentum given to the fluid.
+      const double Fk[3] = {-mom[0], -mom[1], -mom[2]};
+      for (int a = 0; a < 3; ++a) out.at(a, k, cell) = Fk[a];
+      out.at(3, k, cell) = rr[1] * Fk[2] - rr[2] * Fk[1];
+      out.at(4, k, cell) = rr[2] * Fk[0] - rr[0] * Fk[2];
+      out.at(5, k, cell) = rr[0] * Fk[1] - rr[1] * Fk[0];
+    }
+    lbm::store_outgoing<L, T, R, S, Parity, Bnd>(dst, nb, cell, out_f, flags, bt, u);
+  }
+};
+
+// Per particle: sums the slot forces of every cell in its bounding box whose
+// slot names it. Deterministic (fixed order, no atomics). Writes (not adds)
+// force[6*i + a].
+struct GatherForces {
+  CellSlotsView slots;
+  SlotForceView sf;
+  PsmParticles p;
+  lbm::GridView g;
+  bool periodic[3];
+  int dim;
+  double* force;  // 6 per particle: Fx Fy Fz Tx Ty Tz
+  LBDEM_HD void operator()(Index i) const {
+    double acc[6] = {0, 0, 0, 0, 0, 0};
+    const double c[3] = {p.x[i], p.y[i], dim == 3 ? p.z[i] : 0.5};
+    const double r = p.r[i] + 1.0;
+    const int n[3] = {g.nx, g.ny, g.nz};
+    int lo[3], hi[3];
+    for (int a = 0; a < 3; ++a) {
+      if (a == 2 && dim == 2) { lo[a] = hi[a] = 0; continue; }
+      lo[a] = static_cast<int>(std::floor(c[a] - r));
+      hi[a] = static_cast<int>(std::floor(c[a] + r));
+      if (!periodic[a]) {
+        lo[a] = lo[a] < 0 ? 0 : lo[a];
+        hi[a] = hi[a] > n[a] - 1 ? n[a] - 1 : hi[a];
+      } else if (hi[a] - lo[a] + 1 > n[a]) {
+        lo[a] = 0;
+        hi[a] = n[a] - 1;
+      }
+    }
+    for (int kz = lo[2]; kz <= hi[2]; ++kz)
+      for (int ky = lo[1]; ky <= hi[1]; ++ky)
+        for (int kx = lo[0]; kx <= hi[0]; ++kx) {
+          const int ix = ((kx % n[0]) + n[0]) % n[0], iy = ((ky % n[1]) + n[1]) % n[1], iz = ((kz % n[2]) + n[2]) % n[2];
+          const Index cell = g.index(ix, iy, iz);
+          const int m = slots.used(cell);
+          for (int k = 0; k < m; ++k)
+            if (slots.particle_at(cell, k) == static_cast<int>(i))
+              for (int a = 0; a < 6; ++a) acc[a] += sf.at(a, k, cell);
+        }
+    for (int a = 0; a < 6; ++a) force[6 * i + a] = acc[a];
+  }
+};
+
+}  // namespace lbdem::imb

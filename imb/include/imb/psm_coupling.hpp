@@ -1,0 +1,53 @@
+#pragma once
+// One PSM fluid step on an LbmSolver's populations: particle -> cell mapping,
+// PSM stream-collide, force and torque gathered per particle. Everything stays
+// on the solver's backend; nothing is allocated per step.
+#include <array>
+#include <memory>
+
+#include "core/buffer.hpp"
+#include "imb/cell_slots.hpp"
+#include "imb/psm.hpp"
+#include "lbm/solver.hpp"
+
+namespace lbdem::imb {
+
+struct PsmOptions {
+  PsmVariant variant = PsmVariant::NEBB;
+  PsmWeight weight = PsmWeight::NobleTorczynski;
+  MapOptions map;  // fraction method, max radius, table
+};
+
+class PsmCoupling {
+ public:
+  // K: overlap slots per cell. periodic: which axes wrap particle images.
+  PsmCoupling(lbm::LbmSolver& solver, int K, std::array<bool, 3> periodic);
+  ~PsmCoupling();
+
+  // Maps the particles (lattice units, on the solver's backend) to cells.
+  // Throws ResourceError if a cell overflows its K slots (when check_overflow:
+  // a small synchronous copy). Fixed particles need it once; moving ones every step.
+  void map(const PsmParticles& p, const PsmOptions& opt, bool check_overflow);
+  // One fluid step with the solid term on the current mapping; force6 (6 per
+  // particle, on the same backend) receives force and torque (lattice units,
+  // per step).
+  void step(const PsmParticles& p, const PsmOptions& opt, double* force6);
+
+  const CellSlots& slots() const { return *slots_; }
+
+ private:
+  lbm::LbmSolver& solver_;
+  std::array<bool, 3> periodic_;
+  std::unique_ptr<CellSlots> slots_;
+  Buffer<double> slot_forces_;
+  Exec ex_;
+};
+
+// Per-(lattice, precision) kernels (psm_*.cu).
+void psm_fluid_step(const Exec& ex, const lbm::LbmSetup& s, const lbm::LbmRaw& raw, const CellSlotsView& slots,
+                    const PsmParticles& p, const SlotForceView& sf, const PsmOptions& opt,
+                    const std::array<bool, 3>& periodic);
+void psm_gather(const Exec& ex, const lbm::LbmRaw& raw, const CellSlotsView& slots, const SlotForceView& sf,
+                const PsmParticles& p, const std::array<bool, 3>& periodic, int dim, double* force6);
+
+}  // namespace lbdem::imb

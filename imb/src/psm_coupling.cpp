@@ -1,0 +1,47 @@
+#include "imb/psm_coupling.hpp"
+
+namespace lbdem::imb {
+
+void psm_step_d2q9(const Exec&, const lbm::LbmSetup&, const lbm::LbmRaw&, const CellSlotsView&, const PsmParticles&,
+                   const SlotForceView&, const PsmOptions&, const std::array<bool, 3>&);
+void psm_step_d3q19(const Exec&, const lbm::LbmSetup&, const lbm::LbmRaw&, const CellSlotsView&, const PsmParticles&,
+                    const SlotForceView&, const PsmOptions&, const std::array<bool, 3>&);
+
+void psm_fluid_step(const Exec& ex, const lbm::LbmSetup& s, const lbm::LbmRaw& raw, const CellSlotsView& slots,
+                    const PsmParticles& p, const SlotForceView& sf, const PsmOptions& opt,
+                    const std::array<bool, 3>& periodic) {
+  if (s.lattice == lbm::LatticeKind::D2Q9) psm_step_d2q9(ex, s, raw, slots, p, sf, opt, periodic);
+  else psm_step_d3q19(ex, s, raw, slots, p, sf, opt, periodic);
+}
+
+PsmCoupling::PsmCoupling(lbm::LbmSolver& solver, int K, std::array<bool, 3> periodic)
+    : solver_(solver), periodic_(periodic), ex_(solver.backend()) {
+  if (K < 1) throw ConfigError("PSM slots per cell K = " + std::to_string(K) + ": must be >= 1");
+  const lbm::GridView g = lbm::make_grid_view(solver.setup().domain);
+  GridShape shape;
+  shape.nx = g.nx;
+  shape.ny = g.ny;
+  shape.nz = g.nz;
+  shape.periodic = periodic;
+  slots_ = std::make_unique<CellSlots>(solver.backend(), shape, K);
+  slot_forces_ = Buffer<double>(solver.backend(), 6 * static_cast<Index>(K) * g.n);
+}
+
+PsmCoupling::~PsmCoupling() = default;
+
+void PsmCoupling::map(const PsmParticles& p, const PsmOptions& opt, bool check_overflow) {
+  SphereView sv{p.x, p.y, p.z, p.r, p.n};
+  slots_->map(ex_, sv, opt.map);
+  if (check_overflow) slots_->throw_if_overflow();
+}
+
+void PsmCoupling::step(const PsmParticles& p, const PsmOptions& opt, double* force6) {
+  const lbm::LbmRaw raw = solver_.raw();
+  const SlotForceView sf{slot_forces_.data(), raw.grid.n, slots_->K()};
+  psm_fluid_step(ex_, solver_.setup(), raw, slots_->view(), p, sf, opt, periodic_);
+  solver_.commit_external_step();
+  const int dim = solver_.setup().lattice == lbm::LatticeKind::D2Q9 ? 2 : 3;
+  psm_gather(ex_, raw, slots_->view(), sf, p, periodic_, dim, force6);
+}
+
+}  // namespace lbdem::imb

@@ -1,0 +1,19 @@
+// PSM kernels for D2Q9 (fp32, fp64) and the per-particle force gather.
+#include "psm_impl.hpp"
+
+namespace lbdem::imb {
+
+void psm_step_d2q9(const Exec& ex, const lbm::LbmSetup& s, const lbm::LbmRaw& raw, const CellSlotsView& slots,
+                   const PsmParticles& p, const SlotForceView& sf, const PsmOptions& opt,
+                   const std::array<bool, 3>& periodic) {
+  if (s.precision == lbm::Precision::FP32) psm_step_typed<lbm::D2Q9, float>(ex, s, raw, slots, p, sf, opt, periodic);
+  else psm_step_typed<lbm::D2Q9, double>(ex, s, raw, slots, p, sf, opt, periodic);
+}
+
+void psm_gather(const Exec& ex, const lbm::LbmRaw& raw, const CellSlotsView& slots, const SlotForceView& sf,
+                const PsmParticles& p, const std::array<bool, 3>& periodic, int dim, double* force6) {
+  GatherForces k{slots, sf, p, raw.grid, {periodic[0], periodic[1], periodic[2]}, dim, force6};
+  for_each(ex, p.n, k);
+}
+
+}  // namespace lbdem::imb

@@ -1,0 +1,55 @@
+#pragma once
+// Dispatch of the PSM step kernel: runtime choices -> template parameters.
+#include "core/exec.hpp"
+#include "imb/psm_coupling.hpp"
+
+namespace lbdem::imb {
+
+template <class L, class T, lbm::StreamKind S, int P, bool B, PsmVariant V>
+void psm_launch(const Exec& ex, const lbm::LbmSetup& s, const lbm::LbmRaw& raw, const CellSlotsView& slots,
+                const PsmParticles& p, const SlotForceView& sf, const PsmOptions& opt,
+                const std::array<bool, 3>& periodic) {
+  PsmStepKernel<L, T, S, P, B, V> k;
+  k.src = lbm::PopView<T>{static_cast<T*>(raw.src), raw.stride};
+  k.dst = lbm::PopView<T>{static_cast<T*>(raw.dst), raw.stride};
+  k.g = raw.grid;
+  k.flags = raw.flags;
+  k.bt = raw.boundaries;
+  k.omega_p = static_cast<T>(raw.omega_p);
+  k.omega_m = static_cast<T>(raw.omega_m);
+  for (int a = 0; a < 3; ++a) k.F[a] = static_cast<T>(raw.body_force[static_cast<std::size_t>(a)]);
+  k.tau = s.tau;
+  k.weight = opt.weight;
+  for (int a = 0; a < 3; ++a) k.periodic[a] = periodic[static_cast<std::size_t>(a)];
+  k.slots = slots;
+  k.p = p;
+  k.out = sf;
+  for_each(ex, raw.grid.n, k);
+}
+
+template <class L, class T, lbm::StreamKind S, int P>
+void psm_launch_b(const Exec& ex, const lbm::LbmSetup& s, const lbm::LbmRaw& raw, const CellSlotsView& slots,
+                  const PsmParticles& p, const SlotForceView& sf, const PsmOptions& opt,
+                  const std::array<bool, 3>& periodic) {
+  if (raw.has_boundaries) {
+    if (opt.variant == PsmVariant::NEBB) psm_launch<L, T, S, P, true, PsmVariant::NEBB>(ex, s, raw, slots, p, sf, opt, periodic);
+    else psm_launch<L, T, S, P, true, PsmVariant::Superposition>(ex, s, raw, slots, p, sf, opt, periodic);
+  } else {
+    if (opt.variant == PsmVariant::NEBB) psm_launch<L, T, S, P, false, PsmVariant::NEBB>(ex, s, raw, slots, p, sf, opt, periodic);
+    else psm_launch<L, T, S, P, false, PsmVariant::Superposition>(ex, s, raw, slots, p, sf, opt, periodic);
+  }
+}
+
+template <class L, class T>
+void psm_step_typed(const Exec& ex, const lbm::LbmSetup& s, const lbm::LbmRaw& raw, const CellSlotsView& slots,
+                    const PsmParticles& p, const SlotForceView& sf, const PsmOptions& opt,
+                    const std::array<bool, 3>& periodic) {
+  if (s.streaming == lbm::StreamKind::AA) {
+    if ((raw.step & 1) == 0) psm_launch_b<L, T, lbm::StreamKind::AA, 0>(ex, s, raw, slots, p, sf, opt, periodic);
+    else psm_launch_b<L, T, lbm::StreamKind::AA, 1>(ex, s, raw, slots, p, sf, opt, periodic);
+  } else {
+    psm_launch_b<L, T, lbm::StreamKind::TwoLattice, 0>(ex, s, raw, slots, p, sf, opt, periodic);
+  }
+}
+
+}  // namespace lbdem::imb
