@@ -163,6 +163,12 @@ DemSystem::DemSystem(Exec ex, DemParams params, const HostParticles& hp) : impl_
   m.trq2 = Buffer<Real4>(be, n);
   upload(m.frco, be, zero, n);
   upload(m.trqo, be, zero, n);
+  upload(m.vpr, be, vel, n);
+  m.vpr2 = Buffer<Real4>(be, n);
+  if (p.friction) {
+    upload(m.wpr, be, omg, n);
+    m.wpr2 = Buffer<Real4>(be, n);
+  }
   m.frco2 = Buffer<Real4>(be, n);
   m.trqo2 = Buffer<Real4>(be, n);
   m.gid2 = Buffer<std::int64_t>(be, n);
@@ -300,14 +306,14 @@ void DemSystem::rebuild() {
     sort_pairs(m.ex, m.key.data(), m.key_sorted.data(), m.idx.data(), m.perm.data(), n, m.scratch(), 0, bits);
   }
   // 2. Reorder all particle arrays into cell order (locality for the force loop).
-  Gather g{m.perm.data(), m.pos.data(),  m.vel.data(),  m.omg.data(),   m.frc.data(),   m.trq.data(),
-           m.frco.data(), m.trqo.data(), m.extf.data(), m.extt.data(),  m.pos2.data(),  m.vel2.data(),
-           m.omg2.data(), m.frc2.data(), m.trq2.data(), m.frco2.data(), m.trqo2.data(), m.extf2.data(),
-           m.extt2.data(), m.gid.data(), m.gid2.data(), m.type.data(),  m.type2.data(), m.whist.data(),
-           m.whist2.data(), m.walls.count, n};
+  Gather g{m.perm.data(),  m.pos.data(),   m.vel.data(),   m.omg.data(),  m.frc.data(),   m.trq.data(),
+           m.frco.data(),  m.trqo.data(),  m.vpr.data(),   m.wpr.data(),  m.extf.data(),  m.extt.data(),
+           m.pos2.data(),  m.vel2.data(),  m.omg2.data(),  m.frc2.data(), m.trq2.data(),  m.frco2.data(),
+           m.trqo2.data(), m.vpr2.data(),  m.wpr2.data(),  m.extf2.data(), m.extt2.data(), m.gid.data(),
+           m.gid2.data(),  m.type.data(),  m.type2.data(), m.whist.data(), m.whist2.data(), m.walls.count, n};
   launch(m.ex, n, g);
   m.pos.swap(m.pos2); m.vel.swap(m.vel2); m.omg.swap(m.omg2); m.frc.swap(m.frc2); m.trq.swap(m.trq2);
-  m.frco.swap(m.frco2); m.trqo.swap(m.trqo2);
+  m.frco.swap(m.frco2); m.trqo.swap(m.trqo2); m.vpr.swap(m.vpr2); m.wpr.swap(m.wpr2);
   m.extf.swap(m.extf2); m.extt.swap(m.extt2); m.gid.swap(m.gid2); m.type.swap(m.type2);
   m.whist.swap(m.whist2);
   // gid2 now holds the old order's ids (history lookup by partner id).
@@ -338,8 +344,12 @@ void DemSystem::rebuild() {
 void DemSystem::compute_forces() {
   Impl& m = *impl_;
   if (m.n == 0) return;
+  const State st = m.state();
+  if (m.p.friction) launch(m.ex, m.n, SyncPredictor<true>{st});
+  else launch(m.ex, m.n, SyncPredictor<false>{st});
   run_forces(m);
   m.forces_valid = true;
+  m.old_valid = false;
 }
 
 void DemSystem::advance(long steps) {
@@ -353,13 +363,15 @@ void DemSystem::advance(long steps) {
   const double dt = m.p.dt;
   for (long s = 0; s < steps; ++s) {
     const State st = m.state();
-    if (m.p.friction) launch(m.ex, m.n, KickDrift<true>{st, s == 0});
-    else launch(m.ex, m.n, KickDrift<false>{st, s == 0});
+    const int synced = s == 0, extrap = m.old_valid ? 1 : 0;
+    if (m.p.friction) launch(m.ex, m.n, KickDrift<true>{st, synced, extrap});
+    else launch(m.ex, m.n, KickDrift<false>{st, synced, extrap});
     // The forces just used become the "old" ones of the velocity predictor.
     m.frc.swap(m.frco);
     if (m.p.friction) m.trq.swap(m.trqo);
     if (read_rebuild_flag(m)) rebuild();  // the one small read per step
     run_forces(m);
+    m.old_valid = true;
     m.time += dt;
     ++m.steps;
   }
@@ -372,8 +384,8 @@ void DemSystem::advance(long steps) {
 void DemSystem::bench_integrate() {
   Impl& m = *impl_;
   const State st = m.state();
-  if (m.p.friction) launch(m.ex, m.n, KickDrift<true>{st, 0});
-  else launch(m.ex, m.n, KickDrift<false>{st, 0});
+  if (m.p.friction) launch(m.ex, m.n, KickDrift<true>{st, 0, 1});
+  else launch(m.ex, m.n, KickDrift<false>{st, 0, 1});
 }
 void DemSystem::bench_forces() { run_forces(*impl_); }
 void DemSystem::bench_rebuild() { rebuild(); }

@@ -26,11 +26,12 @@ struct DemSystem::Impl {
   double time = 0;
   long steps = 0, rebuilds = 0;
   bool forces_valid = false;
+  bool old_valid = false;  // frco/trqo hold a_{n-1} of the current trajectory
   bool have_cells = false;  // key_sorted holds the previous build's keys
 
   // Particle arrays and their reorder twins (swapped at each rebuild).
-  Buffer<Real4> pos, vel, omg, frc, trq, frco, trqo, extf, extt, x0;
-  Buffer<Real4> pos2, vel2, omg2, frc2, trq2, frco2, trqo2, extf2, extt2;
+  Buffer<Real4> pos, vel, omg, frc, trq, frco, trqo, vpr, wpr, extf, extt, x0;
+  Buffer<Real4> pos2, vel2, omg2, frc2, trq2, frco2, trqo2, vpr2, wpr2, extf2, extt2;
   Buffer<std::int64_t> gid, gid2;
   Buffer<int> type, type2;
   Buffer<Vec3d> whist, whist2;  // wall histories [w * n + i] (friction)
@@ -56,6 +57,7 @@ struct DemSystem::Impl {
     State s;
     s.pos = pos.data(); s.vel = vel.data(); s.omg = omg.data(); s.frc = frc.data(); s.trq = trq.data();
     s.frc_old = frco.data(); s.trq_old = trqo.data();
+    s.vpr = vpr.data(); s.wpr = wpr.data();
     s.extf = extf.data(); s.extt = extt.data(); s.x0 = x0.data(); s.gid = gid.data();
     s.nbr = nbr.data(); s.ncount = ncount.data(); s.n = n; s.cap = cap;
     s.hist = hist.data(); s.whist = whist.data();

@@ -35,12 +35,13 @@ TEST(DemContactLaw, DampingFormulaReturnsRestitution) {
 class DemBinary : public ::testing::TestWithParam<Backend> {};
 
 // Head-on collision of two equal spheres without gravity: post/pre normal
-// relative speed = e. Contact onset and release fall between steps; with the
-// velocity predictor and the onset correction (contact.hpp) the remaining
-// error is second order in dt: measured worst (e = 0.1, strongest damping)
-// 1.5e-3 at dt = t_c/100 and 6.1e-3 at t_c/50 (ratio 4). Asserted: the issue's
-// 0.5 % at t_c/100, and 1 % at the production step t_c/50 (e >= 0.2 stay
-// inside 0.5 % there too).
+// relative speed = e. Contact onset and release fall between steps and the
+// dashpot sees predicted velocities; with the onset/release quadrature
+// (contact.hpp) and the extrapolating velocity predictor (kernels.hpp) the
+// remaining error is second order in dt and grows with damping: measured
+// worst (e = 0.1, over contact phases) 2.7e-3 at the production step t_c/50
+// and 5.6e-4 at t_c/100; e >= 0.5 stay below 3.3e-4. Asserted: the issue's
+// 0.5 % at both steps, for every e.
 TEST_P(DemBinary, RestitutionCoefficient) {
   const double r = 0.01, rho = 2600, k = 1e4, v0 = 0.5;
   for (double steps_per_tc : {100.0, 50.0}) {
@@ -63,8 +64,7 @@ TEST_P(DemBinary, RestitutionCoefficient) {
       const int a = out.id[0] == 0 ? 0 : 1, b = 1 - a;
       const double e_meas = (out.v[b].x - out.v[a].x) / (2 * v0);
       worst = std::max(worst, std::fabs(e_meas - e) / e);
-      const double tol = (steps_per_tc < 100 && ie == 1) ? 0.01 : 0.005;
-      EXPECT_NEAR(e_meas, e, tol * e) << "e = " << e << " path " << to_string(path) << " dt = t_c/" << steps_per_tc;
+      EXPECT_NEAR(e_meas, e, 0.005 * e) << "e = " << e << " path " << to_string(path) << " dt = t_c/" << steps_per_tc;
       // Momentum is conserved to round-off by both paths (Newton's third law).
       EXPECT_NEAR(out.v[a].x + out.v[b].x, 0.0, 1e-12);
     }

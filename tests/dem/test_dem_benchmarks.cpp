@@ -102,7 +102,7 @@ TEST_P(DemVerification, Dem01FallingParticle) {
       hp.add({0, 0.5, 0}, r, 2600);
       DemParams p = dem01_params(c[0], c[1]);
       p.path = path;
-      const double steps_per_tc = c[1] < 0.8 ? 100 : 50;
+      const double steps_per_tc = 50;
       p.dt = min_collision_time(p, hp) / steps_per_tc;
       Dem01Analytic a(r, 0.5, c[0], c[1], hp.mass[0]);
       DemSystem sys(Exec(GetParam()), p, hp);
