@@ -163,7 +163,7 @@ struct Result {
 // cache (sorted order) and every own record is read/written once.
 // Records are 32 B (Real4), list entries 4 B, histories 24 B.
 double bytes_model(bool friction, ForcePath path, double nb, double contacts) {
-  double integ = friction ? 352 : 224;  // KickDrift: see dem/src/kernels.hpp
+  double integ = friction ? 416 : 256;  // KickDrift: see dem/src/kernels.hpp
   double force = 0;
   if (path == ForcePath::Particle) {
     force = 64 + 4 + 32 + 4 * nb;  // own pos+vel, count, force out, list
