@@ -226,19 +226,22 @@ int main(int argc, char** argv) {
       SphereView v{bx.data(), by.data(), bz.data(), br.data(), np};
       CellSlots slots(b, GridShape{L, L, L, {true, true, true}}, 12);
       Exec ex(b);
-      for (int mi = 0; mi < 4; ++mi) {
-        const FractionMethod m = mi < 3 ? methods[mi] : FractionMethod::Table;
+      // Variants: 0-2 the three methods (defaults), 3 table in global memory, 4 exact without the deferred pass.
+      const char* names[5] = {"exact", "table", "linear", "table(global)", "exact(direct)"};
+      for (int mi = 0; mi < 5; ++mi) {
+        const FractionMethod m = mi == 3 ? FractionMethod::Table : (mi == 4 ? FractionMethod::Exact : methods[mi]);
         if (mi == 3 && b != Backend::Cuda) continue;
+        if (mi == 4 && (b != Backend::Cuda || np > 1000)) continue;
         MapOptions o;
         o.method = m;
         o.table = &t3;
         o.max_radius = 5.0;
-        o.table_in_constant = mi < 3;
+        o.table_in_constant = mi != 3;
+        o.defer_exact = mi != 4;
         const int reps = b == Backend::Cuda ? 7 : ((m == FractionMethod::Exact && np > 1000) ? 1 : 3);
         const double t = median_time(reps, ex, [&] { slots.map(ex, v, o); });
         const auto rep = slots.overflow();
-        maps.push_back({mi < 3 ? to_string(m) : std::string("table(global)"), to_string(b), np, t * 1e3,
-                        static_cast<long>(rep.events)});
+        maps.push_back({names[mi], to_string(b), np, t * 1e3, static_cast<long>(rep.events)});
       }
     }
   }

@@ -93,10 +93,15 @@ struct MapKernel {
   bool per_x, per_y, per_z;
   int B;             // box edge in cells
   Index box;         // B^Dim
-  int* flags;        // [0] surplus events, [1] radius errors, [2] offending particle
+  int* flags;        // [0] surplus events, [1] radius errors, [2] offending particle, [3] deferred count
   Index* log_cell;
   int* log_particle;
   int log_cap;
+  // Exact method: interface cells are queued and done by a second, dense pass
+  // (DeferredExact) so that whole warps run the quadrature together instead of
+  // a few lanes per warp; when the queue is full a thread does its cell itself.
+  Index* queue = nullptr;
+  Index queue_cap = 0;
 
   // Maps the box coordinate l of axis (lo cell index i0, n cells, periodic?) to
   // a grid index, or -1 when off a non-periodic grid.
@@ -105,14 +110,19 @@ struct MapKernel {
     return (g < 0 || g >= n) ? -1 : g;
   }
 
-  LBDEM_HD void operator()(Index t) const {
+  struct Target {
+    Index pi, cell;
+    double rx, ry, rz, R;
+  };
+  // Decodes box thread t into its particle and cell; false if off the particle's box or grid.
+  LBDEM_HD bool decode(Index t, Target& o, bool check_radius) const {
     const Index pi = t / box;
     Index l = t - pi * box;
     const double R = p.r[pi];
     const double cx = p.x[pi], cy = p.y[pi], cz = Dim == 3 ? p.z[pi] : 0.5;
     const Index i0 = static_cast<Index>(floor(cx - R)), j0 = static_cast<Index>(floor(cy - R));
     const Index k0 = Dim == 3 ? static_cast<Index>(floor(cz - R)) : 0;
-    if (l == 0) {  // one thread per particle checks that its box fits
+    if (check_radius && l == 0) {  // one thread per particle checks that its box fits
       const Index need = static_cast<Index>(floor(2.0 * R)) + 2;
       if (need > B) {
         atomic_inc(&flags[1]);
@@ -125,14 +135,16 @@ struct MapKernel {
     const Index lk = Dim == 3 ? l / B : 0;
     const Index gi = i0 + li, gj = j0 + lj, gk = k0 + lk;
     // Cells of the box beyond the particle's own bounding box.
-    if (gi > static_cast<Index>(floor(cx + R)) || gj > static_cast<Index>(floor(cy + R))) return;
-    if (Dim == 3 && gk > static_cast<Index>(floor(cz + R))) return;
+    if (gi > static_cast<Index>(floor(cx + R)) || gj > static_cast<Index>(floor(cy + R))) return false;
+    if (Dim == 3 && gk > static_cast<Index>(floor(cz + R))) return false;
     const Index ci = axis(gi, nx, per_x), cj = axis(gj, ny, per_y);
     const Index ck = Dim == 3 ? axis(gk, nz, per_z) : 0;
-    if (ci < 0 || cj < 0 || ck < 0) return;
-    const double eps = frac(gi + 0.5 - cx, gj + 0.5 - cy, gk + 0.5 - cz, R);
-    if (!(eps > 0.0)) return;
-    const Index cell = ci + nx * (cj + ny * ck);
+    if (ci < 0 || cj < 0 || ck < 0) return false;
+    o = {pi, ci + nx * (cj + ny * ck), gi + 0.5 - cx, gj + 0.5 - cy, gk + 0.5 - cz, R};
+    return true;
+  }
+
+  LBDEM_HD void insert(Index pi, Index cell, double eps) const {
     const int slot = atomic_inc(&s.count[cell]);
     if (slot < s.K) {
       s.particle_at(cell, slot) = static_cast<int>(pi);
@@ -143,6 +155,47 @@ struct MapKernel {
         log_cell[e] = cell;
         log_particle[e] = static_cast<int>(pi);
       }
+    }
+  }
+
+  LBDEM_HD void operator()(Index t) const {
+    Target c{};
+    if (!decode(t, c, true)) return;
+    if (M == FractionMethod::Exact && queue_cap > 0) {
+      const double R2 = c.R * c.R;
+      const double n2 = Dim == 3 ? cell_near2(c.rx, c.ry, c.rz) : cell_near2(c.rx, c.ry, 0.0);
+      if (n2 >= R2) return;
+      const double f2 = Dim == 3 ? cell_far2(c.rx, c.ry, c.rz)
+                                 : (fabs(c.rx) + 0.5) * (fabs(c.rx) + 0.5) + (fabs(c.ry) + 0.5) * (fabs(c.ry) + 0.5);
+      if (f2 <= R2) {
+        insert(c.pi, c.cell, 1.0);
+        return;
+      }
+      const int q = atomic_inc(&flags[3]);
+      if (q < queue_cap) {
+        queue[q] = t;
+        return;
+      }
+    }
+    const double eps = frac(c.rx, c.ry, c.rz, c.R);
+    if (!(eps > 0.0)) return;
+    insert(c.pi, c.cell, eps);
+  }
+};
+
+// Second pass of the exact method: a fixed number of workers stride over the
+// queue, whose length is read on the device (no host round trip).
+template <int Dim, FractionMethod M>
+struct DeferredExact {
+  MapKernel<Dim, M> k;
+  Index workers;
+  LBDEM_HD void operator()(Index w) const {
+    const Index n = k.flags[3] < k.queue_cap ? k.flags[3] : k.queue_cap;
+    for (Index q = w; q < n; q += workers) {
+      typename MapKernel<Dim, M>::Target c{};
+      if (!k.decode(k.queue[q], c, false)) continue;
+      const double eps = k.frac(c.rx, c.ry, c.rz, c.R);
+      if (eps > 0.0) k.insert(c.pi, c.cell, eps);
     }
   }
 };
@@ -236,7 +289,8 @@ struct MaxOp {
 template <int Dim, FractionMethod M>
 struct LaunchMap {
   static void run(const Exec& ex, const SphereView& p, const CellSlotsView& s, const GridShape& g, const MapOptions& o,
-                  int B, int* flags, Index* log_cell, int* log_particle, int log_cap, const float* global_table) {
+                  int B, int* flags, Index* log_cell, int* log_particle, int log_cap, const float* global_table,
+                  Index* queue, Index queue_cap) {
     MapKernel<Dim, M> k{};
     k.p = p;
     k.s = s;
@@ -253,7 +307,15 @@ struct LaunchMap {
     k.log_cell = log_cell;
     k.log_particle = log_particle;
     k.log_cap = log_cap;
+    if (M == FractionMethod::Exact) {
+      k.queue = queue;
+      k.queue_cap = queue_cap;
+    }
     for_each(ex, p.n * k.box, k);
+    if (M == FractionMethod::Exact && queue_cap > 0) {
+      const Index workers = ex.on_device() ? (Index{1} << 18) : Index{4096};
+      for_each(ex, workers, DeferredExact<Dim, M>{k, workers});
+    }
   }
 };
 
@@ -325,8 +387,16 @@ void CellSlots::map(const Exec& ex, const SphereView& particles, const MapOption
   for_each(ex, flags_.size(), ZeroInts{flags_.data()});
   particles_mapped_ = particles.n;
   if (particles.n == 0) return;
+  Index queue_cap = 0;
+  if (opt.method == FractionMethod::Exact && opt.defer_exact) {
+    // Interface cells per particle ≤ cells within √dim of the sphere surface.
+    const double ro = rmax + std::sqrt(static_cast<double>(dim)), ri = std::max(rmax - std::sqrt(double(dim)), 0.0);
+    const double shell = dim == 3 ? 4.0 / 3.0 * M_PI * (ro * ro * ro - ri * ri * ri) : M_PI * (ro * ro - ri * ri);
+    queue_cap = particles.n * static_cast<Index>(std::ceil(shell));
+    queue_.reserve_discard(backend_, queue_cap);  // grows only: no allocation in a steady time loop
+  }
   Dispatch<LaunchMap>::run(dim, opt.method, ex, particles, view(), grid_, opt, B, flags_.data(), log_cell_.data(),
-                           log_particle_.data(), log_cap_, global_table);
+                           log_particle_.data(), log_cap_, global_table, queue_.data(), queue_cap);
   if (opt.sort_slots && K_ > 1) for_each(ex, grid_.cells(), SortSlots{view()});
 }
 

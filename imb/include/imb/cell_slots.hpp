@@ -52,7 +52,8 @@ struct GridShape {
 };
 
 // Slots seen by kernels (structure of arrays: slot k of cell c at k*ncells + c,
-// so a warp of consecutive cells reads consecutive words).
+// so a warp of consecutive cells reads consecutive words). Only slots
+// k < used(cell) are meaningful; the others hold stale values.
 struct CellSlotsView {
   int* count = nullptr;      // per cell: overlapping particles (> K means overflow)
   int* particle = nullptr;   // [k * ncells + cell]
@@ -85,6 +86,9 @@ struct MapOptions {
   // warp's reads of different addresses, and table lookups of neighbouring cells
   // hit different nodes; bench/imb measures both.
   bool table_in_constant = true;
+  // Exact method: classify in the box pass, do the interface cells in a second
+  // dense pass (much better warp use on the GPU; same results).
+  bool defer_exact = true;
 };
 
 struct OverflowReport {
@@ -131,12 +135,13 @@ class CellSlots {
   int log_cap_;
   Buffer<int> count_, particle_;
   Buffer<double> eps_;
-  // [0] surplus events, [1] radius errors, [2] a particle with too large a radius
+  // [0] surplus events, [1] radius errors, [2] a particle with too large a radius, [3] deferred cells
   Buffer<int> flags_;
   Buffer<Index> log_cell_;
   Buffer<int> log_particle_;
   Index particles_mapped_ = 0;
   Buffer<float> global_table_;       // device copy of the table when !table_in_constant
+  Buffer<Index> queue_;              // deferred interface cells of the exact method
   std::uint64_t global_table_id_ = 0;
   std::shared_ptr<Scratch> scratch_;  // reduction storage (max radius), reused across steps
 };
