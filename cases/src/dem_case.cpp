@@ -292,7 +292,7 @@ int run_dem_case(const Config& root, const RunOptions& opt) {
     if ((c.output_interval > 0 && step % c.output_interval == 0) || step == c.steps) write_particles(writer, sys, step);
     if (prog.due()) {
       sys.synchronize();
-      prog.report(step, sys.time(), static_cast<double>(sys.size()), "particle-steps");
+      prog.report(step, sys.time(), static_cast<double>(sys.size()), "particle-steps/s");
     }
   }
   if (!opt.quiet) {
