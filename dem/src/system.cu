@@ -143,8 +143,10 @@ DemSystem::DemSystem(Exec ex, DemParams params, const HostParticles& hp) : impl_
     omg[i] = r4(hp.w.empty() ? Vec3d{} : hp.w[i], 1.0 / sphere_inertia(hp.mass[i], hp.r[i]));
   }
   {
-    std::set<std::int64_t> ids(hp.id.begin(), hp.id.end());
-    if (static_cast<Index>(ids.size()) != n) throw ConfigError("particles: global ids are not unique");
+    std::vector<std::int64_t> ids(hp.id.begin(), hp.id.end());
+    std::sort(ids.begin(), ids.end());
+    if (static_cast<Index>(ids.size()) != n || std::adjacent_find(ids.begin(), ids.end()) != ids.end())
+      throw ConfigError("particles: global ids are missing or not unique");
   }
   upload(m.pos, be, pos, n);
   upload(m.vel, be, vel, n);

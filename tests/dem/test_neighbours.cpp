@@ -223,6 +223,7 @@ TEST(DemCrossBackend, CpuAndGpuAgree) {
     a.advance(30);
     b.advance(30);
     EXPECT_LT(rel_diff(a.download(), b.download()), 1e-9) << to_string(path);
-    EXPECT_EQ(a.stats().rebuilds, b.stats().rebuilds);
+    // A displacement within round-off of skin/2 could shift one rebuild.
+    EXPECT_NEAR(a.stats().rebuilds, b.stats().rebuilds, 1);
   }
 }
