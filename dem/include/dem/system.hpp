@@ -2,15 +2,17 @@
 // The DEM engine: particles resident on one backend, neighbour lists, contact
 // forces, walls, velocity-Verlet integration.
 //
-// One step (advance): kick v by dt/2 and drift x by dt -> if some particle
-// moved more than skin/2 since the last build, rebuild (sort by cell, reorder
-// particle arrays, rebuild the Verlet list, carry tangential histories) ->
-// forces -> kick v by dt/2. Consecutive half kicks are fused into one kernel;
-// the velocities are synchronised at the end of every advance() call.
+// One step (advance): kick v by dt/2 and drift x by dt (and predict the
+// velocity the contact forces see) -> if some particle moved more than
+// skin/2 since the last build, rebuild (sort by cell, reorder the particle
+// arrays, rebuild the Verlet list, carry tangential histories by partner id)
+// -> forces -> kick v by dt/2. Consecutive half kicks are fused into one
+// kernel; velocities are synchronised at the end of every advance() call.
 //
-// Host round trips in the time loop: one 16-byte read of a device flag per
-// step (the rebuild decision; nothing else), plus one more read on rebuild
-// steps (list overflow). No allocation after the first steps.
+// Host round trips in the time loop: one 4-byte read of a device flag per
+// step (the rebuild decision, into page-locked memory; nothing else), plus
+// one 16-byte read on rebuild steps (list overflow). No allocation in the
+// loop once the first steps have sized the scratch space.
 #include <array>
 #include <cstdint>
 #include <memory>
@@ -53,7 +55,7 @@ struct DemParams {
   Vec3d body_force{};        // external force on every particle [N]
   bool external_forcing = false;  // allocate ext_force/ext_torque (coupling input)
   double dt = 0;             // [s]
-  double skin = 0;           // Verlet skin [m]; 0 -> 0.1 * smallest diameter... see resolve()
+  double skin = 0;           // Verlet skin [m]; 0 -> 0.1 x the smallest diameter
   ForcePath path = ForcePath::Particle;
   int neighbour_capacity = 0;     // per particle; 0 -> estimated, grown on overflow
   double min_steps_per_collision = 50;  // refuse dt > t_c / this (Yu et al. use t_c/50)
