@@ -288,7 +288,14 @@ int run_dem_case(const Config& root, const RunOptions& opt) {
     if (c.output_interval > 0) next = std::min(next, (step / c.output_interval + 1) * c.output_interval);
     sys.advance(next - step);
     step = next;
-    if (step % c.series_interval == 0 || step == c.steps) series.append(series_row(sys, step, c.track));
+    if (step % c.series_interval == 0 || step == c.steps) {
+      const std::vector<double> row = series_row(sys, step, c.track);
+      series.append(row);
+      if (!std::isfinite(row[2]))
+        throw DivergenceError("scene dem: kinetic energy is " + std::to_string(row[2]) + " at step " +
+                              std::to_string(step) + " (t = " + std::to_string(sys.time()) +
+                              " s): lower time.dt or check the material and the initial overlaps");
+    }
     if ((c.output_interval > 0 && step % c.output_interval == 0) || step == c.steps) write_particles(writer, sys, step);
     if (prog.due()) {
       sys.synchronize();
