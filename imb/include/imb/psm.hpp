@@ -94,13 +94,8 @@ struct PsmStepKernel {
       return;
     }
     // Moments (shifted populations, see lbm/collision.hpp).
-    R d = 0, j[3] = {0, 0, 0};
-    LBDEM_UNROLL
-    for (int q = 0; q < L::Q; ++q) {
-      d += f[q];
-      LBDEM_UNROLL
-      for (int a = 0; a < 3; ++a) j[a] += R(L::c(q, a)) * f[q];
-    }
+    R d, j[3];
+    lbm::moments<L>(f, d, j);
     const R rho = R(1) + d;
     for (int a = 0; a < 3; ++a) u[a] = (j[a] + R(0.5) * F[a]) / rho;
     const R usq15 = R(1.5) * (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);

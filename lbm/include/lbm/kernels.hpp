@@ -67,6 +67,20 @@ struct PopView {
   Index stride = 0;  // slab size per direction (cells rounded up)
 };
 
+// Zeroth and first moments of shifted populations: density deviation
+// d = sum f and momentum j = sum c f (no forcing shift).
+template <class L, class R>
+LBDEM_HD LBDEM_FORCEINLINE void moments(const R (&f)[L::Q], R& d, R (&j)[3]) {
+  d = 0;
+  j[0] = j[1] = j[2] = 0;
+  LBDEM_UNROLL
+  for (int q = 0; q < L::Q; ++q) {
+    d += f[q];
+    LBDEM_UNROLL
+    for (int a = 0; a < 3; ++a) j[a] += R(L::c(q, a)) * f[q];
+  }
+}
+
 // Loads the incoming (pre-collision) shifted populations of cell `cell`.
 template <class L, class T, class R, StreamKind S, int Parity>
 LBDEM_HD LBDEM_FORCEINLINE void load_incoming(const PopView<T>& src, const Neighbours& nb, Index cell,
@@ -196,13 +210,8 @@ struct MacroKernel {
     const Neighbours nb = neighbours<L>(g, cell);
     double f[L::Q];
     load_incoming<L, T, double, S, Parity>(src, nb, cell, f);
-    double d = 0, j[3] = {0, 0, 0};
-    LBDEM_UNROLL
-    for (int q = 0; q < L::Q; ++q) {
-      d += f[q];
-      LBDEM_UNROLL
-      for (int a = 0; a < 3; ++a) j[a] += L::c(q, a) * f[q];
-    }
+    double d, j[3];
+    moments<L>(f, d, j);
     const double r = 1.0 + d;
     rho[cell] = r;
     for (int a = 0; a < 3; ++a) u[3 * cell + a] = (j[a] + 0.5 * F[a]) / r;
@@ -249,13 +258,8 @@ struct DiagKernel {
     const Neighbours nb = neighbours<L>(g, cell);
     double f[L::Q];
     load_incoming<L, T, double, S, Parity>(src, nb, cell, f);
-    double d = 0, j[3] = {0, 0, 0};
-    LBDEM_UNROLL
-    for (int q = 0; q < L::Q; ++q) {
-      d += f[q];
-      LBDEM_UNROLL
-      for (int a = 0; a < 3; ++a) j[a] += L::c(q, a) * f[q];
-    }
+    double d, j[3];
+    moments<L>(f, d, j);
     const double rr = 1.0 + d;
     double u2 = 0;
     for (int a = 0; a < 3; ++a) {
