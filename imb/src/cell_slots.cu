@@ -118,8 +118,9 @@ struct MapKernel {
   LBDEM_HD bool decode(Index t, Target& o, bool check_radius) const {
     const Index pi = t / box;
     Index l = t - pi * box;
-    const double R = p.r[pi];
-    const double cx = p.x[pi], cy = p.y[pi], cz = Dim == 3 ? p.z[pi] : 0.5;
+    const Index po = static_cast<Index>(pi) * p.stride;
+    const double R = p.r[po];
+    const double cx = p.x[po], cy = p.y[po], cz = Dim == 3 ? p.z[po] : 0.5;
     const Index i0 = static_cast<Index>(floor(cx - R)), j0 = static_cast<Index>(floor(cy - R));
     const Index k0 = Dim == 3 ? static_cast<Index>(floor(cz - R)) : 0;
     if (check_radius && l == 0) {  // one thread per particle checks that its box fits

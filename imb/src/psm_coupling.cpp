@@ -30,18 +30,18 @@ PsmCoupling::PsmCoupling(lbm::LbmSolver& solver, int K, std::array<bool, 3> peri
 PsmCoupling::~PsmCoupling() = default;
 
 void PsmCoupling::map(const PsmParticles& p, const PsmOptions& opt, bool check_overflow) {
-  SphereView sv{p.x, p.y, p.z, p.r, p.n};
+  SphereView sv{p.x, p.y, p.z, p.r, p.n, p.stride};
   slots_->map(ex_, sv, opt.map);
   if (check_overflow) slots_->throw_if_overflow();
 }
 
-void PsmCoupling::step(const PsmParticles& p, const PsmOptions& opt, double* force6) {
+void PsmCoupling::step(const PsmParticles& p, const PsmOptions& opt, const ForceOut& out) {
   const lbm::LbmRaw raw = solver_.raw();
   const SlotForceView sf{slot_forces_.data(), raw.grid.n, slots_->K()};
   psm_fluid_step(ex_, solver_.setup(), raw, slots_->view(), p, sf, opt, periodic_);
   solver_.commit_external_step();
   const int dim = solver_.setup().lattice == lbm::LatticeKind::D2Q9 ? 2 : 3;
-  psm_gather(ex_, raw, slots_->view(), sf, p, periodic_, dim, force6);
+  psm_gather(ex_, raw, slots_->view(), sf, p, periodic_, dim, out);
 }
 
 }  // namespace lbdem::imb

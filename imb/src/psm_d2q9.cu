@@ -11,8 +11,9 @@ void psm_step_d2q9(const Exec& ex, const lbm::LbmSetup& s, const lbm::LbmRaw& ra
 }
 
 void psm_gather(const Exec& ex, const lbm::LbmRaw& raw, const CellSlotsView& slots, const SlotForceView& sf,
-                const PsmParticles& p, const std::array<bool, 3>& periodic, int dim, double* force6) {
-  GatherForces k{slots, sf, p, raw.grid, {periodic[0], periodic[1], periodic[2]}, dim, force6};
+                const PsmParticles& p, const std::array<bool, 3>& periodic, int dim, const ForceOut& out) {
+  GatherForces k{slots, sf, p, raw.grid, {periodic[0], periodic[1], periodic[2]}, dim,
+                 out.force, out.torque, out.fstride, out.tstride};
   for_each(ex, p.n, k);
 }
 

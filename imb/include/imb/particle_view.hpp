@@ -12,6 +12,7 @@ struct SphereView {
   const double* z = nullptr;
   const double* r = nullptr;
   Index n = 0;
+  int stride = 1;  // element i of each array at [i * stride] (4: DEM's Real4 records)
 };
 
 }  // namespace lbdem::imb

@@ -8,7 +8,9 @@
 //          + sum_k B_k Omega^S_{q,k} + (1 - B) S_q,
 // with the solid operator either
 //   NEBB (paper Eq. 2):  Omega^S_q = f_qbar - f_q + f^eq_q(rho, V_k) - f^eq_qbar(rho, u), or
-//   superposition:       Omega^S_q = f^eq_q(rho, V_k) - f^post_q  (f^post the fluid post-collision value),
+//   superposition:       Omega^S_q = f^eq_q(rho, V_k) - f^eq_q(rho, u) - Omega^F_q (Holdych et al. 2003:
+//                        f^eq(V) - f + (1 - 1/tau)(f - f^eq(u)); Omega^F the fluid collision term), so
+//                        that f* = f^post + B (f^eq(V) - f^eq(u)),
 // V_k = v_k + w_k x (x_cell - x_k) the particle's velocity at the cell centre.
 // The hydrodynamic force on particle k from this cell is minus the momentum
 // the solid term gives the fluid: F_k = - sum_q B_k Omega^S_{q,k} c_q (lattice
@@ -40,6 +42,7 @@ struct PsmParticles {
   const double* wy = nullptr;
   const double* wz = nullptr;
   Index n = 0;
+  int stride = 1;  // element i of each array at [i * stride] (4: DEM's Real4 records)
 };
 
 // Per (slot, cell) force and torque on the slot's particle: component a of
@@ -143,13 +146,14 @@ struct PsmStepKernel {
     for (int k = 0; k < m; ++k) {
       const int pi = slots.particle_at(cell, k);
       const double Bk = eps_tot > 0 ? Btot * slots.eps_at(cell, k) / eps_tot : 0.0;
-      const double px[3] = {p.x[pi], p.y[pi], p.z ? p.z[pi] : 0.5};
+      const Index o = static_cast<Index>(pi) * p.stride;
+      const double px[3] = {p.x[o], p.y[o], p.z ? p.z[o] : 0.5};
       double rr[3];
       for (int a = 0; a < 3; ++a) rr[a] = min_image(xc[a] - px[a], len[a], periodic[a]);
       if (L::D == 2) rr[2] = 0;
-      const double w3[3] = {p.wx ? p.wx[pi] : 0.0, p.wy ? p.wy[pi] : 0.0, p.wz ? p.wz[pi] : 0.0};
-      const R vs[3] = {R(p.vx[pi] + w3[1] * rr[2] - w3[2] * rr[1]), R(p.vy[pi] + w3[2] * rr[0] - w3[0] * rr[2]),
-                       R(L::D == 3 ? p.vz[pi] + w3[0] * rr[1] - w3[1] * rr[0] : 0.0)};
+      const double w3[3] = {p.wx ? p.wx[o] : 0.0, p.wy ? p.wy[o] : 0.0, p.wz ? p.wz[o] : 0.0};
+      const R vs[3] = {R(p.vx[o] + w3[1] * rr[2] - w3[2] * rr[1]), R(p.vy[o] + w3[2] * rr[0] - w3[0] * rr[2]),
+                       R(L::D == 3 ? p.vz[o] + w3[0] * rr[1] - w3[1] * rr[0] : 0.0)};
       const R vsq15 = R(1.5) * (vs[0] * vs[0] + vs[1] * vs[1] + vs[2] * vs[2]);
       double mom[3] = {0, 0, 0};
       LBDEM_UNROLL
@@ -158,7 +162,7 @@ struct PsmStepKernel {
         const R eqs = R(L::w(q)) * (d + rho * (R(3) * cv + R(4.5) * cv * cv - vsq15));
         R om;
         if constexpr (V == PsmVariant::NEBB) om = f[L::opp(q)] - f[q] + eqs - eq[L::opp(q)];
-        else om = eqs - post[q];
+        else om = eqs - eq[q] - (f[q] - post[q]);  // Holdych et al.: eq(V) - f + (1 - omega)(f - eq(u))
         const R bo = R(Bk) * om;
         out_f[q] += bo;
         LBDEM_UNROLL
@@ -176,8 +180,7 @@ struct PsmStepKernel {
 };
 
 // Per particle: sums the slot forces of every cell in its bounding box whose
-// slot names it. Deterministic (fixed order, no atomics). Writes (not adds)
-// force[6*i + a].
+// slot names it. Deterministic (fixed order, no atomics). Writes (not adds).
 struct GatherForces {
   CellSlotsView slots;
   SlotForceView sf;
@@ -185,11 +188,17 @@ struct GatherForces {
   lbm::GridView g;
   bool periodic[3];
   int dim;
-  double* force;  // 6 per particle: Fx Fy Fz Tx Ty Tz
+  // Outputs: force of particle i at force[i * fstride + 0..2], torque at
+  // torque[i * tstride + 0..2] (6-per-particle arrays: torque = force + 3,
+  // strides 6; DEM's Real4 ext_force / ext_torque: strides 4).
+  double* force;
+  double* torque;
+  int fstride = 6, tstride = 6;
   LBDEM_HD void operator()(Index i) const {
     double acc[6] = {0, 0, 0, 0, 0, 0};
-    const double c[3] = {p.x[i], p.y[i], dim == 3 ? p.z[i] : 0.5};
-    const double r = p.r[i] + 1.0;
+    const Index o = i * p.stride;
+    const double c[3] = {p.x[o], p.y[o], dim == 3 ? p.z[o] : 0.5};
+    const double r = p.r[o] + 1.0;
     const int n[3] = {g.nx, g.ny, g.nz};
     int lo[3], hi[3];
     for (int a = 0; a < 3; ++a) {
@@ -214,7 +223,10 @@ struct GatherForces {
             if (slots.particle_at(cell, k) == static_cast<int>(i))
               for (int a = 0; a < 6; ++a) acc[a] += sf.at(a, k, cell);
         }
-    for (int a = 0; a < 6; ++a) force[6 * i + a] = acc[a];
+    for (int a = 0; a < 3; ++a) {
+      force[i * fstride + a] = acc[a];
+      torque[i * tstride + a] = acc[3 + a];
+    }
   }
 };
 

@@ -12,6 +12,15 @@
 
 namespace lbdem::imb {
 
+// Where the gathered force and torque of particle i go: force[i * fstride +
+// 0..2], torque[i * tstride + 0..2] (lattice units, per step).
+struct ForceOut {
+  double* force = nullptr;
+  double* torque = nullptr;
+  int fstride = 6, tstride = 6;
+  static ForceOut six(double* f6) { return {f6, f6 + 3, 6, 6}; }
+};
+
 struct PsmOptions {
   PsmVariant variant = PsmVariant::NEBB;
   PsmWeight weight = PsmWeight::NobleTorczynski;
@@ -31,7 +40,8 @@ class PsmCoupling {
   // One fluid step with the solid term on the current mapping; force6 (6 per
   // particle, on the same backend) receives force and torque (lattice units,
   // per step).
-  void step(const PsmParticles& p, const PsmOptions& opt, double* force6);
+  void step(const PsmParticles& p, const PsmOptions& opt, double* force6) { step(p, opt, ForceOut::six(force6)); }
+  void step(const PsmParticles& p, const PsmOptions& opt, const ForceOut& out);
 
   const CellSlots& slots() const { return *slots_; }
 
@@ -48,6 +58,6 @@ void psm_fluid_step(const Exec& ex, const lbm::LbmSetup& s, const lbm::LbmRaw& r
                     const PsmParticles& p, const SlotForceView& sf, const PsmOptions& opt,
                     const std::array<bool, 3>& periodic);
 void psm_gather(const Exec& ex, const lbm::LbmRaw& raw, const CellSlotsView& slots, const SlotForceView& sf,
-                const PsmParticles& p, const std::array<bool, 3>& periodic, int dim, double* force6);
+                const PsmParticles& p, const std::array<bool, 3>& periodic, int dim, const ForceOut& out);
 
 }  // namespace lbdem::imb

@@ -1,0 +1,63 @@
+#pragma once
+// Flow through a simple cubic (3D) or square (2D) array of fixed spheres /
+// disks, resolved with partially saturated cells: the validation scene of the
+// first paper (Table 1) and our drag reference. Used by the `fixed_sphere`
+// scene, the tests and the speed-vs-error benchmark.
+#include <string>
+
+#include "core/exec.hpp"
+#include "imb/fraction_table.hpp"
+#include "imb/psm.hpp"
+#include "imb/solid_fraction.hpp"
+#include "lbm/solver.hpp"
+
+namespace lbdem::cases {
+
+// Sangani & Acrivos (1982) Eq. 60 (../shared/REFERENCES.md): the drag
+// coefficient K = F / (6 pi mu a U) of a simple cubic array, chi = d/L <= 0.75.
+double sangani_acrivos_K(double chi);
+// Square array of cylinders, Sangani & Acrivos (1982, Int. J. Multiphase Flow
+// 8, 193), dilute expansion: F / (4 pi mu U) = 1 / (-ln(c)/2 - 0.738 + c -
+// 0.887 c^2 + 2.038 c^3), c the area fraction (accurate to ~1e-3 for c <= 0.2).
+double sangani_acrivos_cylinders(double c);
+
+struct FixedSphereSpec {
+  int dim = 3;               // 3: sphere (D3Q19); 2: disk (D2Q9)
+  double diameter = 10;      // d / l (lattice units)
+  double chi = 0.5;          // d / L (L the array period)
+  double re_p = 0.2;         // target particle Reynolds number U d / nu (sets the body force)
+  double tau = 0.6;
+  lbm::CollisionKind collision = lbm::CollisionKind::TRT;
+  double magic = 3.0 / 16.0;
+  lbm::Precision precision = lbm::Precision::FP64;
+  lbm::StreamKind streaming = lbm::StreamKind::AA;
+  imb::FractionMethod method = imb::FractionMethod::Exact;
+  imb::PsmVariant variant = imb::PsmVariant::NEBB;
+  imb::PsmWeight weight = imb::PsmWeight::NobleTorczynski;
+  const imb::FractionTable* table = nullptr;  // for FractionMethod::Table
+  int slots = 4;
+  double tolerance = 1e-7;   // steady state: estimated remaining relative change of the drag
+  long max_steps = 2000000;
+  long check_every = 0;      // 0: about L^2 / (40 nu) steps
+  double offset = 0.0;       // sphere centre offset from the cell-aligned centre (cells, all axes)
+  bool quiet = true;         // progress lines on stderr
+};
+
+struct FixedSphereResult {
+  double K = 0, K_ref = 0, rel_error = 0;  // drag coefficient, reference, (K - K_ref)/K_ref
+  double force = 0;          // drag per sphere (lattice units), as the array theory defines it
+  double exchange = 0;       // momentum exchange measured on the particle
+  double balance = 0;        // force the fluid received from the body force (steady: = exchange)
+  double mean_u = 0;         // superficial velocity (solid included, lattice units)
+  double mean_flux = 0;      // mean momentum density over every cell (diagnostic)
+  double re_p = 0;
+  double body_force = 0;
+  long steps = 0;
+  bool converged = false;
+  double seconds = 0;        // wall time of the time loop
+  double mlups = 0;          // cell updates per second / 1e6
+};
+
+FixedSphereResult run_fixed_sphere(const FixedSphereSpec& spec, Backend backend);
+
+}  // namespace lbdem::cases
