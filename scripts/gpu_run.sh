@@ -1,14 +1,15 @@
 #!/usr/bin/env bash
 # One call on the GPU machine: build with CUDA for sm_90, run the whole test
 # suite (host and CUDA backends), run the benchmarks; logs and JSON go to $OUT.
-#   scripts/gpu_run.sh [build] [test] [bench-lbm] [bench-dem] [bench-imb]   (default: all)
+#   scripts/gpu_run.sh [build] [test] [bench-lbm] [bench-dem] [bench-imb] [bench-psm] [bench-susp]
+#   (default: all)
 set -uo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
 OUT="${OUT:-$here/out}"
 mkdir -p "$OUT"
 build="$here/build-gpu"
 steps=("$@")
-[ ${#steps[@]} -eq 0 ] && steps=(build test bench-lbm bench-dem bench-imb)
+[ ${#steps[@]} -eq 0 ] && steps=(build test bench-lbm bench-dem bench-imb bench-psm bench-susp)
 commit="${LBDEM_COMMIT:-$(git -C "$here" rev-parse --short HEAD 2>/dev/null || echo unknown)}"
 echo "commit $commit" | tee "$OUT/env.txt"
 nvidia-smi --query-gpu=name,memory.total,clocks.sm,clocks.mem --format=csv >> "$OUT/env.txt" 2>&1
@@ -36,6 +37,24 @@ for s in "${steps[@]}"; do
       [ -x "$build/bench/imb/lbdem_bench_imb" ] &&
       timeout 120 "$build/bench/imb/lbdem_bench_imb" --out "$OUT/bench_imb.json" > "$OUT/bench_imb.log" 2>&1
       echo "bench-imb exit $?"; tail -20 "$OUT/bench_imb.log" ;;
+    bench-psm)
+      # Fixed-sphere drag sweep (first paper Table 1): the accurate line at every d/l,
+      # the method x precision x collision grid up to d/l = 20.
+      b="$build/bench/imb/lbdem_bench_psm"
+      [ -x "$b" ] && {
+        timeout 280 "$b" sweep --d 4,6,8,10,16,20 --tau 0.52 --magic 1e-3 --methods exact,table,linear \
+          --precisions fp64,fp32 --collisions trt,bgk --out "$OUT/psm_sweep_small.json" > "$OUT/psm_sweep_small.log" 2>&1
+        echo "sweep-small exit $?"
+        timeout 280 "$b" sweep --d 30,50 --tau 0.52 --magic 1e-3 --methods exact --precisions fp64 \
+          --collisions trt --out "$OUT/psm_sweep_large.json" > "$OUT/psm_sweep_large.log" 2>&1
+        echo "sweep-large exit $?"; }
+      tail -5 "$OUT/psm_sweep_small.log" "$OUT/psm_sweep_large.log" ;;
+    bench-susp)
+      b="$build/bench/imb/lbdem_bench_psm"
+      [ -x "$b" ] && for prec in fp32 fp64; do for fr in exact table linear; do
+        timeout 60 "$b" suspension --n 256 --steps 100 --precision $prec --fraction $fr \
+          --out "$OUT/psm_susp_${prec}_${fr}.json" >> "$OUT/psm_susp.log" 2>&1; echo "susp $prec $fr exit $?"; done; done
+      cat "$OUT/psm_susp.log" | grep -v "^\[" ;;
     *) echo "unknown step $s"; exit 2 ;;
   esac
 done

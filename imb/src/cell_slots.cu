@@ -281,7 +281,8 @@ struct ZeroInts {
 
 struct MaxRadius {
   const double* r;
-  LBDEM_HD double operator()(Index i) const { return r[i]; }
+  int stride;
+  LBDEM_HD double operator()(Index i) const { return r[i * stride]; }
 };
 struct MaxOp {
   LBDEM_HD double operator()(double a, double b) const { return a > b ? a : b; }
@@ -374,7 +375,7 @@ void CellSlots::map(const Exec& ex, const SphereView& particles, const MapOption
     throw ConfigError("CellSlots::map: " + std::to_string(particles.n) + " particles exceed the int32 slot index");
   double rmax = opt.max_radius;
   if (!(rmax > 0.0) && particles.n > 0) {
-    rmax = transform_reduce(ex, particles.n, 0.0, MaxOp{}, MaxRadius{particles.r}, *scratch_);
+    rmax = transform_reduce(ex, particles.n, 0.0, MaxOp{}, MaxRadius{particles.r, particles.stride}, *scratch_);
   }
   const int B = static_cast<int>(std::floor(2.0 * std::max(rmax, 0.0))) + 2;
   const Index ns[3] = {grid_.nx, grid_.ny, grid_.nz};
@@ -385,7 +386,7 @@ void CellSlots::map(const Exec& ex, const SphereView& particles, const MapOption
                         std::string(1, "xyz"[a]) + " (a particle would meet its own image)");
   // Cleared on the Exec's stream (a kernel, not cudaMemset on the legacy stream), in order with the fill.
   for_each(ex, grid_.cells(), ZeroInts{count_.data()});
-  for_each(ex, flags_.size(), ZeroInts{flags_.data()});
+  if (!opt.keep_overflow) for_each(ex, flags_.size(), ZeroInts{flags_.data()});
   particles_mapped_ = particles.n;
   if (particles.n == 0) return;
   Index queue_cap = 0;
@@ -400,6 +401,8 @@ void CellSlots::map(const Exec& ex, const SphereView& particles, const MapOption
                            log_particle_.data(), log_cap_, global_table, queue_.data(), queue_cap);
   if (opt.sort_slots && K_ > 1) for_each(ex, grid_.cells(), SortSlots{view()});
 }
+
+void CellSlots::clear_overflow(const Exec& ex) { for_each(ex, flags_.size(), ZeroInts{flags_.data()}); }
 
 OverflowReport CellSlots::overflow() const {
   OverflowReport r;

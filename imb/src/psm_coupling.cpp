@@ -30,12 +30,17 @@ PsmCoupling::PsmCoupling(lbm::LbmSolver& solver, int K, std::array<bool, 3> peri
 PsmCoupling::~PsmCoupling() = default;
 
 void PsmCoupling::map(const PsmParticles& p, const PsmOptions& opt, bool check_overflow) {
+  if (p.n == 0) return;
   SphereView sv{p.x, p.y, p.z, p.r, p.n, p.stride};
   slots_->map(ex_, sv, opt.map);
   if (check_overflow) slots_->throw_if_overflow();
 }
 
 void PsmCoupling::step(const PsmParticles& p, const PsmOptions& opt, const ForceOut& out) {
+  if (p.n == 0) {  // no particles: the plain LBM kernel, no solid field read
+    solver_.step(1);
+    return;
+  }
   const lbm::LbmRaw raw = solver_.raw();
   const SlotForceView sf{slot_forces_.data(), raw.grid.n, slots_->K()};
   psm_fluid_step(ex_, solver_.setup(), raw, slots_->view(), p, sf, opt, periodic_);

@@ -13,7 +13,8 @@ void psm_step_d2q9(const Exec& ex, const lbm::LbmSetup& s, const lbm::LbmRaw& ra
 void psm_gather(const Exec& ex, const lbm::LbmRaw& raw, const CellSlotsView& slots, const SlotForceView& sf,
                 const PsmParticles& p, const std::array<bool, 3>& periodic, int dim, const ForceOut& out) {
   GatherForces k{slots, sf, p, raw.grid, {periodic[0], periodic[1], periodic[2]}, dim,
-                 out.force, out.torque, out.fstride, out.tstride};
+                 out.force, out.torque, out.fstride, out.tstride,
+                 {out.per_volume[0], out.per_volume[1], out.per_volume[2]}};
   for_each(ex, p.n, k);
 }
 

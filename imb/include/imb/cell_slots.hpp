@@ -79,6 +79,9 @@ struct MapOptions {
   // than this is reported by overflow(), not silently clipped.
   double max_radius = 0.0;
   const FractionTable* table = nullptr;  // required for FractionMethod::Table (dim must match)
+  // Keep the overflow counters of earlier maps (a time loop maps every step and
+  // reads overflow() only every few steps, so no event is lost between reads).
+  bool keep_overflow = false;
   bool linear_normalised = true;        // Linear: use R_eff (volume-conserving) instead of R
   bool sort_slots = true;               // deterministic slot order (by particle index)
   // Table on the device: in __constant__ memory (the first paper's choice) or in
@@ -115,6 +118,8 @@ class CellSlots {
   OverflowReport overflow() const;
   // Throws ResourceError with the report's message if overflow() finds a problem.
   void throw_if_overflow() const;
+  // Resets the overflow counters (maps with MapOptions::keep_overflow accumulate them).
+  void clear_overflow(const Exec& ex);
 
   CellSlotsView view() const { return {count_.data(), particle_.data(), eps_.data(), grid_.cells(), K_}; }
   const GridShape& grid() const { return grid_; }

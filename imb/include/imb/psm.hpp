@@ -194,6 +194,7 @@ struct GatherForces {
   double* force;
   double* torque;
   int fstride = 6, tstride = 6;
+  double per_volume[3] = {0, 0, 0};  // buoyancy: added times the particle volume
   LBDEM_HD void operator()(Index i) const {
     double acc[6] = {0, 0, 0, 0, 0, 0};
     const Index o = i * p.stride;
@@ -223,8 +224,10 @@ struct GatherForces {
             if (slots.particle_at(cell, k) == static_cast<int>(i))
               for (int a = 0; a < 6; ++a) acc[a] += sf.at(a, k, cell);
         }
+    const double rp = p.r[o];
+    const double vol = dim == 3 ? 4.18879020478639098 * rp * rp * rp : 3.14159265358979324 * rp * rp;
     for (int a = 0; a < 3; ++a) {
-      force[i * fstride + a] = acc[a];
+      force[i * fstride + a] = acc[a] + vol * per_volume[a];
       torque[i * tstride + a] = acc[3 + a];
     }
   }

@@ -18,7 +18,10 @@ struct ForceOut {
   double* force = nullptr;
   double* torque = nullptr;
   int fstride = 6, tstride = 6;
-  static ForceOut six(double* f6) { return {f6, f6 + 3, 6, 6}; }
+  // Added to every particle's force times its volume (4/3 pi r^3; 2D: pi r^2):
+  // buoyancy -rho_f g when gravity acts on the particles but not on the fluid.
+  std::array<double, 3> per_volume{0, 0, 0};
+  static ForceOut six(double* f6) { return {f6, f6 + 3, 6, 6, {0, 0, 0}}; }
 };
 
 struct PsmOptions {

@@ -1,0 +1,86 @@
+#pragma once
+// The resolved coupled time step (PSM fluid <-> DEM particles), written out in
+// one place (CoupledSolver::step in imb/src/coupled.cpp):
+//
+//   1. fluid: one LBM step with the solid term of every mapped particle
+//      (imb/psm.hpp); the hydrodynamic force and torque of each particle, plus
+//      its buoyancy, are gathered straight into the DEM's coupling input
+//      (ext_force / ext_torque), in the particles' current storage order;
+//   2. particles: N DEM sub-steps (contacts, walls, gravity) with that force
+//      held constant;
+//   3. remap: particles -> cells at their new positions for the next step.
+//
+// Units: everything in lattice units (dx = dt_fluid = 1, fluid density 1); the
+// DEM runs with dt = 1/N. Scenes convert SI input once (core/units.hpp).
+// Gravity acts on the particles (DEM gravity); the fluid feels no gravity,
+// so each particle receives the buoyancy -rho_f V_p g explicitly. In a fully
+// periodic domain the net weight of the particles must be balanced by a body
+// force on the fluid (first paper, Sec. 3): balancing_body_force().
+//
+// Nothing is allocated and nothing is copied to the host per step, except the
+// overflow check of the cell slots every `overflow_check_every` steps (a few
+// bytes; overflows accumulate in between, none is lost) and whatever the DEM
+// itself reads (its rebuild flag, dem/system.hpp).
+#include <array>
+#include <memory>
+#include <vector>
+
+#include "dem/particles.hpp"
+#include "dem/system.hpp"
+#include "imb/psm_coupling.hpp"
+#include "lbm/solver.hpp"
+
+namespace lbdem::imb {
+
+struct CoupledParams {
+  int dem_substeps = 1;                       // DEM steps per fluid step (DEM dt = 1/N)
+  std::array<double, 3> gravity{0, 0, 0};     // lattice units; must equal the DEM's gravity
+  double fluid_density = 1.0;                 // lattice units
+  bool buoyancy = true;                       // add -rho_f V_p g to each particle
+  int slots = 4;                              // K: overlap slots per cell
+  std::array<bool, 3> periodic{false, false, false};
+  PsmOptions psm;
+  long overflow_check_every = 100;            // steps between slot-overflow reads
+};
+
+// Body force per unit fluid volume that balances the particles' net weight
+// sum (m_p - rho_f V_p) g in a fully periodic domain of total volume V, so the
+// mean momentum of the system stays zero. fluid_volume = V - sum V_p.
+std::array<double, 3> balancing_body_force(const dem::HostParticles& p, int dim, const std::array<double, 3>& g,
+                                           double fluid_density, double total_volume);
+
+class CoupledSolver {
+ public:
+  CoupledSolver(lbm::LbmSolver& fluid, dem::DemSystem& dem, const CoupledParams& params);
+  ~CoupledSolver();
+
+  void step();            // one coupled step (see the header comment)
+  void advance(long n);   // n coupled steps
+  long steps() const { return steps_; }
+
+  // Hydrodynamic force and torque of the last fluid step (buoyancy included),
+  // per particle in the DEM's current storage order (host copies; not for the time loop).
+  std::vector<double> hydro_force_host() const;   // 3 per particle
+  std::vector<double> hydro_torque_host() const;  // 3 per particle
+  // Throws ResourceError naming the cell and the particles' global ids if any
+  // map since the last check overflowed its K slots. Synchronous.
+  void check_overflow();
+
+  lbm::LbmSolver& fluid() { return fluid_; }
+  dem::DemSystem& dem() { return dem_; }
+  PsmCoupling& coupling() { return *psm_; }
+  const CoupledParams& params() const { return p_; }
+
+ private:
+  PsmParticles particle_view();
+  void map();
+
+  lbm::LbmSolver& fluid_;
+  dem::DemSystem& dem_;
+  CoupledParams p_;
+  std::unique_ptr<PsmCoupling> psm_;
+  int dim_;
+  long steps_ = 0;
+};
+
+}  // namespace lbdem::imb

@@ -1,0 +1,139 @@
+#include "imb/coupled.hpp"
+
+#include <cmath>
+#include <sstream>
+#include <string>
+
+#include "core/buffer.hpp"
+#include "core/error.hpp"
+
+namespace lbdem::imb {
+
+namespace {
+double particle_volume(double r, int dim) {
+  return dim == 3 ? 4.0 / 3.0 * M_PI * r * r * r : M_PI * r * r;
+}
+}  // namespace
+
+std::array<double, 3> balancing_body_force(const dem::HostParticles& p, int dim, const std::array<double, 3>& g,
+                                           double fluid_density, double total_volume) {
+  double net_mass = 0, solid_volume = 0;
+  for (Index i = 0; i < p.size(); ++i) {
+    const auto k = static_cast<std::size_t>(i);
+    const double v = particle_volume(p.r[k], dim);
+    // In 2D the DEM mass is that of a sphere; the disk's areal mass is rho_s pi r^2.
+    const double rho_s = p.mass[k] / (4.0 / 3.0 * M_PI * p.r[k] * p.r[k] * p.r[k]);
+    const double m = dim == 3 ? p.mass[k] : rho_s * v;
+    net_mass += m - fluid_density * v;
+    solid_volume += v;
+  }
+  const double vf = total_volume - solid_volume;
+  if (!(vf > 0))
+    throw ConfigError("particles fill " + std::to_string(solid_volume) + " of the domain volume " +
+                      std::to_string(total_volume) + " (lattice units): no fluid left to balance their weight");
+  return {-net_mass * g[0] / vf, -net_mass * g[1] / vf, -net_mass * g[2] / vf};
+}
+
+CoupledSolver::CoupledSolver(lbm::LbmSolver& fluid, dem::DemSystem& dem, const CoupledParams& params)
+    : fluid_(fluid), dem_(dem), p_(params) {
+  if (p_.dem_substeps < 1)
+    throw ConfigError("coupling.dem_substeps = " + std::to_string(p_.dem_substeps) + ": must be >= 1");
+  if (dem_.backend() != fluid_.backend())
+    throw ConfigError(std::string("coupling: the DEM runs on ") + to_string(dem_.backend()) + " but the fluid on " +
+                      to_string(fluid_.backend()) + "; both must use the same backend");
+  if (!dem_.view().ext_force)
+    throw ConfigError("coupling: the DEM system was created without external forcing (DemParams.external_forcing)");
+  dim_ = fluid_.setup().lattice == lbm::LatticeKind::D2Q9 ? 2 : 3;
+  psm_ = std::make_unique<PsmCoupling>(fluid_, p_.slots, p_.periodic);
+  p_.psm.map.keep_overflow = true;
+  map();
+  check_overflow();
+}
+
+CoupledSolver::~CoupledSolver() = default;
+
+PsmParticles CoupledSolver::particle_view() {
+  // The DEM's records are Real4 (x, y, z, w): read them in place with stride 4.
+  const dem::ParticleView v = dem_.view();
+  PsmParticles p;
+  p.x = &v.pos_r->x;
+  p.y = &v.pos_r->y;
+  p.z = dim_ == 3 ? &v.pos_r->z : nullptr;
+  p.r = &v.pos_r->w;
+  p.vx = &v.vel_im->x;
+  p.vy = &v.vel_im->y;
+  p.vz = &v.vel_im->z;
+  p.wx = &v.omega_ii->x;
+  p.wy = &v.omega_ii->y;
+  p.wz = &v.omega_ii->z;
+  p.n = v.n;
+  p.stride = 4;
+  if (v.n == 0) p = PsmParticles{};
+  return p;
+}
+
+void CoupledSolver::map() { psm_->map(particle_view(), p_.psm, false); }
+
+// The coupled time step.
+void CoupledSolver::step() {
+  // 1. Fluid step with the solid term; hydrodynamic force + buoyancy -> DEM coupling input.
+  const dem::ParticleView v = dem_.view();
+  ForceOut out;
+  out.force = &v.ext_force->x;
+  out.torque = &v.ext_torque->x;
+  out.fstride = out.tstride = 4;
+  if (p_.buoyancy)
+    for (int a = 0; a < 3; ++a) out.per_volume[static_cast<std::size_t>(a)] = -p_.fluid_density * p_.gravity[static_cast<std::size_t>(a)];
+  psm_->step(particle_view(), p_.psm, out);  // no particles: the plain LBM kernel
+  // 2. N DEM sub-steps with the hydrodynamic force held (contacts, walls, gravity).
+  dem_.advance(p_.dem_substeps);
+  // 3. Remap the particles (possibly reordered by a neighbour-list rebuild) to cells.
+  map();
+  ++steps_;
+  if (p_.overflow_check_every > 0 && steps_ % p_.overflow_check_every == 0) check_overflow();
+}
+
+void CoupledSolver::advance(long n) {
+  for (long i = 0; i < n; ++i) step();
+}
+
+void CoupledSolver::check_overflow() {
+  CellSlots& slots = const_cast<CellSlots&>(psm_->slots());
+  const OverflowReport r = slots.overflow();
+  if (!r.overflow && !r.radius_too_large) return;
+  // Name particles by global id (storage indices change at DEM rebuilds).
+  const dem::HostParticles hp = dem_.download();
+  std::ostringstream m;
+  m << "PSM cell slots overflowed at coupled step " << steps_ << ": ";
+  if (r.overflow) {
+    m << "cell (" << r.ijk[0] << ", " << r.ijk[1] << ", " << r.ijk[2] << ") is overlapped by " << r.count
+      << " particles but coupling.slots K = " << p_.slots << "; particle ids:";
+    for (int pi : r.particles)
+      if (pi >= 0 && pi < static_cast<int>(hp.id.size())) m << ' ' << hp.id[static_cast<std::size_t>(pi)];
+    m << ". Raise coupling.slots (K) or check the particles for overlaps.";
+  } else {
+    m << r.message;
+  }
+  slots.clear_overflow(Exec(fluid_.backend()));
+  throw ResourceError(m.str());
+}
+
+std::vector<double> CoupledSolver::hydro_force_host() const {
+  const dem::ParticleView v = const_cast<dem::DemSystem&>(dem_).view();
+  std::vector<dem::Real4> tmp(static_cast<std::size_t>(v.n));
+  backend_copy_to_host(fluid_.backend(), tmp.data(), v.ext_force, sizeof(dem::Real4) * tmp.size());
+  std::vector<double> f;
+  for (const auto& r : tmp) f.insert(f.end(), {r.x, r.y, r.z});
+  return f;
+}
+
+std::vector<double> CoupledSolver::hydro_torque_host() const {
+  const dem::ParticleView v = const_cast<dem::DemSystem&>(dem_).view();
+  std::vector<dem::Real4> tmp(static_cast<std::size_t>(v.n));
+  backend_copy_to_host(fluid_.backend(), tmp.data(), v.ext_torque, sizeof(dem::Real4) * tmp.size());
+  std::vector<double> t;
+  for (const auto& r : tmp) t.insert(t.end(), {r.x, r.y, r.z});
+  return t;
+}
+
+}  // namespace lbdem::imb
