@@ -71,8 +71,10 @@ class CoupledSolver {
   PsmCoupling& coupling() { return *psm_; }
   const CoupledParams& params() const { return p_; }
 
- private:
+  // The DEM's particles as the PSM sees them (lattice units, current storage order).
   PsmParticles particle_view();
+
+ private:
   void map();
 
   lbm::LbmSolver& fluid_;
