@@ -233,4 +233,80 @@ struct GatherForces {
   }
 };
 
+// Parallel deterministic gather, stage 1: one thread per (particle, row of its
+// bounding box) sums that row's slot forces in x order into
+// partial[(a * rows + row) * n + i]. Stage 2 (FinishGather) adds the rows of
+// each particle in row order. Same sums as GatherForces, grouped by row: far
+// more threads (a d/l = 10 sphere has 144 rows), bitwise reproducible.
+struct GatherRows {
+  CellSlotsView slots;
+  SlotForceView sf;
+  PsmParticles p;
+  lbm::GridView g;
+  bool periodic[3];
+  int dim;
+  int extent;   // rows per axis of the largest box (floor(2 (r_max + 1)) + 2)
+  double* partial;
+  LBDEM_HD void operator()(Index t) const {
+    const Index n = p.n;
+    const Index rows = dim == 3 ? static_cast<Index>(extent) * extent : extent;
+    const Index i = t % n, row = t / n;
+    const Index o = i * p.stride;
+    const double c[3] = {p.x[o], p.y[o], dim == 3 ? p.z[o] : 0.5};
+    const double r = p.r[o] + 1.0;
+    const int nn[3] = {g.nx, g.ny, g.nz};
+    int lo[3], hi[3];
+    for (int a = 0; a < 3; ++a) {
+      if (a == 2 && dim == 2) { lo[a] = hi[a] = 0; continue; }
+      lo[a] = static_cast<int>(floor(c[a] - r));
+      hi[a] = static_cast<int>(floor(c[a] + r));
+      if (!periodic[a]) {
+        lo[a] = lo[a] < 0 ? 0 : lo[a];
+        hi[a] = hi[a] > nn[a] - 1 ? nn[a] - 1 : hi[a];
+      } else if (hi[a] - lo[a] + 1 > nn[a]) {
+        lo[a] = 0;
+        hi[a] = nn[a] - 1;
+      }
+    }
+    const int ky = lo[1] + static_cast<int>(row % extent);
+    const int kz = lo[2] + (dim == 3 ? static_cast<int>(row / extent) : 0);
+    double acc[6] = {0, 0, 0, 0, 0, 0};
+    if (ky <= hi[1] && kz <= hi[2]) {
+      const int iy = ((ky % nn[1]) + nn[1]) % nn[1], iz = ((kz % nn[2]) + nn[2]) % nn[2];
+      for (int kx = lo[0]; kx <= hi[0]; ++kx) {
+        const int ix = ((kx % nn[0]) + nn[0]) % nn[0];
+        const Index cell = g.index(ix, iy, iz);
+        const int m = slots.used(cell);
+        for (int k = 0; k < m; ++k)
+          if (slots.particle_at(cell, k) == static_cast<int>(i))
+            for (int a = 0; a < 6; ++a) acc[a] += sf.at(a, k, cell);
+      }
+    }
+    for (int a = 0; a < 6; ++a) partial[(static_cast<Index>(a) * rows + row) * n + i] = acc[a];
+  }
+};
+
+struct FinishGather {
+  PsmParticles p;
+  int dim;
+  Index rows;
+  const double* partial;
+  double* force;
+  double* torque;
+  int fstride, tstride;
+  double per_volume[3];
+  LBDEM_HD void operator()(Index i) const {
+    const Index n = p.n;
+    double acc[6] = {0, 0, 0, 0, 0, 0};
+    for (Index row = 0; row < rows; ++row)
+      for (int a = 0; a < 6; ++a) acc[a] += partial[(static_cast<Index>(a) * rows + row) * n + i];
+    const double rp = p.r[i * p.stride];
+    const double vol = dim == 3 ? 4.18879020478639098 * rp * rp * rp : 3.14159265358979324 * rp * rp;
+    for (int a = 0; a < 3; ++a) {
+      force[i * fstride + a] = acc[a] + vol * per_volume[a];
+      torque[i * tstride + a] = acc[3 + a];
+    }
+  }
+};
+
 }  // namespace lbdem::imb

@@ -53,6 +53,7 @@ class PsmCoupling {
   std::array<bool, 3> periodic_;
   std::unique_ptr<CellSlots> slots_;
   Buffer<double> slot_forces_;
+  Buffer<double> gather_scratch_;  // per (particle, box row) partial sums
   Exec ex_;
 };
 
@@ -61,6 +62,7 @@ void psm_fluid_step(const Exec& ex, const lbm::LbmSetup& s, const lbm::LbmRaw& r
                     const PsmParticles& p, const SlotForceView& sf, const PsmOptions& opt,
                     const std::array<bool, 3>& periodic);
 void psm_gather(const Exec& ex, const lbm::LbmRaw& raw, const CellSlotsView& slots, const SlotForceView& sf,
-                const PsmParticles& p, const std::array<bool, 3>& periodic, int dim, const ForceOut& out);
+                const PsmParticles& p, const std::array<bool, 3>& periodic, int dim, const ForceOut& out,
+                double max_radius, Buffer<double>& scratch);
 
 }  // namespace lbdem::imb
