@@ -386,7 +386,10 @@ void CellSlots::map(const Exec& ex, const SphereView& particles, const MapOption
                         std::string(1, "xyz"[a]) + " (a particle would meet its own image)");
   // Cleared on the Exec's stream (a kernel, not cudaMemset on the legacy stream), in order with the fill.
   for_each(ex, grid_.cells(), ZeroInts{count_.data()});
+  // [0..2] are overflow counters (kept across maps on request); [3] is this
+  // map's deferred-queue length and always starts from zero.
   if (!opt.keep_overflow) for_each(ex, flags_.size(), ZeroInts{flags_.data()});
+  else for_each(ex, 1, ZeroInts{flags_.data() + 3});
   particles_mapped_ = particles.n;
   if (particles.n == 0) return;
   Index queue_cap = 0;

@@ -20,7 +20,6 @@ void psm_launch(const Exec& ex, const lbm::LbmSetup& s, const lbm::LbmRaw& raw, 
   k.omega_m = static_cast<T>(raw.omega_m);
   for (int a = 0; a < 3; ++a) k.F[a] = static_cast<T>(raw.body_force[static_cast<std::size_t>(a)]);
   k.tau = s.tau;
-  if (const char* e = std::getenv("LBDEM_PSM_BTAU")) k.tau = 0.5 + std::atof(e);  // EXPERIMENT
   k.weight = opt.weight;
   for (int a = 0; a < 3; ++a) k.periodic[a] = periodic[static_cast<std::size_t>(a)];
   k.slots = slots;

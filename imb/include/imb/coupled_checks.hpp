@@ -13,17 +13,19 @@
 //     = those of the lattice (else particle images wrap differently in the
 //     fluid and in the DEM);
 //  2. particle density: rho_s / rho_f >= CoupledLimits::min_density_ratio
-//     (the explicit coupling diverges for light particles);
-//     DEM sub-steps: the shortest contact (dem/contact.hpp t_c) must span at
+//     (the explicit coupling diverges for light particles: the step's force
+//     on a particle is about rho_f sum(B) (u - v), so v is over-corrected with
+//     a gain rho_f sum(B) / m that exceeds 2 when rho_s / rho_f < sum(B) / 2V);
+//  3. DEM sub-steps: the shortest contact (dem/contact.hpp t_c) must span at
 //     least DemParams::min_steps_per_collision DEM steps; the message names
 //     coupling.dem_substeps and the smallest count that works;
-//  3. a velocity scale u_ref of the case (CoupledScales below: fastest
+//  4. a velocity scale u_ref of the case (CoupledScales below: fastest
 //     initial particle surface speed, largest settling speed under gravity
 //     relative to the fluid, fastest boundary velocity) against
 //       - the Mach number u_ref sqrt(3) <= CoupledLimits::max_mach, and
 //       - the cell Reynolds number u_ref dx / nu <= CoupledLimits::max_cell_reynolds
 //         (what makes tau -> 1/2 fail: at tau = 0.501 a sphere at u = 0.04 blows up);
-//  4. a fully periodic domain with gravity or a fluid body force: the net
+//  5. a fully periodic domain with gravity or a fluid body force: the net
 //     force on fluid + particles must vanish (first paper, Sec. 2: the body
 //     force balances the particles' weight), else the mean velocity grows
 //     without bound; the message gives balancing_body_force().
@@ -43,8 +45,9 @@ namespace lbdem::imb {
 //   cell Reynolds u/nu: stable at 90 (tau 0.501, u 0.03; tau 0.505, u 0.15),
 //                       blows up at 105 and 120 (tau 0.501, u 0.035 and 0.04);
 //   Mach u sqrt(3):     stable at 0.35 (tau 0.51, u 0.2), blows up at 0.43 (u 0.25)
-//                       within 200 steps. The fluid next to the particle moves up to
-//                       1.7 u, so the fluid's own Mach number is larger.
+//                       within 200 steps. The fluid next to the particle moves up
+//                       to 1.7 u, so the fluid's own Mach number is larger.
+// (Lookup-table fractions, NEBB, Noble-Torczynski B, fluid density 1, fp64.)
 // The defaults keep a margin of 1.5 below the cell-Reynolds failures and of
 // 1.2-1.4 below the Mach failure.
 struct CoupledLimits {
@@ -55,6 +58,7 @@ struct CoupledLimits {
   double max_force_imbalance = 1e-3;
   // Smallest particle/fluid density ratio: a sphere at 0.01 (30^3, 3000 steps)
   // blows up at 0.3 for tau 0.6, 0.8, 1.5 and at 0.4 for tau 1.5; 0.5 runs.
+  // 0.5 is the bound of item 2 with sum(B) = V (B <= eps).
   double min_density_ratio = 0.5;
 };
 

@@ -79,7 +79,11 @@ struct PsmStepKernel {
 
   LBDEM_HD void operator()(Index cell) const {
     if constexpr (Bnd) {
-      if (flags[cell] != 0) return;
+      if (flags[cell] != 0) {  // boundary cell: no fluid, no solid term; its slots carry no force
+        for (int k = 0; k < slots.used(cell); ++k)
+          for (int a = 0; a < 6; ++a) out.at(a, k, cell) = 0.0;
+        return;
+      }
     }
     const lbm::Neighbours nb = lbm::neighbours<L>(g, cell);
     R f[L::Q];
