@@ -11,4 +11,4 @@ args=()
 cmake -S "$here" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release "${args[@]}"
 cmake --build "$build" -j"$(nproc)"
 cd "$build"
-ctest --output-on-failure -j"$(nproc)" --timeout 900
+OMP_WAIT_POLICY=passive ctest --output-on-failure -j"$(nproc)" --timeout 900
