@@ -42,6 +42,12 @@ std::vector<std::string> split(const std::string& s) {
   return out;
 }
 
+// The value after option argv[i] (advances i).
+std::string option_value(int argc, char** argv, int& i) {
+  if (i + 1 >= argc) throw ConfigError(std::string(argv[i]) + ": missing value");
+  return argv[++i];
+}
+
 // First paper Table 1, Re_p = 0.2 column (relative error in %).
 double paper_error(double d) {
   const double dl[8] = {4, 6, 8, 10, 16, 20, 30, 50};
@@ -59,10 +65,7 @@ int sweep(int argc, char** argv) {
   bool verbose = false;
   for (int i = 2; i < argc; ++i) {
     const std::string k = argv[i];
-    auto next = [&]() -> std::string {
-      if (i + 1 >= argc) throw ConfigError(k + ": missing value");
-      return argv[++i];
-    };
+    auto next = [&] { return option_value(argc, argv, i); };
     if (k == "--out") out = next();
     else if (k == "--d") ds = next();
     else if (k == "--tau") taus = next();
@@ -87,7 +90,7 @@ int sweep(int argc, char** argv) {
   std::ostringstream js;
   js << "{\n  \"backend\": \"" << (b == Backend::Cuda ? "cuda" : "host") << "\",\n  \"chi\": " << chi
      << ",\n  \"re_target\": " << re << ",\n  \"rows\": [\n";
-  std::printf("| d/l | method | prec | coll | variant | weight | tau | K | error %% | paper %% | Re_p | steps | time s | MLUPS | balance |\n");
+  std::printf("| d/l | method | prec | coll | variant | weight | tau | K | error %% | paper %% | Re_p | steps | time s | MLUPS | all-cell flux / U - 1 |\n");
   std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   bool first = true;
   for (const auto& dstr : split(ds))
@@ -168,10 +171,7 @@ int suspension(int argc, char** argv) {
   int substeps = 10;
   for (int i = 2; i < argc; ++i) {
     const std::string k = argv[i];
-    auto next = [&]() -> std::string {
-      if (i + 1 >= argc) throw ConfigError(k + ": missing value");
-      return argv[++i];
-    };
+    auto next = [&] { return option_value(argc, argv, i); };
     if (k == "--out") out = next();
     else if (k == "--n") n = std::stol(next());
     else if (k == "--steps") steps = std::stol(next());

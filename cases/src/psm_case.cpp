@@ -28,6 +28,7 @@
 #include "dem/init.hpp"
 #include "dem/system.hpp"
 #include "imb/coupled.hpp"
+#include "imb/coupled_checks.hpp"
 #include "imb/fraction_table.hpp"
 
 namespace lbdem {
@@ -269,15 +270,13 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
   if (opt.steps) c.steps = *opt.steps;
   if (opt.output) c.outdir = *opt.output;
   if (c.particles.size() == 0) throw ConfigError("particles: no particles given");
-  try {
-    dem::check_time_step(p, c.particles, "dem.substeps");
-  } catch (const ConfigError& e) {
-    throw ConfigError(std::string(e.what()) + " (DEM dt = 1/dem.substeps in fluid steps: raise dem.substeps)");
-  }
   if (c.balance) {
     const double V = double(ext[0]) * ext[1] * ext[2];
     s.body_force = imb::balancing_body_force(c.particles, dim, c.coupling.gravity, 1.0, V);
   }
+  // Refuse up front what would blow up (Mach, cell Reynolds number, light
+  // particles, DEM sub-steps, unbalanced weight), naming the key to change.
+  imb::check_coupled_setup(s, p, c.particles, c.coupling);
   return c;
 }
 

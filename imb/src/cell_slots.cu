@@ -377,6 +377,7 @@ void CellSlots::map(const Exec& ex, const SphereView& particles, const MapOption
   if (!(rmax > 0.0) && particles.n > 0) {
     rmax = transform_reduce(ex, particles.n, 0.0, MaxOp{}, MaxRadius{particles.r, particles.stride}, *scratch_);
   }
+  max_radius_ = std::max(rmax, 0.0);
   const int B = static_cast<int>(std::floor(2.0 * std::max(rmax, 0.0))) + 2;
   const Index ns[3] = {grid_.nx, grid_.ny, grid_.nz};
   for (int a = 0; a < dim; ++a)

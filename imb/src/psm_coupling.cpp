@@ -46,7 +46,7 @@ void PsmCoupling::step(const PsmParticles& p, const PsmOptions& opt, const Force
   psm_fluid_step(ex_, solver_.setup(), raw, slots_->view(), p, sf, opt, periodic_);
   solver_.commit_external_step();
   const int dim = solver_.setup().lattice == lbm::LatticeKind::D2Q9 ? 2 : 3;
-  psm_gather(ex_, raw, slots_->view(), sf, p, periodic_, dim, out, opt.map.max_radius, gather_scratch_);
+  psm_gather(ex_, raw, slots_->view(), sf, p, periodic_, dim, out, slots_->max_radius(), gather_scratch_);
 }
 
 }  // namespace lbdem::imb

@@ -583,7 +583,7 @@ TEST(PsmHardBug, ExactFractionsRemapKeepSolidVolume) {
 }
 
 // ---------------------------------------------------------------------------
-// BUG (imb/psm.hpp): the force gather (GatherForces, GatherRows) sums the
+// BUG (imb/psm.hpp, fixed): the force gather (GatherRows) summed the
 // slot forces of every cell in a particle's bounding box whose slot names it,
 // boundary cells included, but PsmStepKernel returns early on boundary cells
 // (flags != 0) without writing their slot forces. A particle that reaches

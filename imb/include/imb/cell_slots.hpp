@@ -124,6 +124,8 @@ class CellSlots {
   CellSlotsView view() const { return {count_.data(), particle_.data(), eps_.data(), grid_.cells(), K_}; }
   const GridShape& grid() const { return grid_; }
   int K() const { return K_; }
+  // Largest particle radius of the last map (given or reduced): sizes the force gather.
+  double max_radius() const { return max_radius_; }
   Backend backend() const { return backend_; }
 
   // Host copies (tests, output).
@@ -145,6 +147,7 @@ class CellSlots {
   Buffer<Index> log_cell_;
   Buffer<int> log_particle_;
   Index particles_mapped_ = 0;
+  double max_radius_ = 0;
   Buffer<float> global_table_;       // device copy of the table when !table_in_constant
   Buffer<Index> queue_;              // deferred interface cells of the exact method
   std::uint64_t global_table_id_ = 0;

@@ -183,65 +183,12 @@ struct PsmStepKernel {
   }
 };
 
-// Per particle: sums the slot forces of every cell in its bounding box whose
-// slot names it. Deterministic (fixed order, no atomics). Writes (not adds).
-struct GatherForces {
-  CellSlotsView slots;
-  SlotForceView sf;
-  PsmParticles p;
-  lbm::GridView g;
-  bool periodic[3];
-  int dim;
-  // Outputs: force of particle i at force[i * fstride + 0..2], torque at
-  // torque[i * tstride + 0..2] (6-per-particle arrays: torque = force + 3,
-  // strides 6; DEM's Real4 ext_force / ext_torque: strides 4).
-  double* force;
-  double* torque;
-  int fstride = 6, tstride = 6;
-  double per_volume[3] = {0, 0, 0};  // buoyancy: added times the particle volume
-  LBDEM_HD void operator()(Index i) const {
-    double acc[6] = {0, 0, 0, 0, 0, 0};
-    const Index o = i * p.stride;
-    const double c[3] = {p.x[o], p.y[o], dim == 3 ? p.z[o] : 0.5};
-    const double r = p.r[o] + 1.0;
-    const int n[3] = {g.nx, g.ny, g.nz};
-    int lo[3], hi[3];
-    for (int a = 0; a < 3; ++a) {
-      if (a == 2 && dim == 2) { lo[a] = hi[a] = 0; continue; }
-      lo[a] = static_cast<int>(std::floor(c[a] - r));
-      hi[a] = static_cast<int>(std::floor(c[a] + r));
-      if (!periodic[a]) {
-        lo[a] = lo[a] < 0 ? 0 : lo[a];
-        hi[a] = hi[a] > n[a] - 1 ? n[a] - 1 : hi[a];
-      } else if (hi[a] - lo[a] + 1 > n[a]) {
-        lo[a] = 0;
-        hi[a] = n[a] - 1;
-      }
-    }
-    for (int kz = lo[2]; kz <= hi[2]; ++kz)
-      for (int ky = lo[1]; ky <= hi[1]; ++ky)
-        for (int kx = lo[0]; kx <= hi[0]; ++kx) {
-          const int ix = ((kx % n[0]) + n[0]) % n[0], iy = ((ky % n[1]) + n[1]) % n[1], iz = ((kz % n[2]) + n[2]) % n[2];
-          const Index cell = g.index(ix, iy, iz);
-          const int m = slots.used(cell);
-          for (int k = 0; k < m; ++k)
-            if (slots.particle_at(cell, k) == static_cast<int>(i))
-              for (int a = 0; a < 6; ++a) acc[a] += sf.at(a, k, cell);
-        }
-    const double rp = p.r[o];
-    const double vol = dim == 3 ? 4.18879020478639098 * rp * rp * rp : 3.14159265358979324 * rp * rp;
-    for (int a = 0; a < 3; ++a) {
-      force[i * fstride + a] = acc[a] + vol * per_volume[a];
-      torque[i * tstride + a] = acc[3 + a];
-    }
-  }
-};
-
-// Parallel deterministic gather, stage 1: one thread per (particle, row of its
-// bounding box) sums that row's slot forces in x order into
-// partial[(a * rows + row) * n + i]. Stage 2 (FinishGather) adds the rows of
-// each particle in row order. Same sums as GatherForces, grouped by row: far
-// more threads (a d/l = 10 sphere has 144 rows), bitwise reproducible.
+// Force gather, deterministic (fixed order, no atomics). Stage 1: one thread
+// per (particle, row of its bounding box) sums that row's slot forces naming
+// the particle, in x order, into partial[(a * rows + row) * n + i]. Stage 2
+// (FinishGather) adds each particle's rows in row order and writes (not adds)
+// force and torque. Rows rather than whole boxes: a d/l = 10 sphere gives 144
+// threads instead of one, which is what keeps the gather off the critical path.
 struct GatherRows {
   CellSlotsView slots;
   SlotForceView sf;
@@ -298,7 +245,7 @@ struct FinishGather {
   double* force;
   double* torque;
   int fstride, tstride;
-  double per_volume[3];
+  double per_volume[3];  // buoyancy: added times the particle volume
   LBDEM_HD void operator()(Index i) const {
     const Index n = p.n;
     double acc[6] = {0, 0, 0, 0, 0, 0};

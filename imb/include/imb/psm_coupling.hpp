@@ -63,6 +63,6 @@ void psm_fluid_step(const Exec& ex, const lbm::LbmSetup& s, const lbm::LbmRaw& r
                     const std::array<bool, 3>& periodic);
 void psm_gather(const Exec& ex, const lbm::LbmRaw& raw, const CellSlotsView& slots, const SlotForceView& sf,
                 const PsmParticles& p, const std::array<bool, 3>& periodic, int dim, const ForceOut& out,
-                double max_radius, Buffer<double>& scratch);
+                double max_radius, Buffer<double>& scratch);  // max_radius: of the mapped particles
 
 }  // namespace lbdem::imb
