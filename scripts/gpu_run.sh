@@ -2,6 +2,7 @@
 # One call on the GPU machine: build with CUDA for sm_90, run the whole test
 # suite (host and CUDA backends), run the benchmarks; logs and JSON go to $OUT.
 #   scripts/gpu_run.sh [build] [test] [bench-lbm] [bench-dem] [bench-imb] [bench-psm] [bench-susp]
+#                      [build-psm] [test-imb] [profile-susp]   (quicker partial calls)
 #   (default: all)
 set -uo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
@@ -21,7 +22,25 @@ for s in "${steps[@]}"; do
         -DCMAKE_CUDA_ARCHITECTURES=90 > "$OUT/build.log" 2>&1 &&
       cmake --build "$build" -j"$(nproc)" -- -k 0 >> "$OUT/build.log" 2>&1
       echo "build exit $?"; tail -3 "$OUT/build.log" ;;
-    test)
+    build-psm)
+      # Only what the PSM benches and the imb/dem tests need (a quicker call).
+      cmake -S "$here" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DLBDEM_ENABLE_CUDA=ON \
+        -DCMAKE_CUDA_ARCHITECTURES=90 > "$OUT/build.log" 2>&1 &&
+      cmake --build "$build" -j"$(nproc)" --target lbdem_bench_psm imb_tests dem_tests -- -k 0 >> "$OUT/build.log" 2>&1
+      echo "build-psm exit $?"; grep -E "error|FAILED" "$OUT/build.log" | head -20 ;;
+    test-imb)
+      (cd "$build" && OMP_NUM_THREADS=2 OMP_WAIT_POLICY=passive timeout 400 ctest --output-on-failure -j8 --timeout 300 \
+        -L "imb|dem" > "$OUT/ctest_imb.log" 2>&1)
+      echo "ctest-imb exit $?"; tail -15 "$OUT/ctest_imb.log" ;;
+    profile-susp)
+      # Per-kernel GPU time of a few coupled steps (Nsight Compute, clocks left alone).
+      b="$build/bench/imb/lbdem_bench_psm"
+      for prec in fp32 fp64; do
+        timeout 240 ncu --clock-control none --metrics gpu__time_duration.sum,dram__bytes.sum \
+          --print-summary per-kernel "$b" suspension --n 256 --steps 3 --precision $prec --fraction table \
+          > "$OUT/ncu_susp_$prec.log" 2>&1
+        echo "ncu $prec exit $?"
+      done ;;
       # Tiny test grids: 8 test processes x 2 OpenMP threads fill 16 cores;
       # 16 threads each would oversubscribe and spin (seen: 240 s for a 1 s test).
       (cd "$build" && OMP_NUM_THREADS=2 OMP_WAIT_POLICY=passive timeout 420 ctest --output-on-failure -j8 --timeout 300 > "$OUT/ctest.log" 2>&1)
@@ -51,7 +70,7 @@ for s in "${steps[@]}"; do
       tail -5 "$OUT/psm_sweep_small.log" "$OUT/psm_sweep_large.log" ;;
     bench-susp)
       b="$build/bench/imb/lbdem_bench_psm"
-      [ -x "$b" ] && for prec in fp32 fp64; do for fr in exact table linear; do
+      [ -x "$b" ] && for prec in fp32 fp64; do for fr in table exact linear; do
         timeout 60 "$b" suspension --n 256 --steps 100 --precision $prec --fraction $fr \
           --out "$OUT/psm_susp_${prec}_${fr}.json" >> "$OUT/psm_susp.log" 2>&1; echo "susp $prec $fr exit $?"; done; done
       cat "$OUT/psm_susp.log" | grep -v "^\[" ;;

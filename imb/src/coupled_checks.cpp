@@ -236,7 +236,8 @@ CoupledScales check_coupled_setup(const lbm::LbmSetup& fluid, const dem::DemPara
       for (int a = 0; a < 3; ++a) weight[a] += (m - cp.fluid_density * v) * g[a] + fb[a];
       scale += std::abs(m - cp.fluid_density * v) * norm3(g) + norm3(fb);
     }
-    const double vf = total - vs;
+    (void)vs;
+    const double vf = psm_fluid_weight(p, dim, total, fluid.tau, cp.psm.weight);  // what the kernel weights by (1 - B)
     double net[3], fix[3];
     for (int a = 0; a < 3; ++a) {
       net[a] = weight[a] + fluid.body_force[static_cast<std::size_t>(a)] * vf;

@@ -24,7 +24,7 @@ PsmCoupling::PsmCoupling(lbm::LbmSolver& solver, int K, std::array<bool, 3> peri
   shape.nz = g.nz;
   shape.periodic = periodic;
   slots_ = std::make_unique<CellSlots>(solver.backend(), shape, K);
-  slot_forces_ = Buffer<double>(solver.backend(), 6 * static_cast<Index>(K) * g.n);
+  slot_forces_ = Buffer<double>(solver.backend(), SlotForceView::kComponents * static_cast<Index>(K) * g.n);
 }
 
 PsmCoupling::~PsmCoupling() = default;
@@ -45,6 +45,7 @@ void PsmCoupling::step(const PsmParticles& p, const PsmOptions& opt, const Force
   const SlotForceView sf{slot_forces_.data(), raw.grid.n, slots_->K()};
   psm_fluid_step(ex_, solver_.setup(), raw, slots_->view(), p, sf, opt, periodic_);
   solver_.commit_external_step();
+  if (!out.force) return;  // forces not wanted this step (e.g. a fixed particle between checks)
   const int dim = solver_.setup().lattice == lbm::LatticeKind::D2Q9 ? 2 : 3;
   psm_gather(ex_, raw, slots_->view(), sf, p, periodic_, dim, out, slots_->max_radius(), gather_scratch_);
 }

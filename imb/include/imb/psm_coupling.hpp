@@ -42,7 +42,8 @@ class PsmCoupling {
   void map(const PsmParticles& p, const PsmOptions& opt, bool check_overflow);
   // One fluid step with the solid term on the current mapping; force6 (6 per
   // particle, on the same backend) receives force and torque (lattice units,
-  // per step).
+  // per step). A null force pointer skips the gather (fixed particles whose
+  // force is read only every few steps).
   void step(const PsmParticles& p, const PsmOptions& opt, double* force6) { step(p, opt, ForceOut::six(force6)); }
   void step(const PsmParticles& p, const PsmOptions& opt, const ForceOut& out);
 
