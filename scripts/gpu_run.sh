@@ -41,6 +41,7 @@ for s in "${steps[@]}"; do
           > "$OUT/ncu_susp_$prec.log" 2>&1
         echo "ncu $prec exit $?"
       done ;;
+    test)
       # Tiny test grids: 8 test processes x 2 OpenMP threads fill 16 cores;
       # 16 threads each would oversubscribe and spin (seen: 240 s for a 1 s test).
       (cd "$build" && OMP_NUM_THREADS=2 OMP_WAIT_POLICY=passive timeout 420 ctest --output-on-failure -j8 --timeout 300 > "$OUT/ctest.log" 2>&1)
