@@ -11,6 +11,11 @@
 #include "core/algorithms.hpp"
 #include "core/error.hpp"
 
+#if defined(__CUDACC__)
+#include <cub/device/device_select.cuh>
+#include <thrust/iterator/counting_iterator.h>
+#endif
+
 namespace lbdem::imb {
 
 namespace {
@@ -102,6 +107,11 @@ struct MapKernel {
   // a few lanes per warp; when the queue is full a thread does its cell itself.
   Index* queue = nullptr;
   Index queue_cap = 0;
+  // Per box thread t: the cell of its (particle, cell) pair if the pair took a
+  // slot, else -1. (The cell, not the slot: SortSlots reorders slots.) Every
+  // map writes every entry; the force gather reads a particle's entries
+  // contiguously (imb/psm.hpp).
+  Index* pair = nullptr;
 
   // Maps the box coordinate l of axis (lo cell index i0, n cells, periodic?) to
   // a grid index, or -1 when off a non-periodic grid.
@@ -145,12 +155,14 @@ struct MapKernel {
     return true;
   }
 
-  LBDEM_HD void insert(Index pi, Index cell, double eps) const {
+  LBDEM_HD void insert(Index t, Index pi, Index cell, double eps) const {
     const int slot = atomic_inc(&s.count[cell]);
     if (slot < s.K) {
       s.particle_at(cell, slot) = static_cast<int>(pi);
       s.eps_at(cell, slot) = eps;
+      pair[t] = cell;
     } else {
+      pair[t] = -1;
       const int e = atomic_inc(&flags[0]);
       if (e < log_cap) {
         log_cell[e] = cell;
@@ -160,6 +172,7 @@ struct MapKernel {
   }
 
   LBDEM_HD void operator()(Index t) const {
+    pair[t] = -1;  // until a slot is taken
     Target c{};
     if (!decode(t, c, true)) return;
     if (M == FractionMethod::Exact && queue_cap > 0) {
@@ -169,7 +182,7 @@ struct MapKernel {
       const double f2 = Dim == 3 ? cell_far2(c.rx, c.ry, c.rz)
                                  : (fabs(c.rx) + 0.5) * (fabs(c.rx) + 0.5) + (fabs(c.ry) + 0.5) * (fabs(c.ry) + 0.5);
       if (f2 <= R2) {
-        insert(c.pi, c.cell, 1.0);
+        insert(t, c.pi, c.cell, 1.0);
         return;
       }
       const int q = atomic_inc(&flags[3]);
@@ -180,7 +193,7 @@ struct MapKernel {
     }
     const double eps = frac(c.rx, c.ry, c.rz, c.R);
     if (!(eps > 0.0)) return;
-    insert(c.pi, c.cell, eps);
+    insert(t, c.pi, c.cell, eps);
   }
 };
 
@@ -196,15 +209,17 @@ struct DeferredExact {
       typename MapKernel<Dim, M>::Target c{};
       if (!k.decode(k.queue[q], c, false)) continue;
       const double eps = k.frac(c.rx, c.ry, c.rz, c.R);
-      if (eps > 0.0) k.insert(c.pi, c.cell, eps);
+      if (eps > 0.0) k.insert(k.queue[q], c.pi, c.cell, eps);
     }
   }
 };
 
-// Sorts each cell's used slots by particle index (insertion sort, K small).
+// Sorts each listed cell's used slots by particle index (insertion sort, K small).
 struct SortSlots {
   CellSlotsView s;
-  LBDEM_HD void operator()(Index cell) const {
+  const int* list;
+  LBDEM_HD void operator()(Index i) const {
+    const Index cell = list[i];
     const int m = s.used(cell);
     for (int a = 1; a < m; ++a) {
       const int pa = s.particle_at(cell, a);
@@ -274,6 +289,18 @@ void check_table(const FractionTable* table, int dim, const char* where) {
                       "D but the grid is " + std::to_string(dim) + "D");
 }
 
+// Clears the counts of the cells of the previous map (the only non-zero ones).
+struct ZeroListed {
+  int* count;
+  const int* list;
+  LBDEM_HD void operator()(Index i) const { count[list[i]] = 0; }
+};
+
+struct NonZero {
+  const int* count;
+  LBDEM_HD bool operator()(int c) const { return count[c] != 0; }
+};
+
 struct ZeroInts {
   int* p;
   LBDEM_HD void operator()(Index i) const { p[i] = 0; }
@@ -292,8 +319,9 @@ template <int Dim, FractionMethod M>
 struct LaunchMap {
   static void run(const Exec& ex, const SphereView& p, const CellSlotsView& s, const GridShape& g, const MapOptions& o,
                   int B, int* flags, Index* log_cell, int* log_particle, int log_cap, const float* global_table,
-                  Index* queue, Index queue_cap) {
+                  Index* queue, Index queue_cap, Index* pair) {
     MapKernel<Dim, M> k{};
+    k.pair = pair;
     k.p = p;
     k.s = s;
     k.frac = make_fraction<Dim, M>(o.table, o.linear_normalised, global_table);
@@ -344,6 +372,11 @@ CellSlots::CellSlots(Backend b, GridShape grid, int K, int overflow_log)
   particle_ = Buffer<int>(b, n * K_);
   eps_ = Buffer<double>(b, n * K_);
   flags_ = Buffer<int>(b, 4);
+  if (n > static_cast<Index>(INT32_MAX))
+    throw ConfigError("CellSlots: " + std::to_string(n) + " cells exceed the int32 cell list (2^31 cells per rank)");
+  list_ = Buffer<int>(b, n);
+  nlist_ = Buffer<Index>(b, 1);
+  nlist_.fill_zero();
   log_cell_ = Buffer<Index>(b, log_cap_);
   log_particle_ = Buffer<int>(b, log_cap_);
   count_.fill_zero();
@@ -385,14 +418,24 @@ void CellSlots::map(const Exec& ex, const SphereView& particles, const MapOption
       throw ConfigError("CellSlots::map: particle radius " + std::to_string(rmax) + " spans " + std::to_string(B) +
                         " cells, more than the " + std::to_string(ns[a]) + " cells of periodic axis " +
                         std::string(1, "xyz"[a]) + " (a particle would meet its own image)");
-  // Cleared on the Exec's stream (a kernel, not cudaMemset on the legacy stream), in order with the fill.
-  for_each(ex, grid_.cells(), ZeroInts{count_.data()});
+  // Cleared on the Exec's stream (a kernel, not cudaMemset on the legacy
+  // stream), in order with the fill: only the cells of the previous map's list
+  // (about a fifth of the grid in a dense suspension), the whole grid the first time.
+  if (list_valid_) for_each_dynamic(ex, nlist_.data(), grid_.cells(), ZeroListed{count_.data(), list_.data()});
+  else for_each(ex, grid_.cells(), ZeroInts{count_.data()});
+  list_valid_ = false;
   // [0..2] are overflow counters (kept across maps on request); [3] is this
   // map's deferred-queue length and always starts from zero.
   if (!opt.keep_overflow) for_each(ex, flags_.size(), ZeroInts{flags_.data()});
   else for_each(ex, 1, ZeroInts{flags_.data() + 3});
   particles_mapped_ = particles.n;
-  if (particles.n == 0) return;
+  pair_box_ = dim == 3 ? static_cast<Index>(B) * B * B : static_cast<Index>(B) * B;
+  pair_B_ = B;
+  if (particles.n == 0) {
+    build_list(ex);
+    return;
+  }
+  pair_.reserve_discard(backend_, particles.n * pair_box_);  // grows only: no allocation in a steady time loop
   Index queue_cap = 0;
   if (opt.method == FractionMethod::Exact && opt.defer_exact) {
     // Interface cells per particle ≤ cells within √dim of the sphere surface.
@@ -402,8 +445,42 @@ void CellSlots::map(const Exec& ex, const SphereView& particles, const MapOption
     queue_.reserve_discard(backend_, queue_cap);  // grows only: no allocation in a steady time loop
   }
   Dispatch<LaunchMap>::run(dim, opt.method, ex, particles, view(), grid_, opt, B, flags_.data(), log_cell_.data(),
-                           log_particle_.data(), log_cap_, global_table, queue_.data(), queue_cap);
-  if (opt.sort_slots && K_ > 1) for_each(ex, grid_.cells(), SortSlots{view()});
+                           log_particle_.data(), log_cap_, global_table, queue_.data(), queue_cap, pair_.data());
+  build_list(ex);
+  if (opt.sort_slots && K_ > 1) for_each_dynamic(ex, nlist_.data(), grid_.cells(), SortSlots{view(), list_.data()});
+}
+
+// The cells with count > 0, in index order (cub's stable select on the
+// device; a loop on the host). Their number stays on the backend.
+void CellSlots::build_list(const Exec& ex) {
+  const Index n = grid_.cells();
+  if (ex.on_device()) {
+#if defined(__CUDACC__)
+    const NonZero op{count_.data()};
+    std::size_t bytes = 0;
+    LBDEM_CUDA_CHECK(cub::DeviceSelect::If(nullptr, bytes, thrust::counting_iterator<int>(0), list_.data(),
+                                           nlist_.data(), n, op, ex.stream()));
+    select_tmp_.reserve_discard(backend_, static_cast<Index>(bytes));  // once: the size depends only on n
+    LBDEM_CUDA_CHECK(cub::DeviceSelect::If(select_tmp_.data(), bytes, thrust::counting_iterator<int>(0), list_.data(),
+                                           nlist_.data(), n, op, ex.stream()));
+#else
+    throw_not_compiled_for_cuda("CellSlots::build_list");
+#endif
+  } else {
+    const int* c = count_.data();
+    int* out = list_.data();
+    Index m = 0;
+    for (Index i = 0; i < n; ++i)
+      if (c[i] != 0) out[m++] = static_cast<int>(i);
+    nlist_.data()[0] = m;
+  }
+  list_valid_ = true;
+}
+
+Index CellSlots::solid_cells() const {
+  Index m = 0;
+  nlist_.copy_to_host(&m, 1);
+  return m;
 }
 
 void CellSlots::clear_overflow(const Exec& ex) { for_each(ex, flags_.size(), ZeroInts{flags_.data()}); }

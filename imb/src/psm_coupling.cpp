@@ -2,16 +2,16 @@
 
 namespace lbdem::imb {
 
-void psm_step_d2q9(const Exec&, const lbm::LbmSetup&, const lbm::LbmRaw&, const CellSlotsView&, const PsmParticles&,
-                   const SlotForceView&, const PsmOptions&, const std::array<bool, 3>&);
-void psm_step_d3q19(const Exec&, const lbm::LbmSetup&, const lbm::LbmRaw&, const CellSlotsView&, const PsmParticles&,
-                    const SlotForceView&, const PsmOptions&, const std::array<bool, 3>&);
+void psm_step_d2q9(const Exec&, const lbm::LbmSetup&, const lbm::LbmRaw&, const CellSlotsView&, const SolidCellList&,
+                   const PsmParticles&, const SlotForceView&, const PsmOptions&, const std::array<bool, 3>&);
+void psm_step_d3q19(const Exec&, const lbm::LbmSetup&, const lbm::LbmRaw&, const CellSlotsView&, const SolidCellList&,
+                    const PsmParticles&, const SlotForceView&, const PsmOptions&, const std::array<bool, 3>&);
 
 void psm_fluid_step(const Exec& ex, const lbm::LbmSetup& s, const lbm::LbmRaw& raw, const CellSlotsView& slots,
-                    const PsmParticles& p, const SlotForceView& sf, const PsmOptions& opt,
+                    const SolidCellList& list, const PsmParticles& p, const SlotForceView& sf, const PsmOptions& opt,
                     const std::array<bool, 3>& periodic) {
-  if (s.lattice == lbm::LatticeKind::D2Q9) psm_step_d2q9(ex, s, raw, slots, p, sf, opt, periodic);
-  else psm_step_d3q19(ex, s, raw, slots, p, sf, opt, periodic);
+  if (s.lattice == lbm::LatticeKind::D2Q9) psm_step_d2q9(ex, s, raw, slots, list, p, sf, opt, periodic);
+  else psm_step_d3q19(ex, s, raw, slots, list, p, sf, opt, periodic);
 }
 
 PsmCoupling::PsmCoupling(lbm::LbmSolver& solver, int K, std::array<bool, 3> periodic)
@@ -43,11 +43,11 @@ void PsmCoupling::step(const PsmParticles& p, const PsmOptions& opt, const Force
   }
   const lbm::LbmRaw raw = solver_.raw();
   const SlotForceView sf{slot_forces_.data(), raw.grid.n, slots_->K()};
-  psm_fluid_step(ex_, solver_.setup(), raw, slots_->view(), p, sf, opt, periodic_);
+  psm_fluid_step(ex_, solver_.setup(), raw, slots_->view(), slots_->solid_list(), p, sf, opt, periodic_);
   solver_.commit_external_step();
   if (!out.force) return;  // forces not wanted this step (e.g. a fixed particle between checks)
   const int dim = solver_.setup().lattice == lbm::LatticeKind::D2Q9 ? 2 : 3;
-  psm_gather(ex_, raw, slots_->view(), sf, p, periodic_, dim, out, slots_->max_radius(), gather_scratch_);
+  psm_gather(ex_, slots_->view(), sf, slots_->pairs(), p, dim, out);
 }
 
 }  // namespace lbdem::imb

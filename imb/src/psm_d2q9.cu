@@ -6,23 +6,17 @@
 namespace lbdem::imb {
 
 void psm_step_d2q9(const Exec& ex, const lbm::LbmSetup& s, const lbm::LbmRaw& raw, const CellSlotsView& slots,
-                   const PsmParticles& p, const SlotForceView& sf, const PsmOptions& opt,
+                   const SolidCellList& list, const PsmParticles& p, const SlotForceView& sf, const PsmOptions& opt,
                    const std::array<bool, 3>& periodic) {
-  if (s.precision == lbm::Precision::FP32) psm_step_typed<lbm::D2Q9, float>(ex, s, raw, slots, p, sf, opt, periodic);
-  else psm_step_typed<lbm::D2Q9, double>(ex, s, raw, slots, p, sf, opt, periodic);
+  if (s.precision == lbm::Precision::FP32) psm_step_typed<lbm::D2Q9, float>(ex, s, raw, slots, list, p, sf, opt, periodic);
+  else psm_step_typed<lbm::D2Q9, double>(ex, s, raw, slots, list, p, sf, opt, periodic);
 }
 
-void psm_gather(const Exec& ex, const lbm::LbmRaw& raw, const CellSlotsView& slots, const SlotForceView& sf,
-                const PsmParticles& p, const std::array<bool, 3>& periodic, int dim, const ForceOut& out,
-                double max_radius, Buffer<double>& scratch) {
-  const int extent = static_cast<int>(std::floor(2.0 * (max_radius + 1.0))) + 2;  // >= cells per box axis
-  const Index rows = dim == 3 ? static_cast<Index>(extent) * extent : extent;
-  scratch.reserve_discard(ex.backend(), 6 * rows * p.n);  // grows once, never per step
-  GatherRows k1{slots, sf, p, raw.grid, {periodic[0], periodic[1], periodic[2]}, dim, extent, scratch.data()};
-  for_each(ex, rows * p.n, k1);
-  FinishGather k2{p, dim, rows, scratch.data(), out.force, out.torque, out.fstride, out.tstride,
-                  {out.per_volume[0], out.per_volume[1], out.per_volume[2]}};
-  for_each(ex, p.n, k2);
+void psm_gather(const Exec& ex, const CellSlotsView& slots, const SlotForceView& sf, const PairView& pairs,
+                const PsmParticles& p, int dim, const ForceOut& out) {
+  GatherPairs k{p, slots, sf, pairs, dim, out.force, out.torque, out.fstride, out.tstride,
+                {out.per_volume[0], out.per_volume[1], out.per_volume[2]}};
+  for_each(ex, 32 * p.n, k);  // one warp per particle (block size a multiple of 32)
 }
 
 }  // namespace lbdem::imb

@@ -23,7 +23,7 @@ void fluid_launch(const Exec& ex, const lbm::LbmRaw& raw, const CellSlotsView& s
 
 template <class L, class T, lbm::StreamKind S, int P, bool B, PsmVariant V>
 void psm_launch(const Exec& ex, const lbm::LbmSetup& s, const lbm::LbmRaw& raw, const CellSlotsView& slots,
-                const PsmParticles& p, const SlotForceView& sf, const PsmOptions& opt,
+                const SolidCellList& list, const PsmParticles& p, const SlotForceView& sf, const PsmOptions& opt,
                 const std::array<bool, 3>& periodic) {
   // Fluid cells: the plain kernel (no solid field read beyond the count).
   const bool force = raw.body_force[0] != 0 || raw.body_force[1] != 0 || raw.body_force[2] != 0;
@@ -43,33 +43,34 @@ void psm_launch(const Exec& ex, const lbm::LbmSetup& s, const lbm::LbmRaw& raw, 
   k.weight = opt.weight;
   for (int a = 0; a < 3; ++a) k.periodic[a] = periodic[static_cast<std::size_t>(a)];
   k.slots = slots;
+  k.list = list.cells;
   k.p = p;
   k.out = sf;
-  for_each(ex, raw.grid.n, k);
+  for_each_dynamic(ex, list.n, list.max_n, k);
 }
 
 template <class L, class T, lbm::StreamKind S, int P>
 void psm_launch_b(const Exec& ex, const lbm::LbmSetup& s, const lbm::LbmRaw& raw, const CellSlotsView& slots,
-                  const PsmParticles& p, const SlotForceView& sf, const PsmOptions& opt,
+                  const SolidCellList& list, const PsmParticles& p, const SlotForceView& sf, const PsmOptions& opt,
                   const std::array<bool, 3>& periodic) {
   if (raw.has_boundaries) {
-    if (opt.variant == PsmVariant::NEBB) psm_launch<L, T, S, P, true, PsmVariant::NEBB>(ex, s, raw, slots, p, sf, opt, periodic);
-    else psm_launch<L, T, S, P, true, PsmVariant::Superposition>(ex, s, raw, slots, p, sf, opt, periodic);
+    if (opt.variant == PsmVariant::NEBB) psm_launch<L, T, S, P, true, PsmVariant::NEBB>(ex, s, raw, slots, list, p, sf, opt, periodic);
+    else psm_launch<L, T, S, P, true, PsmVariant::Superposition>(ex, s, raw, slots, list, p, sf, opt, periodic);
   } else {
-    if (opt.variant == PsmVariant::NEBB) psm_launch<L, T, S, P, false, PsmVariant::NEBB>(ex, s, raw, slots, p, sf, opt, periodic);
-    else psm_launch<L, T, S, P, false, PsmVariant::Superposition>(ex, s, raw, slots, p, sf, opt, periodic);
+    if (opt.variant == PsmVariant::NEBB) psm_launch<L, T, S, P, false, PsmVariant::NEBB>(ex, s, raw, slots, list, p, sf, opt, periodic);
+    else psm_launch<L, T, S, P, false, PsmVariant::Superposition>(ex, s, raw, slots, list, p, sf, opt, periodic);
   }
 }
 
 template <class L, class T>
 void psm_step_typed(const Exec& ex, const lbm::LbmSetup& s, const lbm::LbmRaw& raw, const CellSlotsView& slots,
-                    const PsmParticles& p, const SlotForceView& sf, const PsmOptions& opt,
+                    const SolidCellList& list, const PsmParticles& p, const SlotForceView& sf, const PsmOptions& opt,
                     const std::array<bool, 3>& periodic) {
   if (s.streaming == lbm::StreamKind::AA) {
-    if ((raw.step & 1) == 0) psm_launch_b<L, T, lbm::StreamKind::AA, 0>(ex, s, raw, slots, p, sf, opt, periodic);
-    else psm_launch_b<L, T, lbm::StreamKind::AA, 1>(ex, s, raw, slots, p, sf, opt, periodic);
+    if ((raw.step & 1) == 0) psm_launch_b<L, T, lbm::StreamKind::AA, 0>(ex, s, raw, slots, list, p, sf, opt, periodic);
+    else psm_launch_b<L, T, lbm::StreamKind::AA, 1>(ex, s, raw, slots, list, p, sf, opt, periodic);
   } else {
-    psm_launch_b<L, T, lbm::StreamKind::TwoLattice, 0>(ex, s, raw, slots, p, sf, opt, periodic);
+    psm_launch_b<L, T, lbm::StreamKind::TwoLattice, 0>(ex, s, raw, slots, list, p, sf, opt, periodic);
   }
 }
 

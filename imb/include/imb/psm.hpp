@@ -83,7 +83,9 @@ struct PsmFluidKernel {
   }
 };
 
-// The cells with at least one overlapping particle (count > 0).
+// The cells with at least one overlapping particle (count > 0), launched over
+// the map's compact list of them (CellSlots::solid_list) so that whole warps
+// do PSM work instead of a few lanes of warps that are mostly fluid.
 template <class L, class T, lbm::StreamKind S, int Parity, bool Bnd, PsmVariant V>
 struct PsmSolidKernel {
   using R = T;
@@ -96,12 +98,13 @@ struct PsmSolidKernel {
   PsmWeight weight;
   bool periodic[3];
   CellSlotsView slots;
+  const int* list;  // SolidCellList: the kernel runs over these cells only
   PsmParticles p;
   SlotForceView out;
 
-  LBDEM_HD void operator()(Index cell) const {
+  LBDEM_HD void operator()(Index item) const {
+    const Index cell = list[item];
     const int m = slots.used(cell);
-    if (m == 0) return;  // a fluid cell: PsmFluidKernel's
     if constexpr (Bnd) {
       if (flags[cell] != 0) {  // boundary cell: no fluid, no solid term; its slots carry no force
         for (int k = 0; k < m; ++k)
@@ -193,90 +196,79 @@ struct PsmSolidKernel {
   }
 };
 
-// Force gather, deterministic (fixed order, no atomics). Stage 1: one thread
-// per (particle, row of its bounding box) sums that row's slot forces naming
-// the particle, in x order, into partial[(a * rows + row) * n + i]. Stage 2
-// (FinishGather) adds each particle's rows in row order and writes (not adds)
-// force and torque. Rows rather than whole boxes: a d/l = 10 sphere gives 144
-// threads instead of one, which is what keeps the gather off the critical path.
-struct GatherRows {
+// Force gather, deterministic (fixed order, no atomics): one warp (32
+// consecutive work items) per particle walks the particle's map pairs
+// (PairView, contiguous per particle), lane j taking entries j, j + 32, ...;
+// the 32 partial sums are then combined by a fixed tree (shuffles on the
+// device; the same tree in the same order on the host, so both backends add
+// in one order). Torque = sum (x_cell - x_p) x F with the unwrapped box
+// coordinate, the kernel's minimum-image lever arm. Writes (not adds) force
+// (+ buoyancy per_volume times the volume) and torque.
+struct GatherPairs {
+  PsmParticles p;
   CellSlotsView slots;
   SlotForceView sf;
-  PsmParticles p;
-  lbm::GridView g;
-  bool periodic[3];
+  PairView pairs;
   int dim;
-  int extent;   // rows per axis of the largest box (floor(2 (r_max + 1)) + 2)
-  double* partial;
-  LBDEM_HD void operator()(Index t) const {
-    const Index n = p.n;
-    const Index rows = dim == 3 ? static_cast<Index>(extent) * extent : extent;
-    const Index i = t % n, row = t / n;
-    const Index o = i * p.stride;
-    const double c[3] = {p.x[o], p.y[o], dim == 3 ? p.z[o] : 0.5};
-    const double r = p.r[o] + 1.0;
-    const int nn[3] = {g.nx, g.ny, g.nz};
-    int lo[3], hi[3];
-    for (int a = 0; a < 3; ++a) {
-      if (a == 2 && dim == 2) { lo[a] = hi[a] = 0; continue; }
-      lo[a] = static_cast<int>(floor(c[a] - r));
-      hi[a] = static_cast<int>(floor(c[a] + r));
-      if (!periodic[a]) {
-        lo[a] = lo[a] < 0 ? 0 : lo[a];
-        hi[a] = hi[a] > nn[a] - 1 ? nn[a] - 1 : hi[a];
-      } else if (hi[a] - lo[a] + 1 > nn[a]) {
-        lo[a] = 0;
-        hi[a] = nn[a] - 1;
-      }
-    }
-    const int ky = lo[1] + static_cast<int>(row % extent);
-    const int kz = lo[2] + (dim == 3 ? static_cast<int>(row / extent) : 0);
-    double acc[6] = {0, 0, 0, 0, 0, 0};
-    if (ky <= hi[1] && kz <= hi[2]) {
-      const int iy = ((ky % nn[1]) + nn[1]) % nn[1], iz = ((kz % nn[2]) + nn[2]) % nn[2];
-      for (int kx = lo[0]; kx <= hi[0]; ++kx) {
-        const int ix = ((kx % nn[0]) + nn[0]) % nn[0];
-        const Index cell = g.index(ix, iy, iz);
-        const int m = slots.used(cell);
-        // Lever arm from the unwrapped box coordinate: the same vector as the
-        // kernel's minimum image (a box never exceeds the period, CellSlots::map).
-        const double rr[3] = {kx + 0.5 - c[0], ky + 0.5 - c[1], dim == 3 ? kz + 0.5 - c[2] : 0.0};
-        for (int k = 0; k < m; ++k)
-          if (slots.particle_at(cell, k) == static_cast<int>(i)) {
-            const double F[3] = {sf.at(0, k, cell), sf.at(1, k, cell), sf.at(2, k, cell)};
-            acc[0] += F[0];
-            acc[1] += F[1];
-            acc[2] += F[2];
-            acc[3] += rr[1] * F[2] - rr[2] * F[1];
-            acc[4] += rr[2] * F[0] - rr[0] * F[2];
-            acc[5] += rr[0] * F[1] - rr[1] * F[0];
-          }
-      }
-    }
-    for (int a = 0; a < 6; ++a) partial[(static_cast<Index>(a) * rows + row) * n + i] = acc[a];
-  }
-};
-
-struct FinishGather {
-  PsmParticles p;
-  int dim;
-  Index rows;
-  const double* partial;
   double* force;
   double* torque;
   int fstride, tstride;
-  double per_volume[3];  // buoyancy: added times the particle volume
-  LBDEM_HD void operator()(Index i) const {
-    const Index n = p.n;
-    double acc[6] = {0, 0, 0, 0, 0, 0};
-    for (Index row = 0; row < rows; ++row)
-      for (int a = 0; a < 6; ++a) acc[a] += partial[(static_cast<Index>(a) * rows + row) * n + i];
+  double per_volume[3];
+
+  LBDEM_HD void lane_sum(Index i, int lane, double (&acc)[6]) const {
+    for (int a = 0; a < 6; ++a) acc[a] = 0.0;
+    const Index o = i * p.stride;
+    const double c[3] = {p.x[o], p.y[o], dim == 3 ? p.z[o] : 0.5};
+    const double r = p.r[o];
+    const double lo[3] = {floor(c[0] - r), floor(c[1] - r), dim == 3 ? floor(c[2] - r) : 0.0};
+    const Index* slot = pairs.slot + i * pairs.box;
+    const int B = pairs.B;
+    for (Index l = lane; l < pairs.box; l += 32) {
+      const Index cell = slot[l];
+      if (cell < 0) continue;
+      int k = 0;  // the slot naming particle i (one per cell; slots are sorted after the map)
+      const int m = slots.used(cell);
+      while (k < m - 1 && slots.particle_at(cell, k) != static_cast<int>(i)) ++k;
+      const double F[3] = {sf.at(0, k, cell), sf.at(1, k, cell), sf.at(2, k, cell)};
+      const int li = static_cast<int>(l % B), lj = static_cast<int>((l / B) % B);
+      const int lk = dim == 3 ? static_cast<int>(l / (static_cast<Index>(B) * B)) : 0;
+      const double rr[3] = {lo[0] + li + 0.5 - c[0], lo[1] + lj + 0.5 - c[1], dim == 3 ? lo[2] + lk + 0.5 - c[2] : 0.0};
+      acc[0] += F[0];
+      acc[1] += F[1];
+      acc[2] += F[2];
+      acc[3] += rr[1] * F[2] - rr[2] * F[1];
+      acc[4] += rr[2] * F[0] - rr[0] * F[2];
+      acc[5] += rr[0] * F[1] - rr[1] * F[0];
+    }
+  }
+
+  LBDEM_HD void finish(Index i, const double (&acc)[6]) const {
     const double rp = p.r[i * p.stride];
     const double vol = dim == 3 ? 4.18879020478639098 * rp * rp * rp : 3.14159265358979324 * rp * rp;
     for (int a = 0; a < 3; ++a) {
       force[i * fstride + a] = acc[a] + vol * per_volume[a];
       torque[i * tstride + a] = acc[3 + a];
     }
+  }
+
+  LBDEM_HD void operator()(Index t) const {
+    const Index i = t >> 5;
+    const int lane = static_cast<int>(t & 31);
+#if defined(__CUDA_ARCH__)
+    double acc[6];
+    lane_sum(i, lane, acc);
+    for (int off = 16; off > 0; off >>= 1)
+      for (int a = 0; a < 6; ++a) acc[a] += __shfl_down_sync(0xffffffffu, acc[a], off);
+    if (lane == 0) finish(i, acc);
+#else
+    if (lane != 0) return;
+    double part[32][6];
+    for (int j = 0; j < 32; ++j) lane_sum(i, j, part[j]);
+    for (int off = 16; off > 0; off >>= 1)
+      for (int j = 0; j < off; ++j)
+        for (int a = 0; a < 6; ++a) part[j][a] += part[j + off][a];
+    finish(i, part[0]);
+#endif
   }
 };
 

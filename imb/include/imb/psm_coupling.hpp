@@ -54,16 +54,14 @@ class PsmCoupling {
   std::array<bool, 3> periodic_;
   std::unique_ptr<CellSlots> slots_;
   Buffer<double> slot_forces_;
-  Buffer<double> gather_scratch_;  // per (particle, box row) partial sums
   Exec ex_;
 };
 
 // Per-(lattice, precision) kernels (psm_*.cu).
 void psm_fluid_step(const Exec& ex, const lbm::LbmSetup& s, const lbm::LbmRaw& raw, const CellSlotsView& slots,
-                    const PsmParticles& p, const SlotForceView& sf, const PsmOptions& opt,
+                    const SolidCellList& list, const PsmParticles& p, const SlotForceView& sf, const PsmOptions& opt,
                     const std::array<bool, 3>& periodic);
-void psm_gather(const Exec& ex, const lbm::LbmRaw& raw, const CellSlotsView& slots, const SlotForceView& sf,
-                const PsmParticles& p, const std::array<bool, 3>& periodic, int dim, const ForceOut& out,
-                double max_radius, Buffer<double>& scratch);  // max_radius: of the mapped particles
+void psm_gather(const Exec& ex, const CellSlotsView& slots, const SlotForceView& sf, const PairView& pairs,
+                const PsmParticles& p, int dim, const ForceOut& out);
 
 }  // namespace lbdem::imb
