@@ -6,31 +6,11 @@
 
 namespace lbdem::imb {
 
-template <class L, class T, lbm::StreamKind S, int P, bool B, bool Force>
-void fluid_launch(const Exec& ex, const lbm::LbmRaw& raw, const CellSlotsView& slots) {
-  PsmFluidKernel<L, T, S, P, B, Force> k;
-  k.k.src = lbm::PopView<T>{static_cast<T*>(raw.src), raw.stride};
-  k.k.dst = lbm::PopView<T>{static_cast<T*>(raw.dst), raw.stride};
-  k.k.g = raw.grid;
-  k.k.flags = raw.flags;
-  k.k.bt = raw.boundaries;
-  k.k.coll.omega_p = static_cast<T>(raw.omega_p);
-  k.k.coll.omega_m = static_cast<T>(raw.omega_m);
-  for (int a = 0; a < 3; ++a) k.k.coll.F[a] = static_cast<T>(raw.body_force[static_cast<std::size_t>(a)]);
-  k.count = slots.count;
-  for_each(ex, raw.grid.n, k);
-}
-
-template <class L, class T, lbm::StreamKind S, int P, bool B, PsmVariant V>
-void psm_launch(const Exec& ex, const lbm::LbmSetup& s, const lbm::LbmRaw& raw, const CellSlotsView& slots,
-                const SolidCellList& list, const PsmParticles& p, const SlotForceView& sf, const PsmOptions& opt,
-                const std::array<bool, 3>& periodic) {
-  // Fluid cells: the plain kernel (no solid field read beyond the count).
-  const bool force = raw.body_force[0] != 0 || raw.body_force[1] != 0 || raw.body_force[2] != 0;
-  if (force) fluid_launch<L, T, S, P, B, true>(ex, raw, slots);
-  else fluid_launch<L, T, S, P, B, false>(ex, raw, slots);
-  // Overlapped cells: the PSM collision.
-  PsmSolidKernel<L, T, S, P, B, V> k;
+template <class L, class T, lbm::StreamKind S, int P, bool B, bool Force, PsmVariant V>
+void psm_launch_f(const Exec& ex, const lbm::LbmSetup& s, const lbm::LbmRaw& raw, const CellSlotsView& slots,
+                  const PsmParticles& p, const SlotForceView& sf, const PsmOptions& opt,
+                  const std::array<bool, 3>& periodic) {
+  PsmStepKernel<L, T, S, P, B, Force, V> k;
   k.src = lbm::PopView<T>{static_cast<T*>(raw.src), raw.stride};
   k.dst = lbm::PopView<T>{static_cast<T*>(raw.dst), raw.stride};
   k.g = raw.grid;
@@ -43,10 +23,19 @@ void psm_launch(const Exec& ex, const lbm::LbmSetup& s, const lbm::LbmRaw& raw, 
   k.weight = opt.weight;
   for (int a = 0; a < 3; ++a) k.periodic[a] = periodic[static_cast<std::size_t>(a)];
   k.slots = slots;
-  k.list = list.cells;
   k.p = p;
   k.out = sf;
-  for_each_dynamic(ex, list.n, list.max_n, k);
+  for_each(ex, raw.grid.n, k);
+}
+
+template <class L, class T, lbm::StreamKind S, int P, bool B, PsmVariant V>
+void psm_launch(const Exec& ex, const lbm::LbmSetup& s, const lbm::LbmRaw& raw, const CellSlotsView& slots,
+                const SolidCellList& list, const PsmParticles& p, const SlotForceView& sf, const PsmOptions& opt,
+                const std::array<bool, 3>& periodic) {
+  (void)list;
+  const bool force = raw.body_force[0] != 0 || raw.body_force[1] != 0 || raw.body_force[2] != 0;
+  if (force) psm_launch_f<L, T, S, P, B, true, V>(ex, s, raw, slots, p, sf, opt, periodic);
+  else psm_launch_f<L, T, S, P, B, false, V>(ex, s, raw, slots, p, sf, opt, periodic);
 }
 
 template <class L, class T, lbm::StreamKind S, int P>
