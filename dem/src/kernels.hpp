@@ -35,8 +35,30 @@ struct State {
   ContactLaw pp, pw;
   Vec3d gravity, body;
   double dt, half_skin2, skin;
-  int* flags;
+  int* flags;  // [0] neighbour list overflow, [1] largest neighbour count seen (list build)
 };
+
+// What the host needs for its rebuild decisions (system.cu, "Rebuild
+// decisions"), reduced over the particles on the device and copied to the
+// host asynchronously. Values are squares, as float bits rounded up
+// (detail::float_bits_up), so that an integer atomic max reduces them.
+struct StatusRecord {
+  std::uint32_t disp2 = 0;   // max |x - x0|^2 at the report step (x0: position at the last build) [m^2]
+  std::uint32_t speed2 = 0;  // max |v|^2 (the velocity of the report step's drift) [m^2/s^2]
+  std::uint32_t accel2 = 0;  // max |F/m|^2 (the force of its kick, all contributions) [m^2/s^4]
+  // Largest |x - x0|^2 above (skin/2)^2 seen at a step that did not rebuild,
+  // since the previous report; 0: none. Lookahead: the list was stale (an
+  // error); every-step check: the rebuild request of this step.
+  std::uint32_t over2 = 0;
+};
+
+// One particle's contribution to a report.
+LBDEM_HD LBDEM_FORCEINLINE void report_particle(StatusRecord* rec, double d2, const Real4& v, const Real4& f) {
+  const double a2 = (f.x * f.x + f.y * f.y + f.z * f.z) * (v.w * v.w);  // v.w = 1/m
+  detail::atomic_max_u32(&rec->disp2, detail::float_bits_up(d2));
+  detail::atomic_max_u32(&rec->speed2, detail::float_bits_up(v.x * v.x + v.y * v.y + v.z * v.z));
+  detail::atomic_max_u32(&rec->accel2, detail::float_bits_up(a2));
+}
 
 // Uniform cell grid over the box; cells at least the largest cutoff wide.
 struct Grid {
@@ -68,11 +90,19 @@ struct Grid {
 // the opening half kick of the next are fused here (synced = 1 when `vel`
 // holds v_n, at the start of advance()); `extrap` = 0 when a_{n-1} is not
 // known (first step after a fresh force evaluation).
-// Also raises flags[0] when the displacement since the last build exceeds skin/2.
+// Also the rebuild bookkeeping: with `check`, a particle displaced more than
+// skin/2 since the last build is recorded in rec->over2; with `report`, the
+// largest displacement, speed and acceleration go into *rec and the next
+// ring slot is zeroed for the steps after this one (its previous contents
+// were copied to the host by an earlier, stream-ordered copy).
 template <bool Friction>
 struct KickDrift {
   State s;
   int synced, extrap;
+  StatusRecord* rec;   // the report being accumulated
+  StatusRecord* next;  // the report after it (zeroed by particle 0 when `report`)
+  int report;          // 1: record maxima into *rec (a report step)
+  int check;           // 1: record displacements > skin/2 (no rebuild follows this step, or the every-step test)
   LBDEM_HD void operator()(Index i) const {
     Real4 v = s.vel[i];
     const Real4 f = s.frc[i];
@@ -110,7 +140,24 @@ struct KickDrift {
       s.wpr[i] = wp;
     }
     const Vec3d d = s.box.min_image(x - xyz(s.x0[i]));
-    if (dot(d, d) > s.half_skin2) detail::atomic_set(&s.flags[0], 1);
+    const double d2 = dot(d, d);
+    if (check && d2 > s.half_skin2) detail::atomic_max_u32(&rec->over2, detail::float_bits_up(d2));
+    if (report) {
+      if (i == 0) *next = StatusRecord{};
+      report_particle(rec, d2, v, f);
+    }
+  }
+};
+
+// A report of the current state outside the time loop (first advance()):
+// displacement since the build, synchronised velocity, last force.
+struct Report {
+  State s;
+  StatusRecord *rec, *next;
+  LBDEM_HD void operator()(Index i) const {
+    if (i == 0) *next = StatusRecord{};
+    const Vec3d d = s.box.min_image(xyz(s.pos[i]) - xyz(s.x0[i]));
+    report_particle(rec, dot(d, d), s.vel[i], s.frc[i]);
   }
 };
 
@@ -308,8 +355,8 @@ struct BuildList {
     }
     s.ncount[i] = cnt < cap ? cnt : cap;
     if (cnt > cap) {
-      detail::atomic_set(&s.flags[1], 1);
-      detail::atomic_max(&s.flags[2], cnt);
+      detail::atomic_set(&s.flags[0], 1);
+      detail::atomic_max(&s.flags[1], cnt);
     }
     s.x0[i] = pi;
   }

@@ -2,6 +2,8 @@
 // Private state of DemSystem, shared by its kernel translation units.
 #include <cstdint>
 #include <memory>
+#include <string>
+#include <vector>
 
 #include "core/buffer.hpp"
 #include "dem/system.hpp"
@@ -14,6 +16,7 @@ struct Scratch;  // core/algorithms.hpp (kernel TUs only)
 namespace lbdem::dem {
 
 struct DemSystem::Impl {
+  ~Impl();  // frees the page-locked mirror and the events (system.cu)
   Exec ex;
   DemParams p;
   Box box;
@@ -47,9 +50,37 @@ struct DemSystem::Impl {
   // Contact pairs (pair path): count -> exclusive scan -> fill.
   Buffer<int> ccount, coffs;
   Buffer<PairIJ> pairs;
-  // flags[0] rebuild needed, [1] list overflow, [2] largest neighbour count seen.
+  // flags[0] list overflow, [1] largest neighbour count seen (read at each build).
   Buffer<int> flags;
-  int* flags_pinned = nullptr;  // page-locked host copy of flags[0] (CUDA backend)
+
+  // Rebuild decisions (system.cu, "Rebuild decisions"). Report q is reduced
+  // into device slot q % kRing, copied to mirror[q % kRing] on the stream,
+  // and events[q % kRing] is recorded after the copy.
+  static constexpr int kRing = 4;
+  Buffer<StatusRecord> status;         // kRing slots + one sink slot (bench hook), zeroed at start
+  StatusRecord* mirror = nullptr;      // host copies: page-locked (CUDA) or mirror_host's storage
+  std::vector<StatusRecord> mirror_host;
+#if defined(LBDEM_HAVE_CUDA)
+  cudaEvent_t events[kRing] = {};
+#endif
+  struct Pending {
+    long from, t;  // the steps it covers (over2) and the state it reports
+    long due;      // read before deciding the step that produces this state
+    int slot;
+  };
+  Pending pending[kRing] = {};  // oldest first
+  int npending = 0;
+  long reports = 0;             // reports taken so far (the next one uses slot reports % kRing)
+  long t_last_report = 0;       // state (step count) of the last report taken
+  int report_every = 1;         // steps between reports inside a call, and their lag
+  // The last report read: state t_known, largest displacement since the
+  // build [m], speed [m/s] and acceleration [m/s^2] there.
+  bool known = false;
+  long t_known = 0;
+  double d_known = 0, v_known = 0, a_known = 0;
+  long t_build = 0;  // state (step count) of the last list build
+  long status_reads = 0, status_waits = 0;
+  std::string stale_error;  // set once a stale list was reported: advance() refuses until rebuild()
   std::unique_ptr<Scratch> scratch_ptr;  // complete type in the .cu TUs only
   Scratch& scratch() { return *scratch_ptr; }
 
@@ -69,6 +100,10 @@ struct DemSystem::Impl {
     return s;
   }
 };
+
+// Reports that arrived after a full synchronisation: throws DivergenceError
+// if one shows a stale list (system.cu).
+void check_arrived_reports(DemSystem::Impl& m);
 
 // Force evaluation, one instantiation per friction flag (own TU each).
 void run_forces_frictionless(DemSystem::Impl& m);

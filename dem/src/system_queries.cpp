@@ -12,6 +12,8 @@ DemStats DemSystem::stats() const {
   s.steps = m.steps;
   s.rebuilds = m.rebuilds;
   s.neighbour_capacity = m.cap;
+  s.status_reads = m.status_reads;
+  s.status_waits = m.status_waits;
   if (m.n > 0) {
     std::vector<int> c = m.ncount.to_vector();
     double sum = 0;
@@ -38,6 +40,7 @@ ParticleView DemSystem::view() {
 HostParticles DemSystem::download() const {
   const Impl& m = *impl_;
   m.ex.synchronize();
+  check_arrived_reports(*impl_);
   HostParticles h;
   const Index n = m.n;
   std::vector<Real4> pos = m.pos.to_vector(), vel = m.vel.to_vector(), omg = m.omg.to_vector(),

@@ -9,10 +9,27 @@
 // -> forces -> kick v by dt/2. Consecutive half kicks are fused into one
 // kernel; velocities are synchronised at the end of every advance() call.
 //
-// Host round trips in the time loop: one 4-byte read of a device flag per
-// step (the rebuild decision, into page-locked memory; nothing else), plus
-// one 16-byte read on rebuild steps (list overflow). No allocation in the
-// loop once the first steps have sized the scratch space.
+// Rebuild decisions without a blocking read per step (the default,
+// RebuildCheck::Lookahead): the host decides before each step, from a report
+// of the largest displacement since the build, speed and acceleration that
+// the device reduced a few steps earlier (or at the end of the previous
+// advance() call) and copied asynchronously, rebuilding when that
+// displacement plus a safe bound on the motion since the report could exceed
+// skin/2. Every step the device also checks the real displacements; one above
+// skin/2 at a step that did not rebuild (the bound failed) is reported as a
+// DivergenceError when the host reads that report, never passed over. The
+// schedule of reports depends only on the state and the advance() call
+// lengths, so both backends and repeated runs take the same decisions.
+//
+// Host round trips in the time loop: no blocking read per step. Reports are
+// copied into page-locked memory and read one report later: at the start of
+// the next advance() call (the host waits only until the device has finished
+// the previous call's DEM steps, not for work queued after them) and, inside
+// long calls, every k steps with k steps of lag (k = 1..8, shorter for fast
+// particles whose lists need rebuilding within a few dozen steps). A rebuild
+// still reads 8 bytes (list overflow) and waits for the device. The first
+// advance() call reads one report synchronously. No allocation in the loop
+// once the first steps have sized the scratch space.
 #include <array>
 #include <cstdint>
 #include <memory>
@@ -45,6 +62,13 @@ struct Material {
   double tangential_damping_ratio = 0.5;          // eta_t / eta_n
 };
 
+// How the host decides neighbour-list rebuilds (see the header comment).
+enum class RebuildCheck {
+  Lookahead,  // ahead of time from device reports read with a lag: no blocking read per step (default)
+  EveryStep,  // exactly when a displacement exceeds skin/2: one blocking 16-byte read per step (reference)
+};
+const char* to_string(RebuildCheck c);
+
 struct DemParams {
   std::array<double, 3> lo{0, 0, 0}, hi{1, 1, 1};
   std::array<bool, 3> periodic{false, false, false};
@@ -59,6 +83,12 @@ struct DemParams {
   ForcePath path = ForcePath::Particle;
   int neighbour_capacity = 0;     // per particle; 0 -> estimated, grown on overflow
   double min_steps_per_collision = 50;  // refuse dt > t_c / this (Yu et al. use t_c/50)
+  RebuildCheck rebuild_check = RebuildCheck::Lookahead;
+  // Lookahead: factor (>= 1) on the motion predicted from the reported largest
+  // speed and acceleration. 2 covers a particle that a collision sets moving
+  // at up to twice the fastest speed of the report (elastic, light hit by
+  // heavy); raise it if a stale-list error is ever reported.
+  double lookahead_safety = 2.0;
 };
 
 // Smallest collision time among particle-particle and particle-wall contacts
@@ -72,6 +102,8 @@ struct DemStats {
   long rebuilds = 0;
   int neighbour_capacity = 0;
   double mean_neighbours = 0;  // at the last build
+  long status_reads = 0;  // rebuild-decision reports read by the host
+  long status_waits = 0;  // of those, reads that found the device not yet there (CUDA; timing-dependent)
 };
 
 class DemSystem {
@@ -81,11 +113,14 @@ class DemSystem {
   DemSystem(const DemSystem&) = delete;
   DemSystem& operator=(const DemSystem&) = delete;
 
-  // Advances `steps` velocity-Verlet steps.
+  // Advances `steps` velocity-Verlet steps. Throws DivergenceError when the
+  // neighbour list was found stale (see the header comment); after that
+  // every advance() throws until rebuild() is called.
   void advance(long steps);
-  // Recomputes forces at the current state (rebuilding first if needed).
+  // Recomputes forces at the current state (with the current list).
   void compute_forces();
-  // Forces a neighbour-list rebuild (reorders the particle arrays).
+  // Forces a neighbour-list rebuild (reorders the particle arrays); also
+  // clears a stale-list error (contacts of the stale steps may have been missed).
   void rebuild();
 
   double time() const;
@@ -93,17 +128,22 @@ class DemSystem {
   const DemParams& params() const;
   DemStats stats() const;
   Backend backend() const;
+  // Coupling view. Write only the external force/torque through it: the
+  // rebuild decisions assume positions and velocities change only in advance().
   ParticleView view();
-  // Particles in the current storage order, with their last forces.
+  // Particles in the current storage order, with their last forces. Waits for
+  // the device; throws DivergenceError if a report that arrived meanwhile
+  // shows a stale list (once; advance() keeps refusing).
   HostParticles download() const;
   // Pairs (by global id, a < b) in the Verlet list / currently overlapping.
   std::vector<std::pair<std::int64_t, std::int64_t>> neighbour_pairs() const;
   std::vector<std::pair<std::int64_t, std::int64_t>> contact_pairs() const;
   double cell_size(int axis) const;
   // Benchmark hooks: one phase alone (asynchronous on the device).
-  void bench_integrate();  // one fused kick+drift
+  void bench_integrate();  // one fused kick+drift (the next advance() reads a fresh report first)
   void bench_forces();     // one force evaluation (no rebuild check)
   void bench_rebuild();    // one full rebuild
+  // Waits for the device; checks arrived reports for a stale list like download().
   void synchronize() const;
 
   struct Impl;  // opaque; defined in dem/src/system_impl.hpp
