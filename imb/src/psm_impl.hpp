@@ -25,7 +25,10 @@ void psm_launch_f(const Exec& ex, const lbm::LbmSetup& s, const lbm::LbmRaw& raw
   k.slots = slots;
   k.p = p;
   k.out = sf;
-  for_each(ex, raw.grid.n, k);
+  // Three blocks of 256 per multiprocessor in fp32 (<= 85 registers, like the
+  // plain kernel), two in fp64: unbounded, the odd AA step took 109 / 176
+  // registers and ran at half the plain kernel's bandwidth.
+  for_each_bounded<sizeof(T) == 4 ? 3 : 2>(ex, raw.grid.n, k);
 }
 
 template <class L, class T, lbm::StreamKind S, int P, bool B, PsmVariant V>

@@ -333,7 +333,7 @@ TEST(PsmHardRefusal, PaperCaseMisconfigurationsRefused) {
   {
     Scene s = paper_scene();
     s.fluid.body_force = {0, 0, 0};  // weight not balanced: everything accelerates downwards for ever
-    expect_refused(s, {"fluid.body_force = (0, 0, 0)", "does not balance", "use fluid.body_force = (0, 4.76"});
+    expect_refused(s, {"fluid.body_force = (0, 0, 0)", "does not balance", "use fluid.body_force = (0, 4.71"});
   }
   {
     Scene s = paper_scene();

@@ -83,6 +83,34 @@ void for_each(const Exec& ex, Index n, const F& f, int block_size = 256) {
 }
 
 #if defined(__CUDACC__)
+template <int MinBlocks, class F>
+__global__ void __launch_bounds__(256, MinBlocks) for_each_bounded_kernel(Index n, F f) {
+  const Index i = static_cast<Index>(blockIdx.x) * blockDim.x + threadIdx.x;
+  if (i < n) f(i);
+}
+#endif
+
+// for_each with blocks of 256 and the register budget that lets MinBlocks
+// blocks share a multiprocessor (__launch_bounds__): for heavy kernels whose
+// unconstrained register count would leave too few warps to hide memory latency.
+template <int MinBlocks, class F>
+void for_each_bounded(const Exec& ex, Index n, const F& f) {
+  if (n <= 0) return;
+  if (ex.on_device()) {
+#if defined(__CUDACC__)
+    const Index grid = (n + 255) / 256;
+    for_each_bounded_kernel<MinBlocks><<<static_cast<unsigned>(grid), 256, 0, ex.stream()>>>(n, f);
+    LBDEM_CUDA_CHECK(cudaGetLastError());
+    return;
+#else
+    throw_not_compiled_for_cuda("for_each_bounded");
+#endif
+  }
+#pragma omp parallel for schedule(static)
+  for (Index i = 0; i < n; ++i) f(i);
+}
+
+#if defined(__CUDACC__)
 template <class F>
 __global__ void for_each_dynamic_kernel(const Index* n, F f) {
   const Index m = *n;

@@ -95,6 +95,26 @@ struct PsmStepKernel {
   PsmParticles p;
   SlotForceView out;
 
+  // Solid velocity of slot k's particle at the cell centre (translation +
+  // rotation, paper Eq. 2) and its weight B_k = B eps_k / sum eps.
+  LBDEM_HD void slot_velocity(Index cell, int k, R B, R eps_tot, R& Bk, R (&vs)[3]) const {
+    int x, y, zc;
+    g.coords(cell, x, y, zc);
+    const double xc[3] = {x + 0.5, y + 0.5, zc + 0.5};
+    const double len[3] = {double(g.nx), double(g.ny), double(g.nz)};
+    const int pi = slots.particle_at(cell, k);
+    Bk = eps_tot > R(0) ? B * R(slots.eps_at(cell, k)) / eps_tot : R(0);
+    const Index o = static_cast<Index>(pi) * p.stride;
+    const double px[3] = {p.x[o], p.y[o], p.z ? p.z[o] : 0.5};
+    double rr[3];
+    for (int a = 0; a < 3; ++a) rr[a] = min_image(xc[a] - px[a], len[a], periodic[a]);
+    if (L::D == 2) rr[2] = 0;
+    const double w3[3] = {p.wx ? p.wx[o] : 0.0, p.wy ? p.wy[o] : 0.0, p.wz ? p.wz[o] : 0.0};
+    vs[0] = R(p.vx[o] + w3[1] * rr[2] - w3[2] * rr[1]);
+    vs[1] = R(p.vy[o] + w3[2] * rr[0] - w3[0] * rr[2]);
+    vs[2] = R(L::D == 3 ? p.vz[o] + w3[0] * rr[1] - w3[1] * rr[0] : 0.0);
+  }
+
   LBDEM_HD void operator()(Index cell) const {
     const int m = slots.used(cell);
     if constexpr (Bnd) {
@@ -104,6 +124,27 @@ struct PsmStepKernel {
         return;
       }
     }
+    // 1. Solid moments of the overlapping particles (all zero in a fluid
+    // cell), before the populations are loaded: the slot and particle reads
+    // then do not hold registers while the 19 populations are live.
+    R B = 0, eps_tot = 0, M1[3] = {0, 0, 0}, M2[6] = {0, 0, 0, 0, 0, 0};  // M2: xx yy zz xy xz yz
+    if (m > 0) {
+      for (int k = 0; k < m; ++k) eps_tot += R(slots.eps_at(cell, k));
+      const R eps = eps_tot < R(1) ? eps_tot : R(1);
+      B = weight == PsmWeight::Linear ? eps : eps * tm / ((R(1) - eps) + tm);
+      for (int k = 0; k < m; ++k) {
+        R Bk, vs[3];
+        slot_velocity(cell, k, B, eps_tot, Bk, vs);
+        for (int a = 0; a < 3; ++a) M1[a] += Bk * vs[a];
+        M2[0] += Bk * vs[0] * vs[0];
+        M2[1] += Bk * vs[1] * vs[1];
+        M2[2] += Bk * vs[2] * vs[2];
+        M2[3] += Bk * vs[0] * vs[1];
+        M2[4] += Bk * vs[0] * vs[2];
+        M2[5] += Bk * vs[1] * vs[2];
+      }
+    }
+    // 2. Stream-collide.
     const lbm::Neighbours nb = lbm::neighbours<L>(g, cell);
     R f[L::Q];
     lbm::load_incoming<L, T, R, S, Parity>(src, nb, cell, f);
@@ -112,44 +153,6 @@ struct PsmStepKernel {
     const R rho = R(1) + d;
     for (int a = 0; a < 3; ++a) u[a] = (j[a] + (Force ? R(0.5) * F[a] : R(0))) / rho;
     const R usq15 = R(1.5) * (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
-
-    // Solid moments of the overlapping particles (all zero in a fluid cell).
-    R B = 0, M1[3] = {0, 0, 0}, M2[6] = {0, 0, 0, 0, 0, 0};  // M2: xx yy zz xy xz yz
-    if (m > 0) {
-      R eps_tot = 0;
-      for (int k = 0; k < m; ++k) eps_tot += R(slots.eps_at(cell, k));
-      const R eps = eps_tot < R(1) ? eps_tot : R(1);
-      B = weight == PsmWeight::Linear ? eps : eps * tm / ((R(1) - eps) + tm);
-      int x, y, zc;
-      g.coords(cell, x, y, zc);
-      const double xc[3] = {x + 0.5, y + 0.5, zc + 0.5};
-      const double len[3] = {double(g.nx), double(g.ny), double(g.nz)};
-      for (int k = 0; k < m; ++k) {
-        const int pi = slots.particle_at(cell, k);
-        const R Bk = eps_tot > R(0) ? B * R(slots.eps_at(cell, k)) / eps_tot : R(0);
-        const Index o = static_cast<Index>(pi) * p.stride;
-        const double px[3] = {p.x[o], p.y[o], p.z ? p.z[o] : 0.5};
-        double rr[3];
-        for (int a = 0; a < 3; ++a) rr[a] = min_image(xc[a] - px[a], len[a], periodic[a]);
-        if (L::D == 2) rr[2] = 0;
-        const double w3[3] = {p.wx ? p.wx[o] : 0.0, p.wy ? p.wy[o] : 0.0, p.wz ? p.wz[o] : 0.0};
-        // Solid velocity at the cell centre: translation + rotation (paper Eq. 2).
-        const R vs[3] = {R(p.vx[o] + w3[1] * rr[2] - w3[2] * rr[1]), R(p.vy[o] + w3[2] * rr[0] - w3[0] * rr[2]),
-                         R(L::D == 3 ? p.vz[o] + w3[0] * rr[1] - w3[1] * rr[0] : 0.0)};
-        for (int a = 0; a < 3; ++a) M1[a] += Bk * vs[a];
-        M2[0] += Bk * vs[0] * vs[0];
-        M2[1] += Bk * vs[1] * vs[1];
-        M2[2] += Bk * vs[2] * vs[2];
-        M2[3] += Bk * vs[0] * vs[1];
-        M2[4] += Bk * vs[0] * vs[2];
-        M2[5] += Bk * vs[1] * vs[2];
-        // Force on the particle (closed form above; torque: in the gather).
-        for (int a = 0; a < 3; ++a) {
-          const R extra = V == PsmVariant::NEBB ? (Force ? F[a] : R(0)) : (Force ? R(0.5) * omega_m * F[a] : R(0));
-          out.at(a, k, cell) = -double(Bk * (rho * (vs[a] - u[a]) + extra));
-        }
-      }
-    }
     const R fw = R(1) - B;
     const R trM2 = R(1.5) * (M2[0] + M2[1] + M2[2]);
     const R uF = Force ? u[0] * F[0] + u[1] * F[1] + u[2] * F[2] : R(0);
@@ -198,6 +201,16 @@ struct PsmStepKernel {
       f[qb] = f[qb] - fw * (dp - dm) + fw * (Sp - Sm) + solid_qb;
     }
     lbm::store_outgoing<L, T, R, S, Parity, Bnd>(dst, nb, cell, f, flags, bt, u);
+    // 3. Force on each particle (closed form above; torque: in the gather),
+    // after the populations are stored (slot data re-read from cache).
+    for (int k = 0; k < m; ++k) {
+      R Bk, vs[3];
+      slot_velocity(cell, k, B, eps_tot, Bk, vs);
+      for (int a = 0; a < 3; ++a) {
+        const R extra = V == PsmVariant::NEBB ? (Force ? F[a] : R(0)) : (Force ? R(0.5) * omega_m * F[a] : R(0));
+        out.at(a, k, cell) = -double(Bk * (rho * (vs[a] - u[a]) + extra));
+      }
+    }
   }
 };
 
