@@ -41,6 +41,13 @@ for s in "${steps[@]}"; do
           > "$OUT/ncu_susp_$prec.log" 2>&1
         echo "ncu $prec exit $?"
       done ;;
+    profile-psm-kernel)
+      # Occupancy, warp stalls and memory of the PSM stream-collide kernel (fp32, table fractions).
+      b="$build/bench/imb/lbdem_bench_psm"
+      timeout 240 ncu --clock-control none -k regex:PsmStepKernel -c 2 --section Occupancy --section WarpStateStats \
+        --section MemoryWorkloadAnalysis --section LaunchStats --section SpeedOfLight \
+        "$b" suspension --n 256 --steps 3 --precision fp32 --fraction table > "$OUT/ncu_psm_kernel.log" 2>&1
+      echo "ncu-kernel exit $?" ;;
     test)
       # Tiny test grids: 8 test processes x 2 OpenMP threads fill 16 cores;
       # 16 threads each would oversubscribe and spin (seen: 240 s for a 1 s test).
