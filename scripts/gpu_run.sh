@@ -44,7 +44,7 @@ for s in "${steps[@]}"; do
     profile-psm-kernel)
       # Occupancy, warp stalls and memory of the PSM stream-collide kernel (fp32, table fractions).
       b="$build/bench/imb/lbdem_bench_psm"
-      timeout 240 ncu --clock-control none -k regex:PsmStepKernel -c 2 --section Occupancy --section WarpStateStats \
+      timeout 240 ncu --clock-control none -k regex:for_each_bounded_kernel -c 2 --section Occupancy --section WarpStateStats \
         --section MemoryWorkloadAnalysis --section LaunchStats --section SpeedOfLight \
         "$b" suspension --n 256 --steps 3 --precision fp32 --fraction table > "$OUT/ncu_psm_kernel.log" 2>&1
       echo "ncu-kernel exit $?" ;;
