@@ -126,24 +126,28 @@ struct MapKernel {
   };
   // Decodes box thread t into its particle and cell; false if off the particle's box or grid.
   LBDEM_HD bool decode(Index t, Target& o, bool check_radius) const {
-    const Index pi = t / box;
-    Index l = t - pi * box;
+    // 32-bit division where it fits (64-bit integer division is a long
+    // software sequence on the GPU; this decode runs for every box cell).
+    const Index pi = t <= static_cast<Index>(UINT32_MAX)
+                         ? static_cast<Index>(static_cast<std::uint32_t>(t) / static_cast<std::uint32_t>(box))
+                         : t / box;
+    const std::uint32_t l32 = static_cast<std::uint32_t>(t - pi * box), B32 = static_cast<std::uint32_t>(B);
     const Index po = static_cast<Index>(pi) * p.stride;
     const double R = p.r[po];
     const double cx = p.x[po], cy = p.y[po], cz = Dim == 3 ? p.z[po] : 0.5;
     const Index i0 = static_cast<Index>(floor(cx - R)), j0 = static_cast<Index>(floor(cy - R));
     const Index k0 = Dim == 3 ? static_cast<Index>(floor(cz - R)) : 0;
-    if (check_radius && l == 0) {  // one thread per particle checks that its box fits
+    if (check_radius && l32 == 0) {  // one thread per particle checks that its box fits
       const Index need = static_cast<Index>(floor(2.0 * R)) + 2;
       if (need > B) {
         atomic_inc(&flags[1]);
         flags[2] = static_cast<int>(pi);
       }
     }
-    const Index li = l % B;
-    l /= B;
-    const Index lj = l % B;
-    const Index lk = Dim == 3 ? l / B : 0;
+    const std::uint32_t lq = l32 / B32;
+    const Index li = static_cast<Index>(l32 - lq * B32);
+    const Index lj = static_cast<Index>(lq % B32);
+    const Index lk = Dim == 3 ? static_cast<Index>(lq / B32) : 0;
     const Index gi = i0 + li, gj = j0 + lj, gk = k0 + lk;
     // Cells of the box beyond the particle's own bounding box.
     if (gi > static_cast<Index>(floor(cx + R)) || gj > static_cast<Index>(floor(cy + R))) return false;
