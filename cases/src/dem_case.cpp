@@ -6,7 +6,7 @@
 //
 // The time loop: advance the DEM system in chunks up to the next output or
 // time-series sample; nothing is copied to the host between samples (apart
-// from the engine's one rebuild-decision flag per step).
+// from the engine's small asynchronous rebuild reports, dem/src/system.cu).
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
