@@ -76,9 +76,28 @@ LBDEM_HD LBDEM_FORCEINLINE void moments(const R (&f)[L::Q], R& d, R (&j)[3]) {
   LBDEM_UNROLL
   for (int q = 0; q < L::Q; ++q) {
     d += f[q];
+    // c is a compile-time constant once unrolled: add or subtract, and skip
+    // the zero components (IEEE rules forbid the compiler to drop 0 * f).
     LBDEM_UNROLL
-    for (int a = 0; a < 3; ++a) j[a] += R(L::c(q, a)) * f[q];
+    for (int a = 0; a < 3; ++a)
+      if (L::c(q, a) != 0) j[a] += L::c(q, a) > 0 ? f[q] : -f[q];
   }
+}
+
+// c_q . v with the lattice velocity's constant components folded in (no
+// multiplications by 0 or +-1 once the direction loop is unrolled).
+template <class L, class R>
+LBDEM_HD LBDEM_FORCEINLINE R cdot(int q, const R (&v)[3]) {
+  R s = 0;
+  bool any = false;
+  LBDEM_UNROLL
+  for (int a = 0; a < 3; ++a) {
+    if (L::c(q, a) == 0) continue;
+    const R t = L::c(q, a) > 0 ? v[a] : -v[a];
+    s = any ? s + t : t;
+    any = true;
+  }
+  return s;
 }
 
 // Loads the incoming (pre-collision) shifted populations of cell `cell`.
