@@ -139,9 +139,13 @@ struct PsmStepKernel {
         return;
       }
     }
+    // Populations first (independent loads, issued before the slot chain).
+    const lbm::Neighbours nb = lbm::neighbours<L>(g, cell);
+    R f[L::Q];
+    lbm::load_incoming<L, T, R, S, Parity>(src, nb, cell, f);
     // 1. Solid moments of the overlapping particles (all zero in a fluid
-    // cell), before the populations are loaded: the slot and particle reads
-    // then do not hold registers while the 19 populations are live.
+    // cell), computed while the population loads are in flight (their
+    // latency then overlaps the dependent slot -> particle reads).
     R B = 0, eps_tot = 0, M1[3] = {0, 0, 0}, M2[6] = {0, 0, 0, 0, 0, 0};  // M2: xx yy zz xy xz yz
     if (m > 0) {
       for (int k = 0; k < m; ++k) eps_tot += R(slots.eps_at(cell, k));
@@ -160,9 +164,6 @@ struct PsmStepKernel {
       }
     }
     // 2. Stream-collide.
-    const lbm::Neighbours nb = lbm::neighbours<L>(g, cell);
-    R f[L::Q];
-    lbm::load_incoming<L, T, R, S, Parity>(src, nb, cell, f);
     // A warp with no solid cell at all (~40 % of them at phi = 0.13) runs the
     // plain collision: the same result as B = 0 below, fewer instructions.
 #if defined(__CUDA_ARCH__)
