@@ -159,11 +159,20 @@ struct MapKernel {
     return true;
   }
 
-  LBDEM_HD void insert(Index t, Index pi, Index cell, double eps) const {
+  LBDEM_HD void insert(Index t, const Target& c, double eps) const {
+    const Index pi = c.pi, cell = c.cell;
     const int slot = atomic_inc(&s.count[cell]);
     if (slot < s.K) {
       s.particle_at(cell, slot) = static_cast<int>(pi);
       s.eps_at(cell, slot) = eps;
+      // Solid velocity at the cell centre: v + w x r, r = (c.rx, c.ry, c.rz)
+      // the unwrapped offset of the cell centre from the particle centre.
+      const Index o = pi * p.stride;
+      const double w[3] = {p.wx ? p.wx[o] : 0.0, p.wy ? p.wy[o] : 0.0, p.wz ? p.wz[o] : 0.0};
+      const double rz = Dim == 3 ? c.rz : 0.0;
+      s.vel_at(0, cell, slot) = static_cast<float>((p.vx ? p.vx[o] : 0.0) + w[1] * rz - w[2] * c.ry);
+      s.vel_at(1, cell, slot) = static_cast<float>((p.vy ? p.vy[o] : 0.0) + w[2] * c.rx - w[0] * rz);
+      s.vel_at(2, cell, slot) = Dim == 3 ? static_cast<float>((p.vz ? p.vz[o] : 0.0) + w[0] * c.ry - w[1] * c.rx) : 0.0f;
       pair[t] = cell;
     } else {
       pair[t] = -1;
@@ -186,7 +195,7 @@ struct MapKernel {
       const double f2 = Dim == 3 ? cell_far2(c.rx, c.ry, c.rz)
                                  : (fabs(c.rx) + 0.5) * (fabs(c.rx) + 0.5) + (fabs(c.ry) + 0.5) * (fabs(c.ry) + 0.5);
       if (f2 <= R2) {
-        insert(t, c.pi, c.cell, 1.0);
+        insert(t, c, 1.0);
         return;
       }
       const int q = atomic_inc(&flags[3]);
@@ -197,7 +206,7 @@ struct MapKernel {
     }
     const double eps = frac(c.rx, c.ry, c.rz, c.R);
     if (!(eps > 0.0)) return;
-    insert(t, c.pi, c.cell, eps);
+    insert(t, c, eps);
   }
 };
 
@@ -213,7 +222,7 @@ struct DeferredExact {
       typename MapKernel<Dim, M>::Target c{};
       if (!k.decode(k.queue[q], c, false)) continue;
       const double eps = k.frac(c.rx, c.ry, c.rz, c.R);
-      if (eps > 0.0) k.insert(k.queue[q], c.pi, c.cell, eps);
+      if (eps > 0.0) k.insert(k.queue[q], c, eps);
     }
   }
 };
@@ -228,14 +237,17 @@ struct SortSlots {
     for (int a = 1; a < m; ++a) {
       const int pa = s.particle_at(cell, a);
       const double ea = s.eps_at(cell, a);
+      const float va[3] = {s.vel_at(0, cell, a), s.vel_at(1, cell, a), s.vel_at(2, cell, a)};
       int b = a - 1;
       while (b >= 0 && s.particle_at(cell, b) > pa) {
         s.particle_at(cell, b + 1) = s.particle_at(cell, b);
         s.eps_at(cell, b + 1) = s.eps_at(cell, b);
+        for (int d = 0; d < 3; ++d) s.vel_at(d, cell, b + 1) = s.vel_at(d, cell, b);
         --b;
       }
       s.particle_at(cell, b + 1) = pa;
       s.eps_at(cell, b + 1) = ea;
+      for (int d = 0; d < 3; ++d) s.vel_at(d, cell, b + 1) = va[d];
     }
   }
 };
@@ -375,6 +387,7 @@ CellSlots::CellSlots(Backend b, GridShape grid, int K, int overflow_log)
   count_ = Buffer<int>(b, n);
   particle_ = Buffer<int>(b, n * K_);
   eps_ = Buffer<double>(b, n * K_);
+  vel_ = Buffer<float>(b, 3 * n * K_);
   flags_ = Buffer<int>(b, 4);
   if (n > static_cast<Index>(INT32_MAX))
     throw ConfigError("CellSlots: " + std::to_string(n) + " cells exceed the int32 cell list (2^31 cells per rank)");

@@ -31,7 +31,7 @@ PsmCoupling::~PsmCoupling() = default;
 
 void PsmCoupling::map(const PsmParticles& p, const PsmOptions& opt, bool check_overflow) {
   if (p.n == 0) return;
-  SphereView sv{p.x, p.y, p.z, p.r, p.n, p.stride};
+  SphereView sv{p.x, p.y, p.z, p.r, p.n, p.stride, p.vx, p.vy, p.vz, p.wx, p.wy, p.wz};
   slots_->map(ex_, sv, opt.map);
   if (check_overflow) slots_->throw_if_overflow();
 }

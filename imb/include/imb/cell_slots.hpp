@@ -60,7 +60,12 @@ struct CellSlotsView {
   double* eps = nullptr;     // [k * ncells + cell]
   Index ncells = 0;
   int K = 0;
+  // Solid velocity of the slot's particle at the cell centre (translation +
+  // rotation, first paper Eq. 2), component a at (a * K + k) * ncells + cell:
+  // written by the map from SphereView's velocities.
+  float* vel = nullptr;
   LBDEM_HD int used(Index cell) const { return count[cell] < K ? count[cell] : K; }
+  LBDEM_HD float& vel_at(int a, Index cell, int k) const { return vel[(static_cast<Index>(a) * K + k) * ncells + cell]; }
   LBDEM_HD int& particle_at(Index cell, int k) const { return particle[k * ncells + cell]; }
   LBDEM_HD double& eps_at(Index cell, int k) const { return eps[k * ncells + cell]; }
   // Σ_k ε_k of a cell (the total solid fraction a PSM weighting B(ε) starts from).
@@ -138,7 +143,9 @@ class CellSlots {
   // Resets the overflow counters (maps with MapOptions::keep_overflow accumulate them).
   void clear_overflow(const Exec& ex);
 
-  CellSlotsView view() const { return {count_.data(), particle_.data(), eps_.data(), grid_.cells(), K_}; }
+  CellSlotsView view() const {
+    return {count_.data(), particle_.data(), eps_.data(), grid_.cells(), K_, vel_.data()};
+  }
   SolidCellList solid_list() const { return {list_.data(), nlist_.data(), grid_.cells()}; }
   PairView pairs() const { return {pair_.data(), pair_box_, pair_B_}; }
   // Number of cells in the solid list (synchronous small copy; tests, output).
@@ -163,6 +170,7 @@ class CellSlots {
   int log_cap_;
   Buffer<int> count_, particle_;
   Buffer<double> eps_;
+  Buffer<float> vel_;  // CellSlotsView::vel
   // [0] surplus events, [1] radius errors, [2] a particle with too large a radius, [3] deferred cells
   Buffer<int> flags_;
   Buffer<Index> log_cell_;

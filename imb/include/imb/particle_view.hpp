@@ -13,6 +13,15 @@ struct SphereView {
   const double* r = nullptr;
   Index n = 0;
   int stride = 1;  // element i of each array at [i * stride] (4: DEM's Real4 records)
+  // Optional (null: at rest): translational and angular velocity, same stride.
+  // The map stores each slot's solid velocity at the cell centre from them
+  // (the PSM step reads it there), so velocities are those at map time.
+  const double* vx = nullptr;
+  const double* vy = nullptr;
+  const double* vz = nullptr;
+  const double* wx = nullptr;
+  const double* wy = nullptr;
+  const double* wz = nullptr;
 };
 
 }  // namespace lbdem::imb

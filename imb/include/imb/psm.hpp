@@ -110,24 +110,13 @@ struct PsmStepKernel {
   PsmParticles p;
   SlotForceView out;
 
-  // Solid velocity of slot k's particle at the cell centre (translation +
-  // rotation, paper Eq. 2) and its weight B_k = B eps_k / sum eps.
+  // Solid velocity of slot k's particle at the cell centre (stored by the map:
+  // translation + rotation, paper Eq. 2) and its weight B_k = B eps_k / sum eps.
   LBDEM_HD void slot_velocity(Index cell, int k, R B, R eps_tot, R& Bk, R (&vs)[3]) const {
-    int x, y, zc;
-    g.coords(cell, x, y, zc);
-    const double xc[3] = {x + 0.5, y + 0.5, zc + 0.5};
-    const double len[3] = {double(g.nx), double(g.ny), double(g.nz)};
-    const int pi = slots.particle_at(cell, k);
     Bk = eps_tot > R(0) ? B * R(slots.eps_at(cell, k)) / eps_tot : R(0);
-    const Index o = static_cast<Index>(pi) * p.stride;
-    const double px[3] = {p.x[o], p.y[o], p.z ? p.z[o] : 0.5};
-    double rr[3];
-    for (int a = 0; a < 3; ++a) rr[a] = min_image(xc[a] - px[a], len[a], periodic[a]);
-    if (L::D == 2) rr[2] = 0;
-    const double w3[3] = {p.wx ? p.wx[o] : 0.0, p.wy ? p.wy[o] : 0.0, p.wz ? p.wz[o] : 0.0};
-    vs[0] = R(p.vx[o] + w3[1] * rr[2] - w3[2] * rr[1]);
-    vs[1] = R(p.vy[o] + w3[2] * rr[0] - w3[0] * rr[2]);
-    vs[2] = R(L::D == 3 ? p.vz[o] + w3[0] * rr[1] - w3[1] * rr[0] : 0.0);
+    vs[0] = R(slots.vel_at(0, cell, k));
+    vs[1] = R(slots.vel_at(1, cell, k));
+    vs[2] = R(slots.vel_at(2, cell, k));
   }
 
   LBDEM_HD void operator()(Index cell) const {
