@@ -138,7 +138,7 @@ FixedSphereResult run_fixed_sphere(const FixedSphereSpec& c, Backend b) {
     const double e = std::min(1.0, eps[i]);
     usum += (1.0 - e) * u[3 * i];
     flux += rho[i] * u[3 * i];
-    const double B = c.weight == imb::PsmWeight::Linear ? e : e * (c.tau - 0.5) / ((1.0 - e) + (c.tau - 0.5));
+    const double B = imb::psm_weight(e, c.tau - 0.5, c.weight);
     fluid_weight += 1.0 - B;
   }
   r.mean_u = usum / V;

@@ -47,6 +47,17 @@ lbm::CollisionKind read_collision(const Config& f, double& magic, const std::str
   return c == "bgk" ? lbm::CollisionKind::BGK : lbm::CollisionKind::TRT;
 }
 
+// tau, collision (with Lambda) and precision of a resolved scene's fluid
+// section (FixedSphereSpec and LbmSetup name these fields alike).
+template <class S>
+void read_fluid_common(const Config& f, S& s) {
+  s.tau = f.number_in("tau", 0.52, 0.5001, 5.0, "relaxation time tau > 1/2");
+  s.collision = read_collision(f, s.magic);
+  if (s.collision == lbm::CollisionKind::BGK && s.tau < 0.51)
+    f.fail("tau", "BGK needs tau >= 0.51 to stay stable; use collision: trt for smaller tau");
+  s.precision = f.choice("precision", "fp64", {"fp32", "fp64"}) == "fp32" ? lbm::Precision::FP32 : lbm::Precision::FP64;
+}
+
 void read_psm(const Config& ps, imb::PsmOptions& o, int& slots) {
   const auto fr = ps.choice("fraction", "exact", {"exact", "table", "linear"});
   o.map.method = fr == "table" ? imb::FractionMethod::Table : fr == "linear" ? imb::FractionMethod::Linear
@@ -71,11 +82,7 @@ int run_fixed_sphere_case(const Config& root, const RunOptions& opt) {
   s.offset = g.number_in("offset", 0.0, -0.5, 0.5, "sphere centre offset from the cell-aligned centre, cells");
   g.finish();
   const Config f = root.section("fluid");
-  s.tau = f.number_in("tau", 0.52, 0.5001, 5.0, "relaxation time tau > 1/2");
-  s.collision = read_collision(f, s.magic);
-  if (s.collision == lbm::CollisionKind::BGK && s.tau < 0.51)
-    f.fail("tau", "BGK needs tau >= 0.51 to stay stable; use collision: trt for smaller tau");
-  s.precision = f.choice("precision", "fp64", {"fp32", "fp64"}) == "fp32" ? lbm::Precision::FP32 : lbm::Precision::FP64;
+  read_fluid_common(f, s);
   s.streaming = f.choice("streaming", "aa", {"aa", "two_lattice"}) == "aa" ? lbm::StreamKind::AA
                                                                           : lbm::StreamKind::TwoLattice;
   s.re_p = f.number_in("re_p", 0.2, 1e-4, 50.0, "target particle Reynolds number (sets the body force)");
@@ -169,11 +176,7 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
   }
   c.coupling.periodic = periodic;
   const Config f = root.section("fluid");
-  s.tau = f.number_in("tau", 0.52, 0.5001, 5.0, "relaxation time tau > 1/2");
-  s.collision = read_collision(f, s.magic);
-  if (s.collision == lbm::CollisionKind::BGK && s.tau < 0.51)
-    f.fail("tau", "BGK needs tau >= 0.51 to stay stable; use collision: trt for smaller tau");
-  s.precision = f.choice("precision", "fp64", {"fp32", "fp64"}) == "fp32" ? lbm::Precision::FP32 : lbm::Precision::FP64;
+  read_fluid_common(f, s);
   c.max_mach = f.number_in("max_mach", 0.3, 0.01, 0.5, "largest lattice Mach number |u| sqrt(3) before the run stops");
   f.finish();
   const Config ph = root.section("physics");

@@ -494,11 +494,6 @@ void CellSlots::build_list(const Exec& ex) {
   list_valid_ = true;
 }
 
-Index CellSlots::solid_cells() const {
-  Index m = 0;
-  nlist_.copy_to_host(&m, 1);
-  return m;
-}
 
 void CellSlots::clear_overflow(const Exec& ex) { for_each(ex, flags_.size(), ZeroInts{flags_.data()}); }
 

@@ -33,7 +33,7 @@ double psm_weight_sum(double r, int dim, double tau, PsmWeight weight) {
           const double rx = i + 0.5 - o[0], ry = j + 0.5 - o[1], rz = k + 0.5 - o[2];
           const double e = dim == 3 ? exact_fraction_3d(rx, ry, rz, r) : exact_fraction_2d(rx, ry, r);
           if (e <= 0) continue;
-          sum += weight == PsmWeight::Linear ? e : e * tm / ((1.0 - e) + tm);
+          sum += psm_weight(e, tm, weight);
         }
     total += sum;
     ++samples;
@@ -164,22 +164,26 @@ void CoupledSolver::check_overflow() {
   throw ResourceError(m.str());
 }
 
+namespace {
+// x, y, z of n Real4 records on a backend, as 3n doubles on the host.
+std::vector<double> xyz_host(Backend b, const dem::Real4* d, Index n) {
+  std::vector<dem::Real4> tmp(static_cast<std::size_t>(n));
+  backend_copy_to_host(b, tmp.data(), d, sizeof(dem::Real4) * tmp.size());
+  std::vector<double> out;
+  out.reserve(3 * tmp.size());
+  for (const auto& r : tmp) out.insert(out.end(), {r.x, r.y, r.z});
+  return out;
+}
+}  // namespace
+
 std::vector<double> CoupledSolver::hydro_force_host() const {
   const dem::ParticleView v = const_cast<dem::DemSystem&>(dem_).view();
-  std::vector<dem::Real4> tmp(static_cast<std::size_t>(v.n));
-  backend_copy_to_host(fluid_.backend(), tmp.data(), v.ext_force, sizeof(dem::Real4) * tmp.size());
-  std::vector<double> f;
-  for (const auto& r : tmp) f.insert(f.end(), {r.x, r.y, r.z});
-  return f;
+  return xyz_host(fluid_.backend(), v.ext_force, v.n);
 }
 
 std::vector<double> CoupledSolver::hydro_torque_host() const {
   const dem::ParticleView v = const_cast<dem::DemSystem&>(dem_).view();
-  std::vector<dem::Real4> tmp(static_cast<std::size_t>(v.n));
-  backend_copy_to_host(fluid_.backend(), tmp.data(), v.ext_torque, sizeof(dem::Real4) * tmp.size());
-  std::vector<double> t;
-  for (const auto& r : tmp) t.insert(t.end(), {r.x, r.y, r.z});
-  return t;
+  return xyz_host(fluid_.backend(), v.ext_torque, v.n);
 }
 
 }  // namespace lbdem::imb

@@ -222,7 +222,7 @@ CoupledScales check_coupled_setup(const lbm::LbmSetup& fluid, const dem::DemPara
   bool fully_periodic = fluid.boundaries.count == 0;
   for (int a = 0; a < dim; ++a) fully_periodic = fully_periodic && cp.periodic[static_cast<std::size_t>(a)];
   if (fully_periodic) {
-    double total = 1, vs = 0;
+    double total = 1;
     for (int a = 0; a < dim; ++a) total *= static_cast<double>(fluid.domain.global[static_cast<std::size_t>(a)]);
     double weight[3] = {0, 0, 0}, scale = 0;
     const double g[3] = {cp.gravity[0], cp.gravity[1], cp.gravity[2]};
@@ -232,11 +232,9 @@ CoupledScales check_coupled_setup(const lbm::LbmSetup& fluid, const dem::DemPara
       // 2D: a disk of the particle's density (as balancing_body_force).
       const double v = dim == 3 ? sphere_volume(r) : kPi * r * r;
       const double m = dim == 3 ? p.mass[i] : p.mass[i] / sphere_volume(r) * v;
-      vs += v;
       for (int a = 0; a < 3; ++a) weight[a] += (m - cp.fluid_density * v) * g[a] + fb[a];
       scale += std::abs(m - cp.fluid_density * v) * norm3(g) + norm3(fb);
     }
-    (void)vs;
     const double vf = psm_fluid_weight(p, dim, total, fluid.tau, cp.psm.weight);  // what the kernel weights by (1 - B)
     double net[3], fix[3];
     for (int a = 0; a < 3; ++a) {

@@ -2,16 +2,15 @@
 
 namespace lbdem::imb {
 
-void psm_step_d2q9(const Exec&, const lbm::LbmSetup&, const lbm::LbmRaw&, const CellSlotsView&, const SolidCellList&,
-                   const PsmParticles&, const SlotForceView&, const PsmOptions&, const std::array<bool, 3>&);
-void psm_step_d3q19(const Exec&, const lbm::LbmSetup&, const lbm::LbmRaw&, const CellSlotsView&, const SolidCellList&,
-                    const PsmParticles&, const SlotForceView&, const PsmOptions&, const std::array<bool, 3>&);
+void psm_step_d2q9(const Exec&, const lbm::LbmSetup&, const lbm::LbmRaw&, const CellSlotsView&, const SlotForceView&,
+                   const PsmOptions&, const std::array<bool, 3>&);
+void psm_step_d3q19(const Exec&, const lbm::LbmSetup&, const lbm::LbmRaw&, const CellSlotsView&, const SlotForceView&,
+                    const PsmOptions&, const std::array<bool, 3>&);
 
 void psm_fluid_step(const Exec& ex, const lbm::LbmSetup& s, const lbm::LbmRaw& raw, const CellSlotsView& slots,
-                    const SolidCellList& list, const PsmParticles& p, const SlotForceView& sf, const PsmOptions& opt,
-                    const std::array<bool, 3>& periodic) {
-  if (s.lattice == lbm::LatticeKind::D2Q9) psm_step_d2q9(ex, s, raw, slots, list, p, sf, opt, periodic);
-  else psm_step_d3q19(ex, s, raw, slots, list, p, sf, opt, periodic);
+                    const SlotForceView& sf, const PsmOptions& opt, const std::array<bool, 3>& periodic) {
+  if (s.lattice == lbm::LatticeKind::D2Q9) psm_step_d2q9(ex, s, raw, slots, sf, opt, periodic);
+  else psm_step_d3q19(ex, s, raw, slots, sf, opt, periodic);
 }
 
 PsmCoupling::PsmCoupling(lbm::LbmSolver& solver, int K, std::array<bool, 3> periodic)
@@ -31,8 +30,7 @@ PsmCoupling::~PsmCoupling() = default;
 
 void PsmCoupling::map(const PsmParticles& p, const PsmOptions& opt, bool check_overflow) {
   if (p.n == 0) return;
-  SphereView sv{p.x, p.y, p.z, p.r, p.n, p.stride, p.vx, p.vy, p.vz, p.wx, p.wy, p.wz};
-  slots_->map(ex_, sv, opt.map);
+  slots_->map(ex_, p, opt.map);
   if (check_overflow) slots_->throw_if_overflow();
 }
 
@@ -43,7 +41,7 @@ void PsmCoupling::step(const PsmParticles& p, const PsmOptions& opt, const Force
   }
   const lbm::LbmRaw raw = solver_.raw();
   const SlotForceView sf{slot_forces_.data(), raw.grid.n, slots_->K()};
-  psm_fluid_step(ex_, solver_.setup(), raw, slots_->view(), slots_->solid_list(), p, sf, opt, periodic_);
+  psm_fluid_step(ex_, solver_.setup(), raw, slots_->view(), sf, opt, periodic_);
   solver_.commit_external_step();
   if (!out.force) return;  // forces not wanted this step (e.g. a fixed particle between checks)
   const int dim = solver_.setup().lattice == lbm::LatticeKind::D2Q9 ? 2 : 3;

@@ -77,14 +77,6 @@ struct CellSlotsView {
   }
 };
 
-// The cells that at least one particle overlaps (count > 0) after the last
-// map, in index order; their number n lives on the backend.
-struct SolidCellList {
-  const int* cells = nullptr;
-  const Index* n = nullptr;
-  Index max_n = 0;
-};
-
 // Per (particle, cell of its B^dim box) whether the pair took a slot: pair[i *
 // box + l] = the cell index, or -1. Box cell l = li + B (lj + B lk) sits at
 // floor(x_i - r_i) + (li, lj, lk) (unwrapped). Written by every map.
@@ -146,10 +138,7 @@ class CellSlots {
   CellSlotsView view() const {
     return {count_.data(), particle_.data(), eps_.data(), grid_.cells(), K_, vel_.data()};
   }
-  SolidCellList solid_list() const { return {list_.data(), nlist_.data(), grid_.cells()}; }
   PairView pairs() const { return {pair_.data(), pair_box_, pair_B_}; }
-  // Number of cells in the solid list (synchronous small copy; tests, output).
-  Index solid_cells() const;
   const GridShape& grid() const { return grid_; }
   int K() const { return K_; }
   // Largest particle radius of the last map (given or reduced): sizes the force gather.
@@ -181,7 +170,7 @@ class CellSlots {
   Buffer<Index> queue_;              // deferred interface cells of the exact method
   std::uint64_t global_table_id_ = 0;
   std::shared_ptr<Scratch> scratch_;  // reduction storage (max radius), reused across steps
-  Buffer<int> list_;                 // cells with count > 0 (SolidCellList)
+  Buffer<int> list_;                 // cells with count > 0 after the last map, in index order
   Buffer<Index> nlist_;              // their number (on the backend)
   Buffer<unsigned char> select_tmp_; // cub select storage (sized once)
   bool list_valid_ = false;          // list_ names every non-zero count (the clear uses it)

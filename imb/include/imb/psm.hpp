@@ -29,21 +29,9 @@ namespace lbdem::imb {
 enum class PsmVariant { NEBB, Superposition };
 enum class PsmWeight { NobleTorczynski, Linear };
 
-// Narrow particle view for the coupling (lattice units, SoA).
-struct PsmParticles {
-  const double* x = nullptr;
-  const double* y = nullptr;
-  const double* z = nullptr;
-  const double* r = nullptr;
-  const double* vx = nullptr;
-  const double* vy = nullptr;
-  const double* vz = nullptr;
-  const double* wx = nullptr;
-  const double* wy = nullptr;
-  const double* wz = nullptr;
-  Index n = 0;
-  int stride = 1;  // element i of each array at [i * stride] (4: DEM's Real4 records)
-};
+// Narrow particle view for the coupling (lattice units, SoA): centres, radii,
+// velocities (imb/particle_view.hpp).
+using PsmParticles = SphereView;
 
 // Per (slot, cell) force on the slot's particle: component a of slot k of
 // cell c at (a * K + k) * ncells + c, a = 0..2. The torque is not stored: the
@@ -55,6 +43,13 @@ struct SlotForceView {
   static constexpr int kComponents = 3;
   LBDEM_HD double& at(int a, int k, Index cell) const { return v[(static_cast<Index>(a) * K + k) * ncells + cell]; }
 };
+
+// Noble-Torczynski weighting B(eps) = eps (tau - 1/2) / ((1 - eps) + (tau - 1/2))
+// (first paper Eq. 1), or B = eps; tm = tau - 1/2.
+template <class R>
+LBDEM_HD inline R psm_weight(R eps, R tm, PsmWeight w) {
+  return w == PsmWeight::Linear ? eps : eps * tm / ((R(1) - eps) + tm);
+}
 
 // Minimum-image displacement on a periodic axis of length n (cells).
 LBDEM_HD inline double min_image(double d, double n, bool periodic) {
@@ -107,7 +102,6 @@ struct PsmStepKernel {
   PsmWeight weight;
   bool periodic[3];
   CellSlotsView slots;
-  PsmParticles p;
   SlotForceView out;
 
   // Solid velocity of slot k's particle at the cell centre (stored by the map:
@@ -139,7 +133,7 @@ struct PsmStepKernel {
     if (m > 0) {
       for (int k = 0; k < m; ++k) eps_tot += R(slots.eps_at(cell, k));
       const R eps = eps_tot < R(1) ? eps_tot : R(1);
-      B = weight == PsmWeight::Linear ? eps : eps * tm / ((R(1) - eps) + tm);
+      B = psm_weight(eps, tm, weight);
       for (int k = 0; k < m; ++k) {
         R Bk, vs[3];
         slot_velocity(cell, k, B, eps_tot, Bk, vs);

@@ -59,8 +59,7 @@ class PsmCoupling {
 
 // Per-(lattice, precision) kernels (psm_*.cu).
 void psm_fluid_step(const Exec& ex, const lbm::LbmSetup& s, const lbm::LbmRaw& raw, const CellSlotsView& slots,
-                    const SolidCellList& list, const PsmParticles& p, const SlotForceView& sf, const PsmOptions& opt,
-                    const std::array<bool, 3>& periodic);
+                    const SlotForceView& sf, const PsmOptions& opt, const std::array<bool, 3>& periodic);
 void psm_gather(const Exec& ex, const CellSlotsView& slots, const SlotForceView& sf, const PairView& pairs,
                 const PsmParticles& p, int dim, const ForceOut& out);
 
