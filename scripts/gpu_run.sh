@@ -2,7 +2,8 @@
 # One call on the GPU machine: build with CUDA for sm_90, run the whole test
 # suite (host and CUDA backends), run the benchmarks; logs and JSON go to $OUT.
 #   scripts/gpu_run.sh [build] [test] [bench-lbm] [bench-dem] [bench-imb] [bench-psm] [bench-susp]
-#                      [build-psm] [test-imb] [profile-susp]   (quicker partial calls)
+#                      [build-psm] [test-imb] [profile-susp] [profile-psm-kernel] [profile-map] [scan]
+#                      (quicker partial calls)
 #   (default: all)
 set -uo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
@@ -48,6 +49,18 @@ for s in "${steps[@]}"; do
         --section MemoryWorkloadAnalysis --section LaunchStats --section SpeedOfLight \
         "$b" suspension --n 256 --steps 3 --precision fp32 --fraction table > "$OUT/ncu_psm_kernel.log" 2>&1
       echo "ncu-kernel exit $?" ;;
+    profile-map)
+      # The particle -> cell map kernel (fp32 suspension, table fractions): where its time goes.
+      b="$build/bench/imb/lbdem_bench_psm"
+      timeout 240 ncu --clock-control none -k regex:MapKernel -c 2 --section Occupancy --section WarpStateStats \
+        --section MemoryWorkloadAnalysis --section LaunchStats --section SpeedOfLight --section SourceCounters \
+        "$b" suspension --n 256 --steps 3 --precision fp32 --fraction table > "$OUT/ncu_map_kernel.log" 2>&1
+      echo "ncu-map exit $?" ;;
+    scan)
+      # Drag scan of the solid operator and Lambda/tau (scripts/psm_sweep_gpu.sh scan).
+      mkdir -p "$OUT/scan"
+      bash "$here/scripts/psm_sweep_gpu.sh" "$build/bench/imb/lbdem_bench_psm" "$OUT/scan" scan > "$OUT/scan.log" 2>&1
+      echo "scan exit $?"; cat "$OUT/scan.log" ;;
     test)
       # Tiny test grids: 8 test processes x 2 OpenMP threads fill 16 cores;
       # 16 threads each would oversubscribe and spin (seen: 240 s for a 1 s test).
@@ -78,7 +91,7 @@ for s in "${steps[@]}"; do
       tail -5 "$OUT/psm_sweep_small.log" "$OUT/psm_sweep_large.log" ;;
     bench-susp)
       b="$build/bench/imb/lbdem_bench_psm"
-      [ -x "$b" ] && for prec in fp32 fp64; do for fr in table exact linear; do
+      [ -x "$b" ] && for prec in fp32 fp64; do for fr in ${SUSP_FRACTIONS:-table exact linear}; do
         timeout 60 "$b" suspension --n 256 --steps 100 --precision $prec --fraction $fr \
           --out "$OUT/psm_susp_${prec}_${fr}.json" >> "$OUT/psm_susp.log" 2>&1; echo "susp $prec $fr exit $?"; done; done
       cat "$OUT/psm_susp.log" | grep -v "^\[" ;;

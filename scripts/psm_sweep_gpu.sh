@@ -3,7 +3,7 @@
 # test against Sangani & Acrivos, chi = d/L = 0.5), in two parts sized for one
 # device call (<= 10 min wall) each:
 #
-#   scripts/psm_sweep_gpu.sh BIN OUTDIR PART...      PART: small | large | plot (one of small/large per call)
+#   scripts/psm_sweep_gpu.sh BIN OUTDIR PART...      PART: small | large | scan | plot (one of small/large per call)
 #
 #   BIN     the CUDA build's lbdem_bench_psm
 #   OUTDIR  receives psm_sweep_<part>_<k>.{json,md,log}; each JSON is rewritten after every run,
@@ -88,6 +88,17 @@ for p in "${parts[@]}"; do
         --collisions trt
       run psm_sweep_large_4 120 --d 50 --magic "$MAGIC" --offset "$OFFSET" --methods exact --precisions fp32 \
         --collisions trt
+      ;;
+    scan)
+      # Drag against the solid operator and Lambda/tau at d/l 4-30 (exact fp64 TRT, sphere on a cell
+      # centre): is there one setting whose O(1/d) error term is small enough for d/l 30 and 50 while
+      # d/l 4 keeps its bar? (~3 min)
+      run psm_sweep_scan_1 120 --d 4,6,8,10,16,20,30 --variants super --magic 1e-4,1e-3,1e-2 --offset "$OFFSET" \
+        --methods exact --precisions fp64 --collisions trt
+      run psm_sweep_scan_2 60 --d 4,6,8,10,16,20,30 --magic 3e-2 --offset "$OFFSET" --methods exact \
+        --precisions fp64 --collisions trt
+      run psm_sweep_scan_3 120 --d 4,6,8,10,16,20,30 --tau 0.505 --magic 1e-2,3e-2 --offset "$OFFSET" \
+        --methods exact --precisions fp64 --collisions trt
       ;;
     plot)
       shopt -s nullglob

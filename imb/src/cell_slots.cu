@@ -111,7 +111,7 @@ struct MapKernel {
   // slot, else -1. (The cell, not the slot: SortSlots reorders slots.) Every
   // map writes every entry; the force gather reads a particle's entries
   // contiguously (imb/psm.hpp).
-  Index* pair = nullptr;
+  int* pair = nullptr;
 
   // Maps the box coordinate l of axis (lo cell index i0, n cells, periodic?) to
   // a grid index, or -1 when off a non-periodic grid.
@@ -173,7 +173,7 @@ struct MapKernel {
       s.vel_at(0, cell, slot) = static_cast<float>((p.vx ? p.vx[o] : 0.0) + w[1] * rz - w[2] * c.ry);
       s.vel_at(1, cell, slot) = static_cast<float>((p.vy ? p.vy[o] : 0.0) + w[2] * c.rx - w[0] * rz);
       s.vel_at(2, cell, slot) = Dim == 3 ? static_cast<float>((p.vz ? p.vz[o] : 0.0) + w[0] * c.ry - w[1] * c.rx) : 0.0f;
-      pair[t] = cell;
+      pair[t] = static_cast<int>(cell);  // < 2^31: checked by the constructor
     } else {
       pair[t] = -1;
       const int e = atomic_inc(&flags[0]);
@@ -184,14 +184,21 @@ struct MapKernel {
     }
   }
 
+  // Every box thread writes its pair entry exactly once (insert() or -1; a
+  // queued exact cell writes -1 and DeferredExact overwrites it on insert).
   LBDEM_HD void operator()(Index t) const {
-    pair[t] = -1;  // until a slot is taken
     Target c{};
-    if (!decode(t, c, true)) return;
+    if (!decode(t, c, true)) {
+      pair[t] = -1;
+      return;
+    }
     if (M == FractionMethod::Exact && queue_cap > 0) {
       const double R2 = c.R * c.R;
       const double n2 = Dim == 3 ? cell_near2(c.rx, c.ry, c.rz) : cell_near2(c.rx, c.ry, 0.0);
-      if (n2 >= R2) return;
+      if (n2 >= R2) {
+        pair[t] = -1;
+        return;
+      }
       const double f2 = Dim == 3 ? cell_far2(c.rx, c.ry, c.rz)
                                  : (fabs(c.rx) + 0.5) * (fabs(c.rx) + 0.5) + (fabs(c.ry) + 0.5) * (fabs(c.ry) + 0.5);
       if (f2 <= R2) {
@@ -200,12 +207,16 @@ struct MapKernel {
       }
       const int q = atomic_inc(&flags[3]);
       if (q < queue_cap) {
+        pair[t] = -1;
         queue[q] = t;
         return;
       }
     }
     const double eps = frac(c.rx, c.ry, c.rz, c.R);
-    if (!(eps > 0.0)) return;
+    if (!(eps > 0.0)) {
+      pair[t] = -1;
+      return;
+    }
     insert(t, c, eps);
   }
 };
@@ -335,7 +346,7 @@ template <int Dim, FractionMethod M>
 struct LaunchMap {
   static void run(const Exec& ex, const SphereView& p, const CellSlotsView& s, const GridShape& g, const MapOptions& o,
                   int B, int* flags, Index* log_cell, int* log_particle, int log_cap, const float* global_table,
-                  Index* queue, Index queue_cap, Index* pair) {
+                  Index* queue, Index queue_cap, int* pair) {
     MapKernel<Dim, M> k{};
     k.pair = pair;
     k.p = p;

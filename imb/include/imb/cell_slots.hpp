@@ -64,6 +64,11 @@ struct CellSlotsView {
   // rotation, first paper Eq. 2), component a at (a * K + k) * ncells + cell:
   // written by the map from SphereView's velocities.
   float* vel = nullptr;
+  // The cells with count > 0 after the last map, in index order, and their
+  // number (both on the slots' backend): the PSM step runs its solid pass over
+  // this list and the plain collision everywhere else.
+  const int* list = nullptr;
+  const Index* nlist = nullptr;
   LBDEM_HD int used(Index cell) const { return count[cell] < K ? count[cell] : K; }
   LBDEM_HD float& vel_at(int a, Index cell, int k) const { return vel[(static_cast<Index>(a) * K + k) * ncells + cell]; }
   LBDEM_HD int& particle_at(Index cell, int k) const { return particle[k * ncells + cell]; }
@@ -81,7 +86,7 @@ struct CellSlotsView {
 // box + l] = the cell index, or -1. Box cell l = li + B (lj + B lk) sits at
 // floor(x_i - r_i) + (li, lj, lk) (unwrapped). Written by every map.
 struct PairView {
-  const Index* slot = nullptr;
+  const int* slot = nullptr;  // cells < 2^31 per rank (checked by CellSlots)
   Index box = 0;
   int B = 0;
 };
@@ -136,7 +141,7 @@ class CellSlots {
   void clear_overflow(const Exec& ex);
 
   CellSlotsView view() const {
-    return {count_.data(), particle_.data(), eps_.data(), grid_.cells(), K_, vel_.data()};
+    return {count_.data(), particle_.data(), eps_.data(), grid_.cells(), K_, vel_.data(), list_.data(), nlist_.data()};
   }
   PairView pairs() const { return {pair_.data(), pair_box_, pair_B_}; }
   const GridShape& grid() const { return grid_; }
@@ -174,7 +179,7 @@ class CellSlots {
   Buffer<Index> nlist_;              // their number (on the backend)
   Buffer<unsigned char> select_tmp_; // cub select storage (sized once)
   bool list_valid_ = false;          // list_ names every non-zero count (the clear uses it)
-  Buffer<Index> pair_;               // PairView
+  Buffer<int> pair_;                 // PairView
   Index pair_box_ = 0;
   int pair_B_ = 0;
   void build_list(const Exec& ex);
