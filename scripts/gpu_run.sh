@@ -2,7 +2,7 @@
 # One call on the GPU machine: build with CUDA for sm_90, run the whole test
 # suite (host and CUDA backends), run the benchmarks; logs and JSON go to $OUT.
 #   scripts/gpu_run.sh [build] [test] [bench-lbm] [bench-dem] [bench-imb] [bench-psm] [bench-susp]
-#                      [build-psm] [test-imb] [profile-susp] [profile-psm-kernel] [profile-map] [scan]
+#                      [build-psm] [test-imb] [profile-susp] [profile-psm-kernel] [profile-map] [scan] [lambda]
 #                      (quicker partial calls)
 #   (default: all)
 set -uo pipefail
@@ -52,15 +52,15 @@ for s in "${steps[@]}"; do
     profile-map)
       # The particle -> cell map kernel (fp32 suspension, table fractions): where its time goes.
       b="$build/bench/imb/lbdem_bench_psm"
-      timeout 240 ncu --clock-control none -k regex:MapKernel -c 2 --section Occupancy --section WarpStateStats \
+      timeout 240 ncu --clock-control none --kernel-name-base demangled -k regex:MapKernel -c 2 --section Occupancy --section WarpStateStats \
         --section MemoryWorkloadAnalysis --section LaunchStats --section SpeedOfLight --section SourceCounters \
         "$b" suspension --n 256 --steps 3 --precision fp32 --fraction table > "$OUT/ncu_map_kernel.log" 2>&1
       echo "ncu-map exit $?" ;;
-    scan)
-      # Drag scan of the solid operator and Lambda/tau (scripts/psm_sweep_gpu.sh scan).
-      mkdir -p "$OUT/scan"
-      bash "$here/scripts/psm_sweep_gpu.sh" "$build/bench/imb/lbdem_bench_psm" "$OUT/scan" scan > "$OUT/scan.log" 2>&1
-      echo "scan exit $?"; cat "$OUT/scan.log" ;;
+    scan|lambda)
+      # Drag scans of the solid operator and Lambda/tau (scripts/psm_sweep_gpu.sh scan | lambda).
+      mkdir -p "$OUT/$s"
+      bash "$here/scripts/psm_sweep_gpu.sh" "$build/bench/imb/lbdem_bench_psm" "$OUT/$s" "$s" > "$OUT/$s.log" 2>&1
+      echo "$s exit $?"; cat "$OUT/$s.log" ;;
     test)
       # Tiny test grids: 8 test processes x 2 OpenMP threads fill 16 cores;
       # 16 threads each would oversubscribe and spin (seen: 240 s for a 1 s test).

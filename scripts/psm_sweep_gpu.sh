@@ -3,7 +3,7 @@
 # test against Sangani & Acrivos, chi = d/L = 0.5), in two parts sized for one
 # device call (<= 10 min wall) each:
 #
-#   scripts/psm_sweep_gpu.sh BIN OUTDIR PART...      PART: small | large | scan | plot (one of small/large per call)
+#   scripts/psm_sweep_gpu.sh BIN OUTDIR PART...      PART: small | large | scan | lambda | plot (one of small/large per call)
 #
 #   BIN     the CUDA build's lbdem_bench_psm
 #   OUTDIR  receives psm_sweep_<part>_<k>.{json,md,log}; each JSON is rewritten after every run,
@@ -99,6 +99,14 @@ for p in "${parts[@]}"; do
         --precisions fp64 --collisions trt
       run psm_sweep_scan_3 120 --d 4,6,8,10,16,20,30 --tau 0.505 --magic 1e-2,3e-2 --offset "$OFFSET" \
         --methods exact --precisions fp64 --collisions trt
+      ;;
+    lambda)
+      # Resolution-dependent Lambda (the scan: 3e-2 meets the bars from d/l 16 up, 1e-4 up to d/l 20):
+      # d/l 50 at 3e-2 (~120 s), and 2e-2 at d/l 16-30 (sensitivity, ~15 s). Exact fp64 TRT.
+      run psm_sweep_lambda_1 200 --d 50 --magic 3e-2 --offset "$OFFSET" --methods exact --precisions fp64 \
+        --collisions trt
+      run psm_sweep_lambda_2 60 --d 16,20,30 --magic 2e-2 --offset "$OFFSET" --methods exact --precisions fp64 \
+        --collisions trt
       ;;
     plot)
       shopt -s nullglob

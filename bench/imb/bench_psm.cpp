@@ -124,7 +124,7 @@ int sweep(int argc, char** argv) {
        << ",\n  \"paper\": \"first paper Table 1, Re_p = 0.2, against Fluent at the same Re_p\",\n  \"rows\": [\n";
   std::string rows;
   std::printf("# K against Sangani & Acrivos (Stokes); paper %% = first paper Table 1 (Re_p = 0.2); bar = half of it\n");
-  std::printf("| d/l | method | prec | coll | weight | tau | Lambda | offset | K | error %% | paper %% | bar %% | Re_p | steps | time s | MLUPS | remaining |\n");
+  std::printf("| d/l | method | prec | coll | weight, operator | tau | Lambda | offset | K | error %% | paper %% | bar %% | Re_p | steps | time s | MLUPS | remaining |\n");
   std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const auto& dstr : split(ds))
     for (const auto& m : split(methods))
@@ -167,7 +167,7 @@ int sweep(int argc, char** argv) {
                       const auto r = cases::run_fixed_sphere(s, b);
                       const double paper = paper_error(s.diameter);
                       std::printf("| %s | %s | %s | %s | %s | %s | %.2g | %g | %.5f | %+.3f | %.3f | %.3f%s | %.4f | %ld%s | %.2f | %.0f | %.1e |\n",
-                                  dstr.c_str(), m.c_str(), pr.c_str(), co.c_str(), we.c_str(), ts.c_str(), lam,
+                                  dstr.c_str(), m.c_str(), pr.c_str(), co.c_str(), (we + ", " + va).c_str(), ts.c_str(), lam,
                                   s.offset, r.K, 100 * r.rel_error, paper, paper / 2,
                                   std::isfinite(paper) ? (std::abs(100 * r.rel_error) <= paper / 2 ? " ok" : " MISSED") : "",
                                   r.re_p, r.steps, r.converged ? "" : "*", r.seconds, r.mlups, r.remaining);

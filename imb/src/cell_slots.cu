@@ -11,10 +11,6 @@
 #include "core/algorithms.hpp"
 #include "core/error.hpp"
 
-#if defined(__CUDACC__)
-#include <cub/device/device_select.cuh>
-#include <thrust/iterator/counting_iterator.h>
-#endif
 
 namespace lbdem::imb {
 
@@ -108,7 +104,7 @@ struct MapKernel {
   Index* queue = nullptr;
   Index queue_cap = 0;
   // Per box thread t: the cell of its (particle, cell) pair if the pair took a
-  // slot, else -1. (The cell, not the slot: SortSlots reorders slots.) Every
+  // slot, else -1. (The cell, not the slot: the slot sort reorders slots.) Every
   // map writes every entry; the force gather reads a particle's entries
   // contiguously (imb/psm.hpp).
   int* pair = nullptr;
@@ -238,12 +234,34 @@ struct DeferredExact {
   }
 };
 
-// Sorts each listed cell's used slots by particle index (insertion sort, K small).
-struct SortSlots {
+// Slot sort, deterministic and race-free, over the pair array (no cell list):
+// exactly one pair per cell with two or more slots sorts that cell, the one
+// whose particle is the cell's smallest index. MarkSorters finds it (reads
+// only) and marks its pair entry as -(cell + 2); SortMarked sorts the marked
+// cells (insertion sort, K small) and restores the entries. Two passes, so no
+// thread reads a cell that another is reordering.
+struct MarkSorters {
   CellSlotsView s;
-  const int* list;
-  LBDEM_HD void operator()(Index i) const {
-    const Index cell = list[i];
+  int* pair;
+  Index box;
+  LBDEM_HD void operator()(Index t) const {
+    const int c = pair[t];
+    if (c < 0) return;
+    const int m = s.used(c);
+    if (m < 2) return;
+    int lo = s.particle_at(c, 0);
+    for (int k = 1; k < m; ++k) lo = s.particle_at(c, k) < lo ? s.particle_at(c, k) : lo;
+    if (static_cast<Index>(lo) == t / box) pair[t] = -(c + 2);
+  }
+};
+
+struct SortMarked {
+  CellSlotsView s;
+  int* pair;
+  LBDEM_HD void operator()(Index t) const {
+    if (pair[t] > -2) return;
+    const Index cell = -static_cast<Index>(pair[t]) - 2;
+    pair[t] = static_cast<int>(cell);
     const int m = s.used(cell);
     for (int a = 1; a < m; ++a) {
       const int pa = s.particle_at(cell, a);
@@ -316,16 +334,20 @@ void check_table(const FractionTable* table, int dim, const char* where) {
                       "D but the grid is " + std::to_string(dim) + "D");
 }
 
-// Clears the counts of the cells of the previous map (the only non-zero ones).
-struct ZeroListed {
+// Clears the counts of the cells the previous map's pairs name (every cell
+// with a non-zero count has at least one; several pairs may clear one cell).
+struct ClearPaired {
   int* count;
-  const int* list;
-  LBDEM_HD void operator()(Index i) const { count[list[i]] = 0; }
-};
-
-struct NonZero {
-  const int* count;
-  LBDEM_HD bool operator()(int c) const { return count[c] != 0; }
+  const int* pair;
+  LBDEM_HD void operator()(Index t) const {
+    const int c = pair[t];
+    if (c < 0) return;
+#if defined(__CUDA_ARCH__)
+    count[c] = 0;
+#else
+    __atomic_store_n(&count[c], 0, __ATOMIC_RELAXED);  // the same value from several threads
+#endif
+  }
 };
 
 struct ZeroInts {
@@ -401,10 +423,7 @@ CellSlots::CellSlots(Backend b, GridShape grid, int K, int overflow_log)
   vel_ = Buffer<float>(b, 3 * n * K_);
   flags_ = Buffer<int>(b, 4);
   if (n > static_cast<Index>(INT32_MAX))
-    throw ConfigError("CellSlots: " + std::to_string(n) + " cells exceed the int32 cell list (2^31 cells per rank)");
-  list_ = Buffer<int>(b, n);
-  nlist_ = Buffer<Index>(b, 1);
-  nlist_.fill_zero();
+    throw ConfigError("CellSlots: " + std::to_string(n) + " cells exceed the int32 pair entries (2^31 cells per rank)");
   log_cell_ = Buffer<Index>(b, log_cap_);
   log_particle_ = Buffer<int>(b, log_cap_);
   count_.fill_zero();
@@ -447,11 +466,12 @@ void CellSlots::map(const Exec& ex, const SphereView& particles, const MapOption
                         " cells, more than the " + std::to_string(ns[a]) + " cells of periodic axis " +
                         std::string(1, "xyz"[a]) + " (a particle would meet its own image)");
   // Cleared on the Exec's stream (a kernel, not cudaMemset on the legacy
-  // stream), in order with the fill: only the cells of the previous map's list
-  // (about a fifth of the grid in a dense suspension), the whole grid the first time.
-  if (list_valid_) for_each_dynamic(ex, nlist_.data(), grid_.cells(), ZeroListed{count_.data(), list_.data()});
+  // stream), in order with the fill: only the cells the previous map's pairs
+  // name (about a fifth of the grid in a dense suspension), the whole grid the
+  // first time.
+  if (paired_ > 0) for_each(ex, paired_, ClearPaired{count_.data(), pair_.data()});
   else for_each(ex, grid_.cells(), ZeroInts{count_.data()});
-  list_valid_ = false;
+  paired_ = 0;
   // [0..2] are overflow counters (kept across maps on request); [3] is this
   // map's deferred-queue length and always starts from zero.
   if (!opt.keep_overflow) for_each(ex, flags_.size(), ZeroInts{flags_.data()});
@@ -459,10 +479,7 @@ void CellSlots::map(const Exec& ex, const SphereView& particles, const MapOption
   particles_mapped_ = particles.n;
   pair_box_ = dim == 3 ? static_cast<Index>(B) * B * B : static_cast<Index>(B) * B;
   pair_B_ = B;
-  if (particles.n == 0) {
-    build_list(ex);
-    return;
-  }
+  if (particles.n == 0) return;
   pair_.reserve_discard(backend_, particles.n * pair_box_);  // grows only: no allocation in a steady time loop
   Index queue_cap = 0;
   if (opt.method == FractionMethod::Exact && opt.defer_exact) {
@@ -474,37 +491,12 @@ void CellSlots::map(const Exec& ex, const SphereView& particles, const MapOption
   }
   Dispatch<LaunchMap>::run(dim, opt.method, ex, particles, view(), grid_, opt, B, flags_.data(), log_cell_.data(),
                            log_particle_.data(), log_cap_, global_table, queue_.data(), queue_cap, pair_.data());
-  build_list(ex);
-  if (opt.sort_slots && K_ > 1) for_each_dynamic(ex, nlist_.data(), grid_.cells(), SortSlots{view(), list_.data()});
-}
-
-// The cells with count > 0, in index order (cub's stable select on the
-// device; a loop on the host). Their number stays on the backend.
-void CellSlots::build_list(const Exec& ex) {
-  const Index n = grid_.cells();
-  if (ex.on_device()) {
-#if defined(__CUDACC__)
-    const NonZero op{count_.data()};
-    std::size_t bytes = 0;
-    LBDEM_CUDA_CHECK(cub::DeviceSelect::If(nullptr, bytes, thrust::counting_iterator<int>(0), list_.data(),
-                                           nlist_.data(), n, op, ex.stream()));
-    select_tmp_.reserve_discard(backend_, static_cast<Index>(bytes));  // once: the size depends only on n
-    LBDEM_CUDA_CHECK(cub::DeviceSelect::If(select_tmp_.data(), bytes, thrust::counting_iterator<int>(0), list_.data(),
-                                           nlist_.data(), n, op, ex.stream()));
-#else
-    throw_not_compiled_for_cuda("CellSlots::build_list");
-#endif
-  } else {
-    const int* c = count_.data();
-    int* out = list_.data();
-    Index m = 0;
-    for (Index i = 0; i < n; ++i)
-      if (c[i] != 0) out[m++] = static_cast<int>(i);
-    nlist_.data()[0] = m;
+  paired_ = particles.n * pair_box_;
+  if (opt.sort_slots && K_ > 1) {
+    for_each(ex, paired_, MarkSorters{view(), pair_.data(), pair_box_});
+    for_each(ex, paired_, SortMarked{view(), pair_.data()});
   }
-  list_valid_ = true;
 }
-
 
 void CellSlots::clear_overflow(const Exec& ex) { for_each(ex, flags_.size(), ZeroInts{flags_.data()}); }
 

@@ -1,7 +1,6 @@
 #pragma once
 // Dispatch of the PSM step kernel: runtime choices -> template parameters.
 #include <cstdlib>
-#include "core/error.hpp"
 #include "core/exec.hpp"
 #include "imb/psm_coupling.hpp"
 
@@ -25,15 +24,10 @@ void psm_launch_f(const Exec& ex, const lbm::LbmSetup& s, const lbm::LbmRaw& raw
   for (int a = 0; a < 3; ++a) k.periodic[a] = periodic[static_cast<std::size_t>(a)];
   k.slots = slots;
   k.out = sf;
-  // Pass 1: the plain collision over every cell without a slot (registers as
-  // the plain LBM kernel). Pass 2: the solid path over the map's list of
-  // overlapped cells (count read on the device), with three blocks of 256 per
-  // multiprocessor in fp32 (<= 85 registers), two in fp64: unbounded, the odd
-  // AA step took 109 / 176 registers and ran at half the bandwidth.
-  if (!slots.list || !slots.nlist)
-    throw ConfigError("PSM step: the cell slots carry no overlapped-cell list (map the particles first)");
-  for_each(ex, raw.grid.n, PsmFluidPass<decltype(k)>{k});
-  for_each_dynamic_bounded<sizeof(T) == 4 ? 3 : 2>(ex, slots.nlist, raw.grid.n, PsmSolidPass<decltype(k)>{k});
+  // Three blocks of 256 per multiprocessor in fp32 (<= 85 registers, like the
+  // plain kernel), two in fp64: unbounded, the odd AA step took 109 / 176
+  // registers and ran at half the plain kernel's bandwidth.
+  for_each_bounded<sizeof(T) == 4 ? 3 : 2>(ex, raw.grid.n, k);
 }
 
 template <class L, class T, lbm::StreamKind S, int P, bool B, PsmVariant V>

@@ -142,36 +142,6 @@ void for_each_dynamic(const Exec& ex, const Index* n, Index max_n, const F& f, i
   for (Index i = 0; i < m; ++i) f(i);
 }
 
-#if defined(__CUDACC__)
-template <int MinBlocks, class F>
-__global__ void __launch_bounds__(256, MinBlocks) for_each_dynamic_bounded_kernel(const Index* n, F f) {
-  const Index m = *n;
-  const Index step = static_cast<Index>(gridDim.x) * blockDim.x;
-  for (Index i = static_cast<Index>(blockIdx.x) * blockDim.x + threadIdx.x; i < m; i += step) f(i);
-}
-#endif
-
-// for_each_dynamic with blocks of 256 and the register budget of
-// for_each_bounded<MinBlocks> (a heavy kernel over a list built on the device).
-template <int MinBlocks, class F>
-void for_each_dynamic_bounded(const Exec& ex, const Index* n, Index max_n, const F& f) {
-  if (max_n <= 0) return;
-  if (ex.on_device()) {
-#if defined(__CUDACC__)
-    Index grid = (max_n + 255) / 256;
-    if (grid > 8192) grid = 8192;
-    for_each_dynamic_bounded_kernel<MinBlocks><<<static_cast<unsigned>(grid), 256, 0, ex.stream()>>>(n, f);
-    LBDEM_CUDA_CHECK(cudaGetLastError());
-    return;
-#else
-    throw_not_compiled_for_cuda("for_each_dynamic_bounded");
-#endif
-  }
-  const Index m = *n < max_n ? *n : max_n;
-#pragma omp parallel for schedule(static)
-  for (Index i = 0; i < m; ++i) f(i);
-}
-
 }  // namespace lbdem
 
 namespace lbdem {

@@ -18,8 +18,10 @@
 // from R_max), and keeps the expensive exact-ε threads of one particle in the
 // same warps; the cost is idle threads in the box corners (1 − π/6 of a cube)
 // and, for a polydisperse set, (R_max/R)^dim idle threads per small particle.
-// Atomic order makes the slot order non-deterministic, so a second pass sorts
-// each cell's slots by particle index (deterministic layout; default on).
+// Atomic order makes the slot order non-deterministic, so two passes over the
+// (particle, box cell) pairs sort each cell's slots by particle index
+// (deterministic layout; default on). The next map clears the counts through
+// the same pairs (no scan of the grid, no cell list).
 //
 // Overflow (more than K particles in one cell): the count keeps incrementing
 // past K (so it tells how many wanted in), the surplus (cell, particle) pairs
@@ -64,11 +66,6 @@ struct CellSlotsView {
   // rotation, first paper Eq. 2), component a at (a * K + k) * ncells + cell:
   // written by the map from SphereView's velocities.
   float* vel = nullptr;
-  // The cells with count > 0 after the last map, in index order, and their
-  // number (both on the slots' backend): the PSM step runs its solid pass over
-  // this list and the plain collision everywhere else.
-  const int* list = nullptr;
-  const Index* nlist = nullptr;
   LBDEM_HD int used(Index cell) const { return count[cell] < K ? count[cell] : K; }
   LBDEM_HD float& vel_at(int a, Index cell, int k) const { return vel[(static_cast<Index>(a) * K + k) * ncells + cell]; }
   LBDEM_HD int& particle_at(Index cell, int k) const { return particle[k * ncells + cell]; }
@@ -141,7 +138,7 @@ class CellSlots {
   void clear_overflow(const Exec& ex);
 
   CellSlotsView view() const {
-    return {count_.data(), particle_.data(), eps_.data(), grid_.cells(), K_, vel_.data(), list_.data(), nlist_.data()};
+    return {count_.data(), particle_.data(), eps_.data(), grid_.cells(), K_, vel_.data()};
   }
   PairView pairs() const { return {pair_.data(), pair_box_, pair_B_}; }
   const GridShape& grid() const { return grid_; }
@@ -175,14 +172,10 @@ class CellSlots {
   Buffer<Index> queue_;              // deferred interface cells of the exact method
   std::uint64_t global_table_id_ = 0;
   std::shared_ptr<Scratch> scratch_;  // reduction storage (max radius), reused across steps
-  Buffer<int> list_;                 // cells with count > 0 after the last map, in index order
-  Buffer<Index> nlist_;              // their number (on the backend)
-  Buffer<unsigned char> select_tmp_; // cub select storage (sized once)
-  bool list_valid_ = false;          // list_ names every non-zero count (the clear uses it)
   Buffer<int> pair_;                 // PairView
+  Index paired_ = 0;                 // entries of pair_ the last map wrote (the next map clears through them)
   Index pair_box_ = 0;
   int pair_B_ = 0;
-  void build_list(const Exec& ex);
 };
 
 // Evaluates ε for n cells given by their centres relative to the particle
