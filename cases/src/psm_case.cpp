@@ -67,7 +67,7 @@ void read_psm(const Config& ps, imb::PsmOptions& o, int& slots) {
   o.weight = ps.choice("weight", "noble_torczynski", {"noble_torczynski", "linear"}) == "linear"
                  ? imb::PsmWeight::Linear
                  : imb::PsmWeight::NobleTorczynski;
-  o.map.table_in_constant = ps.boolean("table_in_constant", true);
+  o.map.table_in_constant = ps.boolean("table_in_constant", false);
   slots = static_cast<int>(ps.integer_in("slots", 4, 1, 64));
 }
 

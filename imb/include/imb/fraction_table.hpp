@@ -45,62 +45,73 @@ struct PointerTableAccess {
 };
 
 namespace detail {
-LBDEM_HD inline void grid_coord(double x, double lo, double hi, int n, int& i0, double& f) {
-  if (n <= 1) { i0 = 0; f = 0.0; return; }
-  double s = (x - lo) / (hi - lo) * (n - 1);
-  s = clampd(s, 0.0, static_cast<double>(n - 1));
+template <class Real>
+LBDEM_HD inline void grid_coord(Real x, Real lo, Real hi, int n, int& i0, Real& f) {
+  if (n <= 1) { i0 = 0; f = Real(0); return; }
+  Real s = (x - lo) / (hi - lo) * Real(n - 1);
+  s = s < Real(0) ? Real(0) : (s > Real(n - 1) ? Real(n - 1) : s);
   i0 = static_cast<int>(s);
   if (i0 > n - 2) i0 = n - 2;
-  f = s - i0;
+  f = s - Real(i0);
 }
 }  // namespace detail
 
 // Band and orientation coordinates of a cell centre r for radius R.
-struct TableCoord {
-  double t, u, v;
+template <class Real>
+struct TableCoordT {
+  Real t, u, v;
 };
-LBDEM_HD inline TableCoord table_coord(double rx, double ry, double rz, double R) {
-  double a = fabs(rx), b = fabs(ry), c = fabs(rz), tmp;
+using TableCoord = TableCoordT<double>;
+template <class Real>
+LBDEM_HD inline TableCoordT<Real> table_coord(Real rx, Real ry, Real rz, Real R) {
+  Real a = fabs(rx), b = fabs(ry), c = fabs(rz), tmp;
   if (a < b) { tmp = a; a = b; b = tmp; }
   if (b < c) { tmp = b; b = c; c = tmp; }
   if (a < b) { tmp = a; a = b; b = tmp; }
-  const double d = sqrt(a * a + b * b + c * c);
-  const double h = (a + b + c) / (2.0 * d);
-  return {(d - R) / h, a > 0.0 ? b / a : 0.0, b > 0.0 ? c / b : 0.0};
+  const Real d = sqrt(a * a + b * b + c * c);
+  const Real h = (a + b + c) / (Real(2) * d);
+  return {(d - R) / h, a > Real(0) ? b / a : Real(0), b > Real(0) ? c / b : Real(0)};
 }
 
 // Interpolated table value at (t, u, v) for radius R (no in/out test, no clamp).
-template <class Access>
-LBDEM_HD inline double table_interpolate(const TableGeometry& g, const Access& tab, const TableCoord& q, double R) {
+template <class Access, class Real>
+LBDEM_HD inline Real table_interpolate(const TableGeometry& g, const Access& tab, const TableCoordT<Real>& q, Real R) {
   int it, iu, iv;
-  double ft, fu, fv;
-  detail::grid_coord(q.t, g.t_min, g.t_max, g.nt, it, ft);
-  detail::grid_coord(q.u, 0.0, 1.0, g.nu, iu, fu);
-  detail::grid_coord(q.v, 0.0, 1.0, g.nv, iv, fv);
+  Real ft, fu, fv;
+  detail::grid_coord(q.t, Real(g.t_min), Real(g.t_max), g.nt, it, ft);
+  detail::grid_coord(q.u, Real(0), Real(1), g.nu, iu, fu);
+  detail::grid_coord(q.v, Real(0), Real(1), g.nv, iv, fv);
   const int nodes = g.nodes();
-  const double inv_r = 1.0 / R;
-  double acc = 0.0;
+  const Real inv_r = Real(1) / R;
+  Real acc = 0;
   const int kv_end = g.nv > 1 ? 2 : 1;
   for (int kv = 0; kv < kv_end; ++kv) {
-    const double wv = g.nv > 1 ? (kv ? fv : 1.0 - fv) : 1.0;
+    const Real wv = g.nv > 1 ? (kv ? fv : Real(1) - fv) : Real(1);
     for (int ku = 0; ku < 2; ++ku) {
-      const double wu = ku ? fu : 1.0 - fu;
+      const Real wu = ku ? fu : Real(1) - fu;
       for (int kt = 0; kt < 2; ++kt) {
-        const double w = wv * wu * (kt ? ft : 1.0 - ft);
+        const Real w = wv * wu * (kt ? ft : Real(1) - ft);
         const int idx = ((iv + kv) * g.nu + (iu + ku)) * g.nt + (it + kt);
-        acc += w * (static_cast<double>(tab(idx)) + static_cast<double>(tab(nodes + idx)) * inv_r);
+        acc += w * (static_cast<Real>(tab(idx)) + static_cast<Real>(tab(nodes + idx)) * inv_r);
       }
     }
   }
   return acc;
 }
 
+// Table fractions: the in/out corner tests in double (they decide which cells
+// get a slot), the band interpolation in float: the table holds float
+// coefficients accurate to ~1e-3 (bench/results), so double arithmetic there
+// bought nothing and made the GPU map compute-bound (fp64 divisions and sqrt).
 template <class Access>
 LBDEM_HD inline double table_fraction_3d(const TableGeometry& g, const Access& tab, double rx, double ry, double rz,
                                          double R) {
   if (cell_near2(rx, ry, rz) >= R * R) return 0.0;
   if (cell_far2(rx, ry, rz) <= R * R) return 1.0;
-  return detail::clampd(table_interpolate(g, tab, table_coord(rx, ry, rz, R), R), 0.0, 1.0);
+  const float Rf = static_cast<float>(R);
+  const float e = table_interpolate(
+      g, tab, table_coord(static_cast<float>(rx), static_cast<float>(ry), static_cast<float>(rz), Rf), Rf);
+  return detail::clampd(static_cast<double>(e), 0.0, 1.0);
 }
 
 template <class Access>
@@ -108,7 +119,10 @@ LBDEM_HD inline double table_fraction_2d(const TableGeometry& g, const Access& t
   if (cell_near2(rx, ry, 0.0) >= R * R) return 0.0;
   const double fx = fabs(rx) + 0.5, fy = fabs(ry) + 0.5;
   if (fx * fx + fy * fy <= R * R) return 1.0;
-  return detail::clampd(table_interpolate(g, tab, table_coord(rx, ry, 0.0, R), R), 0.0, 1.0);
+  const float Rf = static_cast<float>(R);
+  const float e =
+      table_interpolate(g, tab, table_coord(static_cast<float>(rx), static_cast<float>(ry), 0.0f, Rf), Rf);
+  return detail::clampd(static_cast<double>(e), 0.0, 1.0);
 }
 
 // Host-side table: geometry plus the values (coefficient e0 block, then e1).
