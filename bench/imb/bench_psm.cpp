@@ -2,7 +2,7 @@
 //
 //   lbdem_bench_psm sweep [--out FILE.json] [--d 4,6,8,...] [--tau 0.52] [--methods exact,table,linear]
 //                   [--precisions fp64,fp32] [--collisions trt,bgk] [--variants nebb,super] [--weights nt,eps]
-//                   [--magic 1e-4] [--offset 0.5,0] [--re 0.2] [--chi 0.5] [--tol 1e-5]
+//                   [--magic 1e-4 (or auto: 1e-4 below d/l 16, 3e-2 from 16)] [--offset 0.5,0] [--re 0.2] [--chi 0.5] [--tol 1e-5]
 //                   [--start estimate|rest] [--check N] [--max-steps N] [--backend host|cuda] [--dim 3] [-v]
 //   lbdem_bench_psm suspension [--out FILE.json] [--n 256] [--phi 0.128] [--d 10] [--steps 200]
 //                   [--substeps N (default: fewest accepted)] [--tau 0.6] [--precision fp32|fp64] [--fraction exact|table|linear]
@@ -142,7 +142,9 @@ int sweep(int argc, char** argv) {
                       s.chi = chi;
                       s.re_p = std::stod(rs);
                       s.tau = std::stod(ts);
-                      s.magic = std::stod(ms);
+                      // "auto": the resolution-dependent setting that meets every Table 1 bar
+                      // (bench/results/psm_drag_by_resolution_*): Lambda 1e-4 below d/l 16, 3e-2 from 16.
+                      s.magic = ms == "auto" ? (s.diameter < 16.0 ? 1e-4 : 3e-2) : std::stod(ms);
                       s.offset = std::stod(os);
                       // fp32 round-off floors the drag's step-to-step change near 1e-6.
                       s.tolerance = pr == "fp32" ? std::max(tol, 1e-5) : tol;
