@@ -11,7 +11,6 @@
 #include "core/algorithms.hpp"
 #include "core/error.hpp"
 
-
 namespace lbdem::imb {
 
 namespace {

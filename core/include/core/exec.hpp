@@ -110,38 +110,6 @@ void for_each_bounded(const Exec& ex, Index n, const F& f) {
   for (Index i = 0; i < n; ++i) f(i);
 }
 
-#if defined(__CUDACC__)
-template <class F>
-__global__ void for_each_dynamic_kernel(const Index* n, F f) {
-  const Index m = *n;
-  const Index step = static_cast<Index>(gridDim.x) * blockDim.x;
-  for (Index i = static_cast<Index>(blockIdx.x) * blockDim.x + threadIdx.x; i < m; i += step) f(i);
-}
-#endif
-
-// Runs f(i) for i in [0, *n), where the count *n lives on the Exec's backend
-// (written by an earlier kernel: no host round trip). max_n bounds *n and
-// sizes the launch (a grid-stride loop over at most 8192 blocks).
-template <class F>
-void for_each_dynamic(const Exec& ex, const Index* n, Index max_n, const F& f, int block_size = 256) {
-  if (max_n <= 0) return;
-  if (ex.on_device()) {
-#if defined(__CUDACC__)
-    Index grid = (max_n + block_size - 1) / block_size;
-    if (grid > 8192) grid = 8192;
-    for_each_dynamic_kernel<<<static_cast<unsigned>(grid), block_size, 0, ex.stream()>>>(n, f);
-    LBDEM_CUDA_CHECK(cudaGetLastError());
-    return;
-#else
-    (void)block_size;
-    throw_not_compiled_for_cuda("for_each_dynamic");
-#endif
-  }
-  const Index m = *n < max_n ? *n : max_n;
-#pragma omp parallel for schedule(static)
-  for (Index i = 0; i < m; ++i) f(i);
-}
-
 }  // namespace lbdem
 
 namespace lbdem {

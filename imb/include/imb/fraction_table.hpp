@@ -45,54 +45,50 @@ struct PointerTableAccess {
 };
 
 namespace detail {
-template <class Real>
-LBDEM_HD inline void grid_coord(Real x, Real lo, Real hi, int n, int& i0, Real& f) {
-  if (n <= 1) { i0 = 0; f = Real(0); return; }
-  Real s = (x - lo) * (Real(n - 1) / (hi - lo));  // folds to a multiplication for (lo, hi) = (0, 1)
-  s = s < Real(0) ? Real(0) : (s > Real(n - 1) ? Real(n - 1) : s);
+LBDEM_HD inline void grid_coord(double x, double lo, double hi, int n, int& i0, double& f) {
+  if (n <= 1) { i0 = 0; f = 0.0; return; }
+  double s = (x - lo) * ((n - 1) / (hi - lo));  // folds to a multiplication for (lo, hi) = (0, 1)
+  s = clampd(s, 0.0, static_cast<double>(n - 1));
   i0 = static_cast<int>(s);
   if (i0 > n - 2) i0 = n - 2;
-  f = s - Real(i0);
+  f = s - i0;
 }
 }  // namespace detail
 
 // Band and orientation coordinates of a cell centre r for radius R.
-template <class Real>
-struct TableCoordT {
-  Real t, u, v;
+struct TableCoord {
+  double t, u, v;
 };
-using TableCoord = TableCoordT<double>;
-template <class Real>
-LBDEM_HD inline TableCoordT<Real> table_coord(Real rx, Real ry, Real rz, Real R) {
-  Real a = fabs(rx), b = fabs(ry), c = fabs(rz), tmp;
+LBDEM_HD inline TableCoord table_coord(double rx, double ry, double rz, double R) {
+  double a = fabs(rx), b = fabs(ry), c = fabs(rz), tmp;
   if (a < b) { tmp = a; a = b; b = tmp; }
   if (b < c) { tmp = b; b = c; c = tmp; }
   if (a < b) { tmp = a; a = b; b = tmp; }
-  const Real d = sqrt(a * a + b * b + c * c);
+  const double d = sqrt(a * a + b * b + c * c);
   // t = (d - R) / h with h = (a + b + c) / (2 d): one division instead of two.
-  return {(d - R) * (Real(2) * d) / (a + b + c), a > Real(0) ? b / a : Real(0), b > Real(0) ? c / b : Real(0)};
+  return {(d - R) * (2.0 * d) / (a + b + c), a > 0.0 ? b / a : 0.0, b > 0.0 ? c / b : 0.0};
 }
 
 // Interpolated table value at (t, u, v) for radius R (no in/out test, no clamp).
-template <class Access, class Real>
-LBDEM_HD inline Real table_interpolate(const TableGeometry& g, const Access& tab, const TableCoordT<Real>& q, Real R) {
+template <class Access>
+LBDEM_HD inline double table_interpolate(const TableGeometry& g, const Access& tab, const TableCoord& q, double R) {
   int it, iu, iv;
-  Real ft, fu, fv;
-  detail::grid_coord(q.t, Real(g.t_min), Real(g.t_max), g.nt, it, ft);
-  detail::grid_coord(q.u, Real(0), Real(1), g.nu, iu, fu);
-  detail::grid_coord(q.v, Real(0), Real(1), g.nv, iv, fv);
+  double ft, fu, fv;
+  detail::grid_coord(q.t, g.t_min, g.t_max, g.nt, it, ft);
+  detail::grid_coord(q.u, 0.0, 1.0, g.nu, iu, fu);
+  detail::grid_coord(q.v, 0.0, 1.0, g.nv, iv, fv);
   const int nodes = g.nodes();
-  const Real inv_r = Real(1) / R;
-  Real acc = 0;
+  const double inv_r = 1.0 / R;
+  double acc = 0.0;
   const int kv_end = g.nv > 1 ? 2 : 1;
   for (int kv = 0; kv < kv_end; ++kv) {
-    const Real wv = g.nv > 1 ? (kv ? fv : Real(1) - fv) : Real(1);
+    const double wv = g.nv > 1 ? (kv ? fv : 1.0 - fv) : 1.0;
     for (int ku = 0; ku < 2; ++ku) {
-      const Real wu = ku ? fu : Real(1) - fu;
+      const double wu = ku ? fu : 1.0 - fu;
       for (int kt = 0; kt < 2; ++kt) {
-        const Real w = wv * wu * (kt ? ft : Real(1) - ft);
+        const double w = wv * wu * (kt ? ft : 1.0 - ft);
         const int idx = ((iv + kv) * g.nu + (iu + ku)) * g.nt + (it + kt);
-        acc += w * (static_cast<Real>(tab(idx)) + static_cast<Real>(tab(nodes + idx)) * inv_r);
+        acc += w * (static_cast<double>(tab(idx)) + static_cast<double>(tab(nodes + idx)) * inv_r);
       }
     }
   }
