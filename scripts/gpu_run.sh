@@ -2,7 +2,7 @@
 # One call on the GPU machine: build with CUDA for sm_90, run the whole test
 # suite (host and CUDA backends), run the benchmarks; logs and JSON go to $OUT.
 #   scripts/gpu_run.sh [build] [test] [bench-lbm] [bench-dem] [bench-imb] [bench-psm] [bench-susp]
-#                      [build-psm] [test-imb] [profile-susp] [profile-psm-kernel] [profile-map] [scan] [lambda]
+#                      [build-psm] [test-imb] [profile-susp] [profile-psm-kernel] [profile-fused] [profile-map] [scan] [lambda]
 #                      (quicker partial calls)
 #   (default: all)
 set -uo pipefail
@@ -39,9 +39,16 @@ for s in "${steps[@]}"; do
       for prec in fp32 fp64; do
         timeout 240 ncu --clock-control none --metrics gpu__time_duration.sum,dram__bytes.sum \
           --print-summary per-kernel "$b" suspension --n 256 --steps 3 --precision $prec --fraction table \
-          > "$OUT/ncu_susp_$prec.log" 2>&1
+          --pipeline ${PROFILE_PIPELINE:-fused} > "$OUT/ncu_susp_$prec.log" 2>&1
         echo "ncu $prec exit $?"
       done ;;
+    profile-fused)
+      # The fused PSM kernel (fp32 suspension, table fractions): occupancy, stalls, memory.
+      b="$build/bench/imb/lbdem_bench_psm"
+      timeout 240 ncu --clock-control none -k regex:psm_fused_kernel -c 2 --section Occupancy --section WarpStateStats \
+        --section MemoryWorkloadAnalysis --section LaunchStats --section SpeedOfLight \
+        "$b" suspension --n 256 --steps 3 --precision fp32 --fraction table --pipeline fused > "$OUT/ncu_fused_kernel.log" 2>&1
+      echo "ncu-fused exit $?"; grep -E "Duration|Registers|Achieved Occupancy|Theoretical Occupancy|DRAM Throughput|Compute \(SM\)|Shared Memory Configuration Size|Dynamic Shared|Static Shared" "$OUT/ncu_fused_kernel.log" | head -30 ;;
     profile-psm-kernel)
       # Occupancy, warp stalls and memory of the PSM stream-collide kernel (fp32, table fractions).
       b="$build/bench/imb/lbdem_bench_psm"
@@ -91,9 +98,13 @@ for s in "${steps[@]}"; do
       tail -5 "$OUT/psm_sweep_small.log" "$OUT/psm_sweep_large.log" ;;
     bench-susp)
       b="$build/bench/imb/lbdem_bench_psm"
-      [ -x "$b" ] && for prec in fp32 fp64; do for fr in ${SUSP_FRACTIONS:-table exact linear}; do
-        timeout 60 "$b" suspension --n 256 --steps 100 --precision $prec --fraction $fr \
-          --out "$OUT/psm_susp_${prec}_${fr}.json" >> "$OUT/psm_susp.log" 2>&1; echo "susp $prec $fr exit $?"; done; done
+      # Pipelines: fused (table/linear) and mapped (any method); exact runs mapped only.
+      [ -x "$b" ] && for prec in fp32 fp64; do for fr in ${SUSP_FRACTIONS:-table linear exact}; do
+        for pl in ${SUSP_PIPELINES:-fused mapped}; do
+          [ "$fr" = exact ] && [ "$pl" = fused ] && continue
+          timeout 60 "$b" suspension --n 256 --steps 100 --precision $prec --fraction $fr --pipeline $pl \
+            --out "$OUT/psm_susp_${prec}_${fr}_${pl}.json" >> "$OUT/psm_susp.log" 2>&1; echo "susp $prec $fr $pl exit $?"
+        done; done; done
       cat "$OUT/psm_susp.log" | grep -v "^\[" ;;
     *) echo "unknown step $s"; exit 2 ;;
   esac

@@ -6,6 +6,7 @@
 //                   [--start estimate|rest] [--check N] [--max-steps N] [--backend host|cuda] [--dim 3] [-v]
 //   lbdem_bench_psm suspension [--out FILE.json] [--n 256] [--phi 0.128] [--d 10] [--steps 200]
 //                   [--substeps N (default: fewest accepted)] [--tau 0.6] [--precision fp32|fp64] [--fraction exact|table|linear]
+//                   [--pipeline auto|fused|mapped] [--fused-order loads|fractions]
 //
 // sweep: fixed sphere in a simple cubic array (the first paper's Table 1
 // test) for every combination; per row the drag coefficient K against
@@ -215,7 +216,7 @@ double copy_bandwidth(Backend b, std::size_t bytes) {
 // Coupled PSM-DEM step of a periodic suspension against the fluid-only step on
 // the same grid (first paper Table 2: solid fraction 0.128, d/l = 10).
 int suspension(int argc, char** argv) {
-  std::string out, backend = "auto", prec = "fp32", fraction = "exact";
+  std::string out, backend = "auto", prec = "fp32", fraction = "exact", pipeline = "auto", fused_order = "loads";
   long n = 256, steps = 200;
   double phi = 0.128, d = 10, tau = 0.6;
   int substeps = 0;  // 0: the fewest that check_coupled_setup accepts (t_c / 50 per sub-step)
@@ -231,6 +232,8 @@ int suspension(int argc, char** argv) {
     else if (k == "--tau") tau = std::stod(next());
     else if (k == "--precision") prec = next();
     else if (k == "--fraction") fraction = next();
+    else if (k == "--pipeline") pipeline = next();
+    else if (k == "--fused-order") fused_order = next();
     else if (k == "--backend") backend = next();
     else throw ConfigError("unknown option " + k);
   }
@@ -298,7 +301,15 @@ int suspension(int argc, char** argv) {
     cp.psm.map.table_in_constant = false;
   }
   cp.psm.map.max_radius = 0.5 * d;
+  if (pipeline != "auto" && pipeline != "fused" && pipeline != "mapped")
+    throw ConfigError("--pipeline " + pipeline + ": must be auto, fused or mapped");
+  cp.psm.pipeline = pipeline == "fused" ? imb::PsmPipeline::Fused
+                    : pipeline == "mapped" ? imb::PsmPipeline::Mapped : imb::PsmPipeline::Auto;
+  if (fused_order != "loads" && fused_order != "fractions")
+    throw ConfigError("--fused-order " + fused_order + ": must be loads or fractions");
+  cp.psm.fused_loads_first = fused_order == "loads";
   imb::CoupledSolver cs(*fl, dem, cp);
+  const std::string used = imb::to_string(cs.coupling().pipeline());
   cs.advance(10);
   fl->synchronize();
   const double t0 = wall();
@@ -321,8 +332,8 @@ int suspension(int argc, char** argv) {
   const double t_fluid = time_of([&] { fl->step(1); });
   const auto d0 = fl->diagnostics();
   const double frac_fluid = fluid_mlups * 1e6 * bytes_cell / bw;
-  std::printf("suspension %ld^3, %ld particles d/l=%g phi=%.3f, %s, %s fractions, %d DEM sub-steps:\n", n,
-              static_cast<long>(hp.size()), d, phi, prec.c_str(), fraction.c_str(), substeps);
+  std::printf("suspension %ld^3, %ld particles d/l=%g phi=%.3f, %s, %s fractions, %s pipeline, %d DEM sub-steps:\n", n,
+              static_cast<long>(hp.size()), d, phi, prec.c_str(), fraction.c_str(), used.c_str(), substeps);
   std::printf("  copy bandwidth %.1f GB/s; fluid-only %.0f MLUPS (%.1f%% of copy); coupled %.0f MLUPS = %.1f%% of "
               "fluid-only; DEM %.3f ms/step; finite %d\n",
               bw / 1e9, fluid_mlups, 100 * frac_fluid, coupled_mlups, 100 * coupled_mlups / fluid_mlups, 1e3 * t_dem,
@@ -333,7 +344,7 @@ int suspension(int argc, char** argv) {
     std::ofstream js(out);
     js << "{\n  \"backend\": \"" << (b == Backend::Cuda ? "cuda" : "host") << "\",\n  \"n\": " << n
        << ",\n  \"particles\": " << hp.size() << ",\n  \"d\": " << d << ",\n  \"phi\": " << phi
-       << ",\n  \"precision\": \"" << prec << "\",\n  \"fraction\": \"" << fraction
+       << ",\n  \"precision\": \"" << prec << "\",\n  \"fraction\": \"" << fraction << "\",\n  \"pipeline\": \"" << used << "\",\n  \"fused_order\": \"" << fused_order
        << "\",\n  \"substeps\": " << substeps << ",\n  \"steps\": " << steps
        << ",\n  \"copy_bandwidth_Bps\": " << bw << ",\n  \"fluid_mlups\": " << fluid_mlups
        << ",\n  \"fluid_fraction_of_copy\": " << frac_fluid << ",\n  \"coupled_mlups\": " << coupled_mlups

@@ -78,7 +78,10 @@ FixedSphereResult run_fixed_sphere(const FixedSphereSpec& c, Backend b) {
   opt.map.method = c.method;
   opt.map.max_radius = a;
   opt.map.table = c.table;
-  coupling.map(p, opt, true);  // a fixed sphere is mapped once
+  // A fixed sphere is mapped once: the mapped pipeline reads its slots every
+  // step instead of recomputing the fractions (imb/psm_coupling.hpp).
+  opt.pipeline = c.pipeline == imb::PsmPipeline::Fused ? imb::PsmPipeline::Fused : imb::PsmPipeline::Mapped;
+  coupling.map(p, opt, true);
   if (c.start == FixedSphereSpec::Start::Estimate) {
     // u = U0 (1 - eps) along x: zero inside the sphere, the Stokes estimate's
     // superficial velocity sum (1 - eps) u / V = U_target.

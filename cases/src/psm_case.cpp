@@ -68,7 +68,19 @@ void read_psm(const Config& ps, imb::PsmOptions& o, int& slots) {
                  ? imb::PsmWeight::Linear
                  : imb::PsmWeight::NobleTorczynski;
   o.map.table_in_constant = ps.boolean("table_in_constant", false);
+  const auto pl = ps.choice("pipeline", "auto", {"auto", "fused", "mapped"});
+  o.pipeline = pl == "fused" ? imb::PsmPipeline::Fused : pl == "mapped" ? imb::PsmPipeline::Mapped : imb::PsmPipeline::Auto;
+  o.tile_capacity = static_cast<int>(ps.integer_in("tile_capacity", 64, 1, imb::kFusedMaxCapacity));
   slots = static_cast<int>(ps.integer_in("slots", 4, 1, 64));
+  if (o.pipeline == imb::PsmPipeline::Fused) {  // refuse now, before any output is written
+    imb::PsmOptions probe = o;
+    if (probe.map.method == imb::FractionMethod::Table) probe.map.table = nullptr;
+    try {
+      (void)imb::resolve_pipeline(probe, slots);
+    } catch (const ConfigError& e) {
+      ps.fail("pipeline", e.what());
+    }
+  }
 }
 
 // ------------------------------------------------------------ fixed sphere
@@ -93,6 +105,7 @@ int run_fixed_sphere_case(const Config& root, const RunOptions& opt) {
     ps->finish();
   }
   s.method = po.map.method;
+  s.pipeline = po.pipeline;
   s.variant = po.variant;
   s.weight = po.weight;
   const Config st = root.section("steady");
@@ -341,7 +354,7 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
              {{"radius", 1, rad.data()}, {"velocity", 3, vel.data()}, {"angular_velocity", 3, omg.data()},
               {"hydrodynamic_force", 3, hf.data()}, {"id", 1, id.data()}});
     fluid->macroscopic(rho, u);
-    const auto eps = cs.coupling().slots().total_eps_host();
+    const auto eps = cs.solid_fraction_host();
     gw.write(step, double(step),
              {{"density", 1, rho.data(), "lattice"}, {"velocity", 3, u.data(), "lattice (cells per step)"},
               {"solid_fraction", 1, eps.data(), "1"}});

@@ -10,6 +10,7 @@
 
 #include "core/algorithms.hpp"
 #include "core/error.hpp"
+#include "imb/fraction_eval.hpp"
 
 namespace lbdem::imb {
 
@@ -63,26 +64,10 @@ LBDEM_HD inline Index wrap(Index i, Index n) {
   return i < 0 ? i + n : i;
 }
 
-// ε of one cell for one method; Dim 2 ignores rz.
+// ε of one cell for one method (imb/fraction_eval.hpp), table read from
+// constant memory, a global copy or the host copy.
 template <int Dim, FractionMethod M>
-struct Fraction {
-  TableGeometry g;
-  ConstTableAccess tab;
-  bool linear_normalised;
-  LBDEM_HD double operator()(double rx, double ry, double rz, double R) const {
-    if constexpr (M == FractionMethod::Exact) {
-      if constexpr (Dim == 3) return exact_fraction_3d(rx, ry, rz, R);
-      else return exact_fraction_2d(rx, ry, R);
-    } else if constexpr (M == FractionMethod::Table) {
-      if constexpr (Dim == 3) return table_fraction_3d(g, tab, rx, ry, rz, R);
-      else return table_fraction_2d(g, tab, rx, ry, R);
-    } else {
-      const double re = !linear_normalised ? R : (Dim == 3 ? linear_effective_radius_3d(R) : linear_effective_radius_2d(R));
-      const double d = Dim == 3 ? sqrt(rx * rx + ry * ry + rz * rz) : sqrt(rx * rx + ry * ry);
-      return linear_fraction(d, re);
-    }
-  }
-};
+using Fraction = FractionOf<Dim, M, ConstTableAccess>;
 
 template <int Dim, FractionMethod M>
 struct MapKernel {

@@ -144,23 +144,21 @@ void CoupledSolver::advance(long n) {
 }
 
 void CoupledSolver::check_overflow() {
-  CellSlots& slots = const_cast<CellSlots&>(psm_->slots());
-  const OverflowReport r = slots.overflow();
+  const OverflowReport r = psm_->overflow();
   if (!r.overflow && !r.radius_too_large) return;
   // Name particles by global id (storage indices change at DEM rebuilds).
   const dem::HostParticles hp = dem_.download();
   std::ostringstream m;
   m << "PSM cell slots overflowed at coupled step " << steps_ << ": ";
   if (r.overflow) {
-    m << "cell (" << r.ijk[0] << ", " << r.ijk[1] << ", " << r.ijk[2] << ") is overlapped by " << r.count
-      << " particles but coupling.slots K = " << p_.slots << "; particle ids:";
+    m << r.message << " Particle ids (storage index -> id):";
     for (int pi : r.particles)
-      if (pi >= 0 && pi < static_cast<int>(hp.id.size())) m << ' ' << hp.id[static_cast<std::size_t>(pi)];
+      if (pi >= 0 && pi < static_cast<int>(hp.id.size())) m << ' ' << pi << "->" << hp.id[static_cast<std::size_t>(pi)];
     m << ". Raise coupling.slots (K) or check the particles for overlaps.";
   } else {
     m << r.message;
   }
-  slots.clear_overflow(Exec(fluid_.backend()));
+  psm_->clear_overflow();
   throw ResourceError(m.str());
 }
 
@@ -175,6 +173,10 @@ std::vector<double> xyz_host(Backend b, const dem::Real4* d, Index n) {
   return out;
 }
 }  // namespace
+
+std::vector<double> CoupledSolver::solid_fraction_host() { return output_slots().total_eps_host(); }
+
+const CellSlots& CoupledSolver::output_slots() { return psm_->output_slots(particle_view(), p_.psm); }
 
 std::vector<double> CoupledSolver::hydro_force_host() const {
   const dem::ParticleView v = const_cast<dem::DemSystem&>(dem_).view();

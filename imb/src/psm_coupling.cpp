@@ -1,11 +1,16 @@
 #include "imb/psm_coupling.hpp"
 
+#include "psm_fused_impl.hpp"
+
 namespace lbdem::imb {
 
 void psm_step_d2q9(const Exec&, const lbm::LbmSetup&, const lbm::LbmRaw&, const CellSlotsView&, const SlotForceView&,
                    const PsmOptions&, const std::array<bool, 3>&);
 void psm_step_d3q19(const Exec&, const lbm::LbmSetup&, const lbm::LbmRaw&, const CellSlotsView&, const SlotForceView&,
                     const PsmOptions&, const std::array<bool, 3>&);
+void psm_fused_d2q9(const Exec&, const FusedArgs&);
+void psm_fused_d3q19_f32(const Exec&, const FusedArgs&);
+void psm_fused_d3q19_f64(const Exec&, const FusedArgs&);
 
 void psm_fluid_step(const Exec& ex, const lbm::LbmSetup& s, const lbm::LbmRaw& raw, const CellSlotsView& slots,
                     const SlotForceView& sf, const PsmOptions& opt, const std::array<bool, 3>& periodic) {
@@ -13,25 +18,77 @@ void psm_fluid_step(const Exec& ex, const lbm::LbmSetup& s, const lbm::LbmRaw& r
   else psm_step_d3q19(ex, s, raw, slots, sf, opt, periodic);
 }
 
+const char* to_string(PsmPipeline p) {
+  switch (p) {
+    case PsmPipeline::Auto: return "auto";
+    case PsmPipeline::Fused: return "fused";
+    case PsmPipeline::Mapped: return "mapped";
+  }
+  return "?";
+}
+
+PsmPipeline resolve_pipeline(const PsmOptions& o, int K) {
+  if (o.pipeline == PsmPipeline::Mapped) return PsmPipeline::Mapped;
+  std::string why;
+  if (o.map.method == FractionMethod::Exact)
+    why = "psm.fraction = exact (the exact overlap costs ~10 us per sphere: map it once with the mapped pipeline)";
+  else if (o.map.table_in_constant)
+    why = "psm.table_in_constant = true (the fused kernel reads the table from global memory)";
+  else if (K > kFusedMaxSlots)
+    why = "coupling.slots (K) = " + std::to_string(K) + " > " + std::to_string(kFusedMaxSlots);
+  if (why.empty()) return PsmPipeline::Fused;
+  if (o.pipeline == PsmPipeline::Fused)
+    throw ConfigError("psm.pipeline = fused does not apply with " + why + "; use psm.pipeline: mapped or auto");
+  return PsmPipeline::Mapped;
+}
+
 PsmCoupling::PsmCoupling(lbm::LbmSolver& solver, int K, std::array<bool, 3> periodic)
-    : solver_(solver), periodic_(periodic), ex_(solver.backend()) {
+    : solver_(solver), periodic_(periodic), K_(K), ex_(solver.backend()) {
   if (K < 1) throw ConfigError("PSM slots per cell K = " + std::to_string(K) + ": must be >= 1");
   const lbm::GridView g = lbm::make_grid_view(solver.setup().domain);
-  GridShape shape;
-  shape.nx = g.nx;
-  shape.ny = g.ny;
-  shape.nz = g.nz;
-  shape.periodic = periodic;
-  slots_ = std::make_unique<CellSlots>(solver.backend(), shape, K);
-  slot_forces_ = Buffer<double>(solver.backend(), SlotForceView::kComponents * static_cast<Index>(K) * g.n);
+  shape_.nx = g.nx;
+  shape_.ny = g.ny;
+  shape_.nz = g.nz;
+  shape_.periodic = periodic;
 }
 
 PsmCoupling::~PsmCoupling() = default;
 
+CellSlots& PsmCoupling::mapped_slots() {
+  if (!slots_) slots_ = std::make_unique<CellSlots>(solver_.backend(), shape_, K_);
+  return *slots_;
+}
+
+const CellSlots& PsmCoupling::slots() const {
+  if (!slots_) throw ConfigError("PsmCoupling::slots: no mapped-pipeline map has been made (psm.pipeline is fused)");
+  return *slots_;
+}
+
 void PsmCoupling::map(const PsmParticles& p, const PsmOptions& opt, bool check_overflow) {
-  if (p.n == 0) return;
-  slots_->map(ex_, p, opt.map);
-  if (check_overflow) slots_->throw_if_overflow();
+  pipeline_ = resolve_pipeline(opt, K_);
+  if (pipeline_ == PsmPipeline::Fused) {
+    if (!tiles_ || tiles_->capacity() != opt.tile_capacity)
+      tiles_ = std::make_unique<TileMap>(solver_.backend(), shape_, K_, opt.tile_capacity);
+    if (opt.map.method == FractionMethod::Table) {
+      if (!opt.map.table) throw ConfigError("PSM: solid-fraction method 'table' needs a table (build_fraction_table)");
+      if (opt.map.table->geometry.dim != shape_.dim())
+        throw ConfigError("PSM: the fraction table is " + std::to_string(opt.map.table->geometry.dim) +
+                          "D but the grid is " + std::to_string(shape_.dim()) + "D");
+      if (ex_.on_device() && table_id_ != opt.map.table->id) {  // copied once per table, not per step
+        table_.reserve_discard(solver_.backend(), static_cast<Index>(opt.map.table->values.size()));
+        table_.copy_from_host(opt.map.table->values);
+        table_id_ = opt.map.table->id;
+      }
+    }
+    tiles_->build(ex_, p, opt.map.max_radius);
+  } else {
+    if (p.n == 0) return;
+    mapped_slots().map(ex_, p, opt.map);
+  }
+  if (check_overflow) {
+    const OverflowReport r = overflow();
+    if (r.overflow || r.radius_too_large) throw ResourceError(r.message);
+  }
 }
 
 void PsmCoupling::step(const PsmParticles& p, const PsmOptions& opt, const ForceOut& out) {
@@ -39,13 +96,62 @@ void PsmCoupling::step(const PsmParticles& p, const PsmOptions& opt, const Force
     solver_.step(1);
     return;
   }
+  const PsmPipeline want = resolve_pipeline(opt, K_);
+  if (want != pipeline_)
+    throw ConfigError(std::string("PsmCoupling::step: the particles were mapped for the ") + to_string(pipeline_) +
+                      " pipeline but the step asks for " + to_string(want) + " (call map() with the same options)");
   const lbm::LbmRaw raw = solver_.raw();
-  const SlotForceView sf{slot_forces_.data(), raw.grid.n, slots_->K()};
-  psm_fluid_step(ex_, solver_.setup(), raw, slots_->view(), sf, opt, periodic_);
+  const int dim = solver_.setup().lattice == lbm::LatticeKind::D2Q9 ? 2 : 3;
+  if (pipeline_ == PsmPipeline::Fused) {
+    FusedArgs a;
+    a.setup = &solver_.setup();
+    a.raw = &raw;
+    a.tv = tiles_->view();
+    a.p = p;
+    a.opt = &opt;
+    a.table = opt.map.method == FractionMethod::Table
+                  ? (ex_.on_device() ? table_.data() : opt.map.table->values.data())
+                  : nullptr;
+    a.K = K_;
+    if (dim == 2) psm_fused_d2q9(ex_, a);
+    else if (solver_.setup().precision == lbm::Precision::FP32) psm_fused_d3q19_f32(ex_, a);
+    else psm_fused_d3q19_f64(ex_, a);
+    solver_.commit_external_step();
+    if (out.force) tiles_->finish(ex_, p, out);
+    return;
+  }
+  CellSlots& cs = mapped_slots();
+  if (slot_forces_.size() == 0)
+    slot_forces_ = Buffer<double>(solver_.backend(), SlotForceView::kComponents * static_cast<Index>(K_) * raw.grid.n);
+  const SlotForceView sf{slot_forces_.data(), raw.grid.n, K_};
+  psm_fluid_step(ex_, solver_.setup(), raw, cs.view(), sf, opt, periodic_);
   solver_.commit_external_step();
   if (!out.force) return;  // forces not wanted this step (e.g. a fixed particle between checks)
-  const int dim = solver_.setup().lattice == lbm::LatticeKind::D2Q9 ? 2 : 3;
-  psm_gather(ex_, slots_->view(), sf, slots_->pairs(), p, dim, out);
+  psm_gather(ex_, cs.view(), sf, cs.pairs(), p, dim, out);
+}
+
+const CellSlots& PsmCoupling::output_slots(const PsmParticles& p, const PsmOptions& opt) {
+  if (pipeline_ == PsmPipeline::Fused || !slots_) {
+    MapOptions m = opt.map;
+    m.keep_overflow = false;
+    mapped_slots().map(ex_, p, m);  // output only: not in the time loop's path
+  }
+  return *slots_;
+}
+
+std::vector<double> PsmCoupling::solid_fraction_host(const PsmParticles& p, const PsmOptions& opt) {
+  return output_slots(p, opt).total_eps_host();
+}
+
+OverflowReport PsmCoupling::overflow() const {
+  if (pipeline_ == PsmPipeline::Fused) return tiles_->overflow();
+  if (!slots_) return OverflowReport{};
+  return slots_->overflow();
+}
+
+void PsmCoupling::clear_overflow() {
+  if (tiles_) tiles_->clear_overflow(ex_);
+  if (slots_) slots_->clear_overflow(ex_);
 }
 
 }  // namespace lbdem::imb

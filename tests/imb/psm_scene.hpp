@@ -66,10 +66,10 @@ class PsmScene {
   // (1 - eps) (u - V) / cells, eps the total solid fraction (clamped to 1) of
   // the current mapping. The velocity of the array theory (Sangani & Acrivos
   // 1982: mean over the whole period, solid included, the solid moving at V).
-  std::array<double, 3> superficial(std::array<double, 3> V = {0, 0, 0}) const {
+  std::array<double, 3> superficial(std::array<double, 3> V = {0, 0, 0}) {
     std::vector<double> rho, u;
     solver_->macroscopic(rho, u);
-    const auto eps = coupling_->slots().total_eps_host();
+    const auto eps = coupling_->solid_fraction_host(view_, opt_);
     std::array<double, 3> s{0, 0, 0};
     for (std::size_t c = 0; c < cells_; ++c) {
       const double w = 1.0 - std::min(1.0, eps[c]);
@@ -80,7 +80,8 @@ class PsmScene {
   }
 
   lbm::LbmSolver& solver() { return *solver_; }
-  const imb::PsmCoupling& coupling() const { return *coupling_; }
+  imb::PsmCoupling& coupling() { return *coupling_; }
+  imb::PsmOptions& options() { return opt_; }
   std::size_t cells() const { return cells_; }
 
  private:

@@ -62,7 +62,8 @@ struct Snapshot {
 // a body force), particles given in the order `order` (order[i] = which
 // sphere of three_spheres() sits at index i).
 Snapshot run_scene(Backend b, bool moving, long steps, const std::vector<int>& order,
-                   imb::FractionMethod method = imb::FractionMethod::Exact) {
+                   imb::FractionMethod method = imb::FractionMethod::Exact,
+                   imb::PsmPipeline pipeline = imb::PsmPipeline::Auto) {
   const auto base = three_spheres();
   auto in_order = [&](const std::vector<test::PsmSphere>& s) {
     std::vector<test::PsmSphere> o;
@@ -72,6 +73,7 @@ Snapshot run_scene(Backend b, bool moving, long steps, const std::vector<int>& o
   imb::PsmOptions opt;
   opt.map.method = method;
   opt.map.table = &table3();
+  opt.pipeline = pipeline;
   const auto setup = test::psm_box(24, 24, 24, 0.6, 3.0 / 16.0, {2e-6, -1e-6, 5e-7});
   test::PsmScene scene(setup, b, 2, in_order(base), opt, {0.002, 0.001, -0.001});
   scene.map();
@@ -134,15 +136,19 @@ std::array<double, 2> force_torque_diff(const std::vector<double>& a, const std:
 TEST(PsmCrossBackend, HostMatchesCuda) {
   if (!test::gpu_available()) GTEST_SKIP() << "no usable GPU: " << cuda_unavailable_reason();
   const std::vector<int> order{0, 1, 2};
+  using M = imb::FractionMethod;
+  using P = imb::PsmPipeline;
+  const std::pair<M, P> runs[] = {{M::Exact, P::Mapped}, {M::Table, P::Mapped}, {M::Table, P::Fused}, {M::Linear, P::Fused}};
   for (bool moving : {false, true})
-    for (auto method : {imb::FractionMethod::Exact, imb::FractionMethod::Table}) {
-      const auto h = run_scene(Backend::Host, moving, 300, order, method);
-      const auto d = run_scene(Backend::Cuda, moving, 300, order, method);
+    for (const auto& [method, pipeline] : runs) {
+      const auto h = run_scene(Backend::Host, moving, 300, order, method, pipeline);
+      const auto d = run_scene(Backend::Cuda, moving, 300, order, method, pipeline);
       const auto ft = force_torque_diff(h.forces, d.forces, order);
       const double df = max_diff(h.f, d.f) / max_abs(h.f), du = max_diff(h.u, d.u) / max_abs(h.u);
-      std::printf("%s, %s: force %.1e, torque %.1e, populations %.1e, velocity %.1e (relative)\n",
-                  moving ? "moving" : "fixed", imb::to_string(method), ft[0], ft[1], df, du);
-      const std::string what = std::string(moving ? "moving " : "fixed ") + imb::to_string(method);
+      std::printf("%s, %s, %s: force %.1e, torque %.1e, populations %.1e, velocity %.1e (relative)\n",
+                  moving ? "moving" : "fixed", imb::to_string(method), imb::to_string(pipeline), ft[0], ft[1], df, du);
+      const std::string what = std::string(moving ? "moving " : "fixed ") + imb::to_string(method) + " " +
+                               imb::to_string(pipeline);
       EXPECT_LT(ft[0], 1e-10) << what;
       EXPECT_LT(ft[1], 1e-10) << what;
       EXPECT_LT(df, 1e-12) << what;
@@ -161,16 +167,22 @@ class PsmBackend : public ::testing::TestWithParam<Backend> {};
 // particle, a slot read for the wrong particle) gives O(1) differences.
 TEST_P(PsmBackend, ReorderedParticlesGiveSameForces) {
   const std::vector<int> a_order{0, 1, 2}, b_order{1, 2, 0};
-  const auto a = run_scene(GetParam(), true, 60, a_order);
-  const auto b = run_scene(GetParam(), true, 60, b_order);
-  const auto ft = force_torque_diff(a.forces, b.forces, b_order);
-  const double df = max_diff(a.f, b.f) / max_abs(a.f);
-  std::printf("reordered: force %.1e, torque %.1e, populations %.1e (relative)\n", ft[0], ft[1], df);
-  EXPECT_LT(ft[0], 1e-12);
-  EXPECT_LT(ft[1], 1e-12);
-  EXPECT_LT(df, 1e-12);
-  // The scene is not trivial: spheres 0 and 1 share cells, and all feel a force.
-  for (int i = 0; i < 3; ++i) EXPECT_GT(std::abs(a.forces[6 * i]) + std::abs(a.forces[6 * i + 1]), 0.0);
+  // Mapped pipeline (exact fractions) and fused pipeline (table): the fused
+  // kernel ranks each tile's candidates by particle index, as the map sorts slots.
+  for (auto [method, pipeline] : {std::pair{imb::FractionMethod::Exact, imb::PsmPipeline::Mapped},
+                                  std::pair{imb::FractionMethod::Table, imb::PsmPipeline::Fused}}) {
+    const auto a = run_scene(GetParam(), true, 60, a_order, method, pipeline);
+    const auto b = run_scene(GetParam(), true, 60, b_order, method, pipeline);
+    const auto ft = force_torque_diff(a.forces, b.forces, b_order);
+    const double df = max_diff(a.f, b.f) / max_abs(a.f);
+    std::printf("reordered (%s): force %.1e, torque %.1e, populations %.1e (relative)\n", imb::to_string(pipeline),
+                ft[0], ft[1], df);
+    EXPECT_LT(ft[0], 1e-12) << imb::to_string(pipeline);
+    EXPECT_LT(ft[1], 1e-12) << imb::to_string(pipeline);
+    EXPECT_LT(df, 1e-12) << imb::to_string(pipeline);
+    // The scene is not trivial: spheres 0 and 1 share cells, and all feel a force.
+    for (int i = 0; i < 3; ++i) EXPECT_GT(std::abs(a.forces[6 * i]) + std::abs(a.forces[6 * i + 1]), 0.0);
+  }
 }
 
 // PsmCoupling::map with K too small. Spheres 0 and 1 (0.13 cells apart) share

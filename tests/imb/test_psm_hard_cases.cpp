@@ -380,7 +380,7 @@ TEST_P(PsmHard, RandomPackingPhi05Runs) {
   int max_count = 0;
   const Outcome o = run_scene(s, GetParam(), kSteps, [&](imb::CoupledSolver& cs, long step) {
     if (step % 1000) return;
-    const auto c = cs.coupling().slots().counts_host();
+    const auto c = cs.output_slots().counts_host();
     max_count = std::max(max_count, *std::max_element(c.begin(), c.end()));
   });
   std::printf("%zu particles, phi %.4f, most particles in one cell %d (K = %d)\n", s.particles.r.size(), phi, max_count,
@@ -462,7 +462,7 @@ TEST_P(PsmHard, HeadOnCollisionRuns) {
     if (overlap > 0) {
       ++contacts;
       max_overlap = std::max(max_overlap, overlap);
-      const auto e = cs.coupling().slots().total_eps_host();
+      const auto e = cs.solid_fraction_host();
       max_eps = std::max(max_eps, *std::max_element(e.begin(), e.end()));
     }
   });
@@ -521,7 +521,7 @@ TEST_P(PsmHard, ParticleOnWallRuns) {
     vy_last = hp.v[0].y;
     vx_last = hp.v[0].x;
     wz_last = hp.w[0].z;
-    const auto c = cs.coupling().slots().counts_host();
+    const auto c = cs.output_slots().counts_host();
     for (std::size_t i = 0; i < c.size(); ++i) wall_cell_slots += (s.flags[i] != 0 && c[i] > 0);
   });
   const double W = (kRhoPaper - 1) * 4.0 / 3.0 * kPi * r * r * r * kGPaper;
@@ -574,7 +574,7 @@ TEST(PsmHardBug, ExactFractionsRemapKeepSolidVolume) {
   imb::CoupledSolver cs(*fluid, dem, s.coupling);
   const double exact = 4.0 / 3.0 * kPi * 125;
   for (int map = 1; map <= 3; ++map) {
-    const auto e = cs.coupling().slots().total_eps_host();
+    const auto e = cs.solid_fraction_host();
     double vol = 0;
     for (double x : e) vol += x;
     EXPECT_NEAR(vol, exact, 1e-6 * exact) << "solid volume after map " << map;
@@ -600,6 +600,7 @@ TEST(PsmHardBug, ExactFractionsRemapKeepSolidVolume) {
 TEST(PsmHardBug, WallCellSlotForcesAreWritten) {
   Scene s = wall_scene();
   s.coupling.psm.map.max_radius = 5.0;
+  s.coupling.psm.pipeline = imb::PsmPipeline::Mapped;  // the bug was in the mapped pipeline's slot forces
   // A soft wall: the resting sphere overlaps it by W/k = 0.009 cells.
   s.dem.material.wall_stiffness = 20;
   s.particles.x[0].y = 6.0 - 0.009;
@@ -624,7 +625,7 @@ TEST(PsmHardBug, WallCellSlotForcesAreWritten) {
   long in_wall = 0;
   bool finite = true;
   for (int k = 0; k < 200 && finite; ++k) {
-    const auto c = cs.coupling().slots().counts_host();  // the mapping this step uses
+    const auto c = cs.output_slots().counts_host();  // the mapping this step uses
     long m = 0;
     for (std::size_t i = 0; i < c.size(); ++i) m += (s.flags[i] != 0 && c[i] > 0);
     in_wall += m > 0;

@@ -8,6 +8,7 @@
 #include "core/exec.hpp"
 #include "imb/fraction_table.hpp"
 #include "imb/psm.hpp"
+#include "imb/psm_coupling.hpp"
 #include "imb/solid_fraction.hpp"
 #include "lbm/solver.hpp"
 
@@ -36,6 +37,8 @@ struct FixedSphereSpec {
   imb::PsmWeight weight = imb::PsmWeight::NobleTorczynski;
   const imb::FractionTable* table = nullptr;  // for FractionMethod::Table
   int slots = 4;
+  // Auto runs the mapped pipeline here (a fixed sphere is mapped once); Fused on request.
+  imb::PsmPipeline pipeline = imb::PsmPipeline::Auto;
   double tolerance = 1e-5;   // steady state: estimated remaining relative change of the drag
   long max_steps = 2000000;
   long check_every = 0;      // 0: about L^2 / (40 nu) steps

@@ -74,6 +74,10 @@ class CoupledSolver {
   // per particle in the DEM's current storage order (host copies; not for the time loop).
   std::vector<double> hydro_force_host() const;   // 3 per particle
   std::vector<double> hydro_torque_host() const;  // 3 per particle
+  // Total solid fraction per cell at the current positions (host copy, output).
+  std::vector<double> solid_fraction_host();
+  // Cell slots at the current positions (imb::PsmCoupling::output_slots): output, diagnostics.
+  const CellSlots& output_slots();
   // Throws ResourceError naming the cell and the particles' global ids if any
   // map since the last check overflowed its K slots. Synchronous.
   void check_overflow();

@@ -20,6 +20,7 @@
 // Memory: at most kTableCapacity floats = 32 KB of the 64 KB constant memory.
 #include <cmath>
 #include <cstdint>
+#include <type_traits>
 #include <vector>
 
 #include "core/hd.hpp"
@@ -45,73 +46,106 @@ struct PointerTableAccess {
 };
 
 namespace detail {
-LBDEM_HD inline void grid_coord(double x, double lo, double hi, int n, int& i0, double& f) {
-  if (n <= 1) { i0 = 0; f = 0.0; return; }
-  double s = (x - lo) * ((n - 1) / (hi - lo));  // folds to a multiplication for (lo, hi) = (0, 1)
-  s = clampd(s, 0.0, static_cast<double>(n - 1));
+template <class Real>
+LBDEM_HD inline void grid_coord(Real x, Real lo, Real hi, int n, int& i0, Real& f) {
+  if (n <= 1) { i0 = 0; f = Real(0); return; }
+  Real s = (x - lo) * ((n - 1) / (hi - lo));  // folds to a multiplication for (lo, hi) = (0, 1)
+  s = s < Real(0) ? Real(0) : (s > Real(n - 1) ? Real(n - 1) : s);
   i0 = static_cast<int>(s);
   if (i0 > n - 2) i0 = n - 2;
   f = s - i0;
 }
+template <class Real>
+LBDEM_HD inline Real clamp01(Real v) { return v < Real(0) ? Real(0) : (v > Real(1) ? Real(1) : v); }
 }  // namespace detail
 
 // Band and orientation coordinates of a cell centre r for radius R.
-struct TableCoord {
-  double t, u, v;
+template <class Real = double>
+struct TableCoordT {
+  Real t, u, v;
 };
-LBDEM_HD inline TableCoord table_coord(double rx, double ry, double rz, double R) {
-  double a = fabs(rx), b = fabs(ry), c = fabs(rz), tmp;
+using TableCoord = TableCoordT<double>;
+
+template <class Real = double>
+LBDEM_HD inline TableCoordT<Real> table_coord(Real rx, Real ry, Real rz, Real R) {
+  Real a = fabs(rx), b = fabs(ry), c = fabs(rz), tmp;
   if (a < b) { tmp = a; a = b; b = tmp; }
   if (b < c) { tmp = b; b = c; c = tmp; }
   if (a < b) { tmp = a; a = b; b = tmp; }
-  const double d = sqrt(a * a + b * b + c * c);
+  const Real d = sqrt(a * a + b * b + c * c);
   // t = (d - R) / h with h = (a + b + c) / (2 d): one division instead of two.
-  return {(d - R) * (2.0 * d) / (a + b + c), a > 0.0 ? b / a : 0.0, b > 0.0 ? c / b : 0.0};
+  return {(d - R) * (Real(2) * d) / (a + b + c), a > Real(0) ? b / a : Real(0), b > Real(0) ? c / b : Real(0)};
 }
 
 // Interpolated table value at (t, u, v) for radius R (no in/out test, no clamp).
-template <class Access>
-LBDEM_HD inline double table_interpolate(const TableGeometry& g, const Access& tab, const TableCoord& q, double R) {
+template <class Access, class Real = double>
+LBDEM_HD inline Real table_interpolate(const TableGeometry& g, const Access& tab, const TableCoordT<Real>& q, Real R) {
   int it, iu, iv;
-  double ft, fu, fv;
-  detail::grid_coord(q.t, g.t_min, g.t_max, g.nt, it, ft);
-  detail::grid_coord(q.u, 0.0, 1.0, g.nu, iu, fu);
-  detail::grid_coord(q.v, 0.0, 1.0, g.nv, iv, fv);
+  Real ft, fu, fv;
+  detail::grid_coord<Real>(q.t, Real(g.t_min), Real(g.t_max), g.nt, it, ft);
+  detail::grid_coord<Real>(q.u, Real(0), Real(1), g.nu, iu, fu);
+  detail::grid_coord<Real>(q.v, Real(0), Real(1), g.nv, iv, fv);
   const int nodes = g.nodes();
-  const double inv_r = 1.0 / R;
-  double acc = 0.0;
+  const Real inv_r = Real(1) / R;
+  Real acc = 0;
   const int kv_end = g.nv > 1 ? 2 : 1;
   for (int kv = 0; kv < kv_end; ++kv) {
-    const double wv = g.nv > 1 ? (kv ? fv : 1.0 - fv) : 1.0;
+    const Real wv = g.nv > 1 ? (kv ? fv : Real(1) - fv) : Real(1);
     for (int ku = 0; ku < 2; ++ku) {
-      const double wu = ku ? fu : 1.0 - fu;
+      const Real wu = ku ? fu : Real(1) - fu;
       for (int kt = 0; kt < 2; ++kt) {
-        const double w = wv * wu * (kt ? ft : 1.0 - ft);
+        const Real w = wv * wu * (kt ? ft : Real(1) - ft);
         const int idx = ((iv + kv) * g.nu + (iu + ku)) * g.nt + (it + kt);
-        acc += w * (static_cast<double>(tab(idx)) + static_cast<double>(tab(nodes + idx)) * inv_r);
+        acc += w * (static_cast<Real>(tab(idx)) + static_cast<Real>(tab(nodes + idx)) * inv_r);
       }
     }
   }
   return acc;
 }
 
-// Table fractions in double. (Float interpolation made the suspension's map
-// 10 % faster, 0.318 against 0.351 ms on the H200, but host and GPU then
-// differ by 1e-6 in eps through FMA contraction instead of 1e-12; kept double.)
-template <class Access>
-LBDEM_HD inline double table_fraction_3d(const TableGeometry& g, const Access& tab, double rx, double ry, double rz,
-                                         double R) {
-  if (cell_near2(rx, ry, rz) >= R * R) return 0.0;
-  if (cell_far2(rx, ry, rz) <= R * R) return 1.0;
-  return detail::clampd(table_interpolate(g, tab, table_coord(rx, ry, rz, R), R), 0.0, 1.0);
+// Squared distances from the centre to the nearest point / farthest corner of
+// the unit cell at r (Real-typed twins of cell_near2 / cell_far2).
+template <class Real>
+LBDEM_HD inline Real cell_near2_t(Real rx, Real ry, Real rz) {
+  const Real h = Real(0.5);
+  const Real dx = fabs(rx) > h ? fabs(rx) - h : Real(0), dy = fabs(ry) > h ? fabs(ry) - h : Real(0),
+             dz = fabs(rz) > h ? fabs(rz) - h : Real(0);
+  return dx * dx + dy * dy + dz * dz;
+}
+template <class Real>
+LBDEM_HD inline Real cell_far2_t(Real rx, Real ry, Real rz) {
+  const Real dx = fabs(rx) + Real(0.5), dy = fabs(ry) + Real(0.5), dz = fabs(rz) + Real(0.5);
+  return dx * dx + dy * dy + dz * dz;
 }
 
-template <class Access>
-LBDEM_HD inline double table_fraction_2d(const TableGeometry& g, const Access& tab, double rx, double ry, double R) {
-  if (cell_near2(rx, ry, 0.0) >= R * R) return 0.0;
-  const double fx = fabs(rx) + 0.5, fy = fabs(ry) + 0.5;
-  if (fx * fx + fy * fy <= R * R) return 1.0;
-  return detail::clampd(table_interpolate(g, tab, table_coord(rx, ry, 0.0, R), R), 0.0, 1.0);
+// Table fractions. Double everywhere the slot map uses them (the mapped
+// pipeline's host/GPU agreement is 1e-12; float interpolation there made the
+// map 10 % faster, 0.318 against 0.351 ms on the H200, but host and GPU then
+// differ by 1e-6 in eps through FMA contraction). The fused kernel evaluates
+// them in the lattice's precision (Real = float in fp32 runs: the fraction
+// then carries float round-off, as every other quantity of such a run).
+template <class Access, class Real = double>
+LBDEM_HD inline Real table_fraction_3d(const TableGeometry& g, const Access& tab, Real rx, Real ry, Real rz, Real R) {
+  if constexpr (std::is_same_v<Real, double>) {
+    if (cell_near2(rx, ry, rz) >= R * R) return 0.0;
+    if (cell_far2(rx, ry, rz) <= R * R) return 1.0;
+  } else {
+    if (cell_near2_t(rx, ry, rz) >= R * R) return Real(0);
+    if (cell_far2_t(rx, ry, rz) <= R * R) return Real(1);
+  }
+  return detail::clamp01<Real>(table_interpolate<Access, Real>(g, tab, table_coord<Real>(rx, ry, rz, R), R));
+}
+
+template <class Access, class Real = double>
+LBDEM_HD inline Real table_fraction_2d(const TableGeometry& g, const Access& tab, Real rx, Real ry, Real R) {
+  if constexpr (std::is_same_v<Real, double>) {
+    if (cell_near2(rx, ry, 0.0) >= R * R) return 0.0;
+  } else {
+    if (cell_near2_t(rx, ry, Real(0)) >= R * R) return Real(0);
+  }
+  const Real fx = fabs(rx) + Real(0.5), fy = fabs(ry) + Real(0.5);
+  if (fx * fx + fy * fy <= R * R) return Real(1);
+  return detail::clamp01<Real>(table_interpolate<Access, Real>(g, tab, table_coord<Real>(rx, ry, Real(0), R), R));
 }
 
 // Host-side table: geometry plus the values (coefficient e0 block, then e1).

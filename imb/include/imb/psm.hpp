@@ -90,6 +90,66 @@ LBDEM_HD LBDEM_FORCEINLINE R cM2(int q, const R (&M2)[6]) {
   return s;
 }
 
+// The PSM collision of one cell from its incoming populations f (in place),
+// the total weight B and the solid moments M1 = sum B_k V_k, M2 = sum B_k V_k V_k^T
+// (see above); returns rho and the (half-force shifted) velocity u that the
+// force on the particles needs. Shared by the mapped (PsmStepKernel) and the
+// fused (psm_fused.hpp) kernels.
+template <class L, class R, bool Force, PsmVariant V>
+LBDEM_HD LBDEM_FORCEINLINE void psm_collide(R (&f)[L::Q], R B, const R (&M1)[3], const R (&M2)[6], R omega_p, R omega_m,
+                                            const R (&F)[3], R& rho, R (&u)[3]) {
+  R d, j[3];
+  lbm::moments<L>(f, d, j);
+  rho = R(1) + d;
+  for (int a = 0; a < 3; ++a) u[a] = (j[a] + (Force ? R(0.5) * F[a] : R(0))) / rho;
+  const R usq15 = R(1.5) * (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+  const R fw = R(1) - B;
+  const R trM2 = R(1.5) * (M2[0] + M2[1] + M2[2]);
+  const R uF = Force ? u[0] * F[0] + u[1] * F[1] + u[2] * F[2] : R(0);
+  const R sp = R(1) - R(0.5) * omega_p, sm = R(1) - R(0.5) * omega_m;
+  // Rest population (c = 0).
+  {
+    const R w0 = R(L::w(0));
+    const R eq0 = w0 * (d - rho * usq15);
+    const R dp0 = omega_p * (f[0] - eq0);
+    const R seq0 = w0 * (B * d - rho * trM2);  // sum_k B_k f^eq_0(V_k)
+    const R solid = V == PsmVariant::NEBB ? seq0 - B * eq0 : seq0 - B * (eq0 + dp0);
+    f[0] = f[0] - fw * dp0 + fw * (Force ? sp * w0 * (R(-3) * uF) : R(0)) + solid;
+  }
+  LBDEM_UNROLL
+  for (int q = 1; q < L::Q; q += 2) {
+    const int qb = q + 1;
+    const R w = R(L::w(q));
+    const R cu = lbm::cdot<L>(q, u);
+    const R even = d + rho * (R(4.5) * cu * cu - usq15);  // f^eq_q = w (even + 3 rho cu), f^eq_qb = w (even - 3 rho cu)
+    const R eq_q = w * (even + R(3) * rho * cu), eq_qb = w * (even - R(3) * rho * cu);
+    const R dp = omega_p * (R(0.5) * (f[q] + f[qb]) - w * even);
+    const R dm = omega_m * (R(0.5) * (f[q] - f[qb]) - w * R(3) * rho * cu);
+    R Sp = 0, Sm = 0;
+    if constexpr (Force) {
+      const R cF = lbm::cdot<L>(q, F);
+      Sp = sp * w * (R(9) * cu * cF - R(3) * uF);
+      Sm = sm * w * R(3) * cF;
+    }
+    // sum_k B_k f^eq(V_k) for q and qb.
+    const R cM1 = lbm::cdot<L>(q, M1);
+    const R cM2c = cM2<L>(q, M2);
+    const R seven = B * d + rho * (R(4.5) * cM2c - trM2);
+    const R seq_q = w * (seven + R(3) * rho * cM1), seq_qb = w * (seven - R(3) * rho * cM1);
+    R solid_q, solid_qb;
+    if constexpr (V == PsmVariant::NEBB) {  // Omega_q = f_qb - f_q + f^eq_q(V) - f^eq_qb(u)
+      solid_q = B * (f[qb] - f[q] - eq_qb) + seq_q;
+      solid_qb = B * (f[q] - f[qb] - eq_q) + seq_qb;
+    } else {  // Omega_q = f^eq_q(V) - f^eq_q(u) - (f_q - f^post_q)
+      solid_q = seq_q - B * (eq_q + dp + dm);
+      solid_qb = seq_qb - B * (eq_qb + dp - dm);
+    }
+    const R fq = f[q];
+    f[q] = fq - fw * (dp + dm) + fw * (Sp + Sm) + solid_q;
+    f[qb] = f[qb] - fw * (dp - dm) + fw * (Sp - Sm) + solid_qb;
+  }
+}
+
 template <class L, class T, lbm::StreamKind S, int Parity, bool Bnd, bool Force, PsmVariant V>
 struct PsmStepKernel {
   using R = T;
@@ -164,56 +224,8 @@ struct PsmStepKernel {
       lbm::store_outgoing<L, T, R, S, Parity, Bnd>(dst, nb, cell, f, flags, bt, uu);
       return;
     }
-    R d, j[3], u[3];
-    lbm::moments<L>(f, d, j);
-    const R rho = R(1) + d;
-    for (int a = 0; a < 3; ++a) u[a] = (j[a] + (Force ? R(0.5) * F[a] : R(0))) / rho;
-    const R usq15 = R(1.5) * (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
-    const R fw = R(1) - B;
-    const R trM2 = R(1.5) * (M2[0] + M2[1] + M2[2]);
-    const R uF = Force ? u[0] * F[0] + u[1] * F[1] + u[2] * F[2] : R(0);
-    const R sp = R(1) - R(0.5) * omega_p, sm = R(1) - R(0.5) * omega_m;
-    // Rest population (c = 0).
-    {
-      const R w0 = R(L::w(0));
-      const R eq0 = w0 * (d - rho * usq15);
-      const R dp0 = omega_p * (f[0] - eq0);
-      const R seq0 = w0 * (B * d - rho * trM2);  // sum_k B_k f^eq_0(V_k)
-      const R solid = V == PsmVariant::NEBB ? seq0 - B * eq0 : seq0 - B * (eq0 + dp0);
-      f[0] = f[0] - fw * dp0 + fw * (Force ? sp * w0 * (R(-3) * uF) : R(0)) + solid;
-    }
-    LBDEM_UNROLL
-    for (int q = 1; q < L::Q; q += 2) {
-      const int qb = q + 1;
-      const R w = R(L::w(q));
-      const R cu = lbm::cdot<L>(q, u);
-      const R even = d + rho * (R(4.5) * cu * cu - usq15);  // f^eq_q = w (even + 3 rho cu), f^eq_qb = w (even - 3 rho cu)
-      const R eq_q = w * (even + R(3) * rho * cu), eq_qb = w * (even - R(3) * rho * cu);
-      const R dp = omega_p * (R(0.5) * (f[q] + f[qb]) - w * even);
-      const R dm = omega_m * (R(0.5) * (f[q] - f[qb]) - w * R(3) * rho * cu);
-      R Sp = 0, Sm = 0;
-      if constexpr (Force) {
-        const R cF = lbm::cdot<L>(q, F);
-        Sp = sp * w * (R(9) * cu * cF - R(3) * uF);
-        Sm = sm * w * R(3) * cF;
-      }
-      // sum_k B_k f^eq(V_k) for q and qb.
-      const R cM1 = lbm::cdot<L>(q, M1);
-      const R cM2c = cM2<L>(q, M2);
-      const R seven = B * d + rho * (R(4.5) * cM2c - trM2);
-      const R seq_q = w * (seven + R(3) * rho * cM1), seq_qb = w * (seven - R(3) * rho * cM1);
-      R solid_q, solid_qb;
-      if constexpr (V == PsmVariant::NEBB) {  // Omega_q = f_qb - f_q + f^eq_q(V) - f^eq_qb(u)
-        solid_q = B * (f[qb] - f[q] - eq_qb) + seq_q;
-        solid_qb = B * (f[q] - f[qb] - eq_q) + seq_qb;
-      } else {  // Omega_q = f^eq_q(V) - f^eq_q(u) - (f_q - f^post_q)
-        solid_q = seq_q - B * (eq_q + dp + dm);
-        solid_qb = seq_qb - B * (eq_qb + dp - dm);
-      }
-      const R fq = f[q];
-      f[q] = fq - fw * (dp + dm) + fw * (Sp + Sm) + solid_q;
-      f[qb] = f[qb] - fw * (dp - dm) + fw * (Sp - Sm) + solid_qb;
-    }
+    R rho, u[3];
+    psm_collide<L, R, Force, V>(f, B, M1, M2, omega_p, omega_m, F, rho, u);
     lbm::store_outgoing<L, T, R, S, Parity, Bnd>(dst, nb, cell, f, flags, bt, u);
     // 3. Force on each particle (closed form above; torque: in the gather),
     // after the populations are stored (slot data re-read from cache).

@@ -8,6 +8,7 @@
 #include "core/buffer.hpp"
 #include "imb/cell_slots.hpp"
 #include "imb/psm.hpp"
+#include "imb/tile_map.hpp"
 #include "lbm/solver.hpp"
 
 namespace lbdem::imb {
@@ -24,11 +25,33 @@ struct ForceOut {
   static ForceOut six(double* f6) { return {f6, f6 + 3, 6, 6, {0, 0, 0}}; }
 };
 
+// How the solid term reaches the PSM kernel:
+//  Mapped: a map writes per-cell slots (particle, eps, solid velocity) that the
+//          PSM kernel reads, the kernel writes per-(slot, cell) forces and a
+//          gather sums them per particle (imb/cell_slots.hpp, imb/psm.hpp). Any
+//          fraction method, any K; the choice for fixed particles (mapped once).
+//  Fused:  per-tile candidate lists; the kernel evaluates each cell's fractions
+//          itself and sums forces per block (imb/tile_map.hpp,
+//          imb/psm_fused.hpp). Table or linear fractions, K <= kFusedMaxSlots,
+//          table from global memory; the fast path for moving particles.
+//  Auto:   Fused where it applies, else Mapped.
+enum class PsmPipeline { Auto, Fused, Mapped };
+
 struct PsmOptions {
   PsmVariant variant = PsmVariant::NEBB;
   PsmWeight weight = PsmWeight::NobleTorczynski;
   MapOptions map;  // fraction method, max radius, table
+  PsmPipeline pipeline = PsmPipeline::Auto;
+  int tile_capacity = 64;  // fused: candidate particles per tile (overflow is reported)
+  // Fused kernel on the device: population loads before the fraction work
+  // (true) or after it (false); see psm_fused_impl.hpp. Same results.
+  bool fused_loads_first = true;
 };
+
+// The pipeline a step with these options and K slots per cell runs; throws
+// ConfigError (naming the key) if Fused is asked for where it does not apply.
+PsmPipeline resolve_pipeline(const PsmOptions& o, int K);
+const char* to_string(PsmPipeline p);
 
 class PsmCoupling {
  public:
@@ -47,13 +70,33 @@ class PsmCoupling {
   void step(const PsmParticles& p, const PsmOptions& opt, double* force6) { step(p, opt, ForceOut::six(force6)); }
   void step(const PsmParticles& p, const PsmOptions& opt, const ForceOut& out);
 
-  const CellSlots& slots() const { return *slots_; }
+  // The per-cell slots of the mapped pipeline (valid after a mapped map()).
+  const CellSlots& slots() const;
+  // Total solid fraction per cell (host copy, for output and diagnostics): the
+  // mapped pipeline's slots, or, in the fused pipeline, a map made for it.
+  std::vector<double> solid_fraction_host(const PsmParticles& p, const PsmOptions& opt);
+  // Slots at the particles' current positions for output and diagnostics: the
+  // mapped pipeline's own, or (fused pipeline) a mapped-pipeline map made now.
+  const CellSlots& output_slots(const PsmParticles& p, const PsmOptions& opt);
+  // Overflow of the pipeline in use (cell slots, tile lists, radius); synchronous.
+  OverflowReport overflow() const;
+  void clear_overflow();
+  // The pipeline of the last map().
+  PsmPipeline pipeline() const { return pipeline_; }
 
  private:
+  CellSlots& mapped_slots();
+
   lbm::LbmSolver& solver_;
   std::array<bool, 3> periodic_;
+  int K_;
+  GridShape shape_;
   std::unique_ptr<CellSlots> slots_;
   Buffer<double> slot_forces_;
+  std::unique_ptr<TileMap> tiles_;
+  Buffer<float> table_;  // fused pipeline: the fraction table on the backend
+  std::uint64_t table_id_ = 0;
+  PsmPipeline pipeline_ = PsmPipeline::Auto;  // of the last map()
   Exec ex_;
 };
 

@@ -1,0 +1,184 @@
+#pragma once
+// The fused PSM step as a CUDA kernel (one block per tile) and its dispatch:
+// runtime choices -> template parameters, instantiated per (lattice,
+// precision) in psm_fused_*.cu. The per-cell physics is in imb/psm_fused.hpp.
+#include "core/exec.hpp"
+#include "imb/psm_coupling.hpp"
+#include "imb/psm_fused.hpp"
+
+namespace lbdem::imb {
+
+// Table entries from a plain pointer (the device's global-memory copy, read
+// through the read-only cache, or the host copy).
+struct LdgTableAccess {
+  const float* p = nullptr;
+  LBDEM_HD float operator()(int i) const {
+#if defined(__CUDA_ARCH__)
+    return __ldg(p + i);
+#else
+    return p[i];
+#endif
+  }
+};
+
+#if defined(__CUDACC__)
+// LoadsFirst: issue the population loads before the candidate reads and the
+// fractions (their latency overlaps that work, but the populations then hold
+// 19 registers through the fraction arithmetic), or after the fractions.
+template <int MinBlocks, bool LoadsFirst, class Kern>
+__global__ void __launch_bounds__(256, MinBlocks) psm_fused_kernel(Kern k) {
+  using R = typename Kern::R;
+  __shared__ FusedCand<R> cand[kFusedMaxCapacity];
+  __shared__ unsigned char order[kFusedMaxCapacity];
+  __shared__ double part[Kern::kWarps][Kern::kForceChunk][6];
+  __shared__ R slot_eps[kFusedMaxSlots][256];
+  const int tid = static_cast<int>(threadIdx.x);
+  const Index tile = blockIdx.x;
+  int x, y, z;
+  bool fluid = k.coords(tile, tid, x, y, z);
+  const Index cell = fluid ? k.g.index(x, y, z) : 0;
+  if constexpr (Kern::kBnd) fluid = fluid && k.flags[cell] == 0;
+  // 1. Populations first (their latency hides the candidate reads), then the tile's candidates.
+  lbm::Neighbours nb;
+  R f[Kern::kQ];
+  if constexpr (LoadsFirst) {
+    if (fluid) k.load(cell, nb, f);
+  }
+  const int nc = k.candidates(tile);
+  if (tid < nc) k.load_candidate(tile, tid, cand[tid]);
+  __syncthreads();
+  if (tid < nc) order[Kern::rank(cand, nc, tid)] = static_cast<unsigned char>(tid);
+  __syncthreads();
+  // 2. Slots, B and solid moments of this cell.
+  FusedSolid<R> s;
+  s.eps = &slot_eps[0][tid];
+  s.stride = 256;
+  if (fluid && nc > 0) k.overlap(x, y, z, cell, cand, order, nc, s);
+  if constexpr (!LoadsFirst) {
+    if (fluid) k.load(cell, nb, f);
+  }
+  // 3. Collide and store; a warp without a solid lane takes the plain collision.
+  const bool plain = !__any_sync(0xffffffffu, s.m > 0);
+  R rho = R(1), u[3] = {R(0), R(0), R(0)};
+  if (fluid) k.collide_store(cell, nb, f, s, plain, rho, u);
+  if (nc == 0) return;  // block-uniform
+  // 4. Force and torque per candidate: shuffle tree per warp, warps in order.
+  const int lane = tid & 31, warp = tid >> 5;
+  for (int c0 = 0; c0 < nc; c0 += Kern::kForceChunk) {
+    const int cn = nc - c0 < Kern::kForceChunk ? nc - c0 : Kern::kForceChunk;
+    for (int c = 0; c < cn; ++c) {
+      R v[6];
+      const bool has = fluid && k.contribution(x, y, z, s, c0 + c, cand[order[c0 + c]], rho, u, v);
+      const bool any = __any_sync(0xffffffffu, has);
+      if (any) {
+        for (int off = 16; off > 0; off >>= 1)
+          for (int a = 0; a < 6; ++a) v[a] += __shfl_down_sync(0xffffffffu, v[a], off);
+      }
+      if (lane == 0)
+        for (int a = 0; a < 6; ++a) part[warp][c][a] = any ? static_cast<double>(v[a]) : 0.0;
+    }
+    __syncthreads();
+    if (tid < 6 * cn) {
+      const int c = tid / 6, a = tid % 6;
+      double sum = 0.0;
+      for (int w = 0; w < Kern::kWarps; ++w) sum += part[w][c][a];
+      k.tv.partial[static_cast<Index>(cand[order[c0 + c]].entry) * 6 + a] = sum;
+    }
+    __syncthreads();
+  }
+}
+#endif
+
+template <class Kern>
+void launch_fused(const Exec& ex, const Kern& k, bool loads_first) {
+  if (ex.on_device()) {
+#if defined(__CUDACC__)
+    constexpr int kMinBlocks = sizeof(typename Kern::R) == 4 ? 3 : 2;  // as the mapped kernel (psm_impl.hpp)
+    const auto grid = static_cast<unsigned>(k.tv.tiles());
+    if (loads_first) psm_fused_kernel<kMinBlocks, true><<<grid, 256, 0, ex.stream()>>>(k);
+    else psm_fused_kernel<kMinBlocks, false><<<grid, 256, 0, ex.stream()>>>(k);
+    LBDEM_CUDA_CHECK(cudaGetLastError());
+    return;
+#else
+    (void)loads_first;
+    throw_not_compiled_for_cuda("psm fused step");
+#endif
+  }
+  run_fused_host(k);
+}
+
+struct FusedArgs {
+  const lbm::LbmSetup* setup;
+  const lbm::LbmRaw* raw;
+  TileView tv;
+  SphereView p;
+  const PsmOptions* opt;
+  const float* table;  // table values on the Exec's backend (Table method)
+  int K;
+};
+
+template <class L, class T, lbm::StreamKind S, int P, bool B, bool Force, PsmVariant V, FractionMethod M>
+void fused_launch_m(const Exec& ex, const FusedArgs& a) {
+  using Frac = FractionOf<L::D, M, LdgTableAccess, T>;  // fractions in the lattice's precision
+  PsmFusedKernel<L, T, S, P, B, Force, V, Frac> k;
+  const lbm::LbmRaw& raw = *a.raw;
+  k.src = lbm::PopView<T>{static_cast<T*>(raw.src), raw.stride};
+  k.dst = lbm::PopView<T>{static_cast<T*>(raw.dst), raw.stride};
+  k.g = raw.grid;
+  k.flags = raw.flags;
+  k.bt = raw.boundaries;
+  k.omega_p = static_cast<T>(raw.omega_p);
+  k.omega_m = static_cast<T>(raw.omega_m);
+  for (int d = 0; d < 3; ++d) k.F[d] = static_cast<T>(raw.body_force[static_cast<std::size_t>(d)]);
+  k.tm = static_cast<T>(a.setup->tau - 0.5);
+  k.weight = a.opt->weight;
+  k.K = a.K;
+  k.tv = a.tv;
+  k.p = a.p;
+  k.frac = Frac{};
+  k.frac.linear_normalised = a.opt->map.linear_normalised;
+  if (M == FractionMethod::Table) {
+    k.frac.g = a.opt->map.table->geometry;
+    k.frac.tab.p = a.table;
+  }
+  launch_fused(ex, k, a.opt->fused_loads_first);
+}
+
+template <class L, class T, lbm::StreamKind S, int P, bool B, bool Force, PsmVariant V>
+void fused_launch_v(const Exec& ex, const FusedArgs& a) {
+  if (a.opt->map.method == FractionMethod::Table) fused_launch_m<L, T, S, P, B, Force, V, FractionMethod::Table>(ex, a);
+  else if (a.opt->map.method == FractionMethod::Linear) fused_launch_m<L, T, S, P, B, Force, V, FractionMethod::Linear>(ex, a);
+  else throw ConfigError("psm fused step: the fused pipeline evaluates table or linear fractions, not exact");
+}
+
+template <class L, class T, lbm::StreamKind S, int P, bool B>
+void fused_launch_b(const Exec& ex, const FusedArgs& a) {
+  const auto& bf = a.raw->body_force;
+  const bool force = bf[0] != 0 || bf[1] != 0 || bf[2] != 0;
+  const bool nebb = a.opt->variant == PsmVariant::NEBB;
+  if (force) {
+    if (nebb) fused_launch_v<L, T, S, P, B, true, PsmVariant::NEBB>(ex, a);
+    else fused_launch_v<L, T, S, P, B, true, PsmVariant::Superposition>(ex, a);
+  } else {
+    if (nebb) fused_launch_v<L, T, S, P, B, false, PsmVariant::NEBB>(ex, a);
+    else fused_launch_v<L, T, S, P, B, false, PsmVariant::Superposition>(ex, a);
+  }
+}
+
+template <class L, class T, lbm::StreamKind S, int P>
+void fused_launch_p(const Exec& ex, const FusedArgs& a) {
+  if (a.raw->has_boundaries) fused_launch_b<L, T, S, P, true>(ex, a);
+  else fused_launch_b<L, T, S, P, false>(ex, a);
+}
+
+template <class L, class T>
+void fused_step_typed(const Exec& ex, const FusedArgs& a) {
+  if (a.setup->streaming == lbm::StreamKind::AA) {
+    if ((a.raw->step & 1) == 0) fused_launch_p<L, T, lbm::StreamKind::AA, 0>(ex, a);
+    else fused_launch_p<L, T, lbm::StreamKind::AA, 1>(ex, a);
+  } else {
+    fused_launch_p<L, T, lbm::StreamKind::TwoLattice, 0>(ex, a);
+  }
+}
+
+}  // namespace lbdem::imb

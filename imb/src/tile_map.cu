@@ -1,0 +1,340 @@
+// Particle -> tile candidate lists and the per-particle force finish of the
+// fused PSM pipeline (imb/tile_map.hpp).
+#include "imb/tile_map.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "core/algorithms.hpp"
+#include "core/error.hpp"
+#include "imb/psm_coupling.hpp"
+
+namespace lbdem::imb {
+
+namespace {
+
+LBDEM_HD inline int atomic_add(int* p, int v) {
+#if defined(__CUDA_ARCH__)
+  return atomicAdd(p, v);
+#else
+  return __atomic_fetch_add(p, v, __ATOMIC_RELAXED);
+#endif
+}
+
+LBDEM_HD inline Index wrap_index(Index i, Index n) {
+  i %= n;
+  return i < 0 ? i + n : i;
+}
+
+// The l-th distinct tile (along one axis of n cells cut into tiles of T) that
+// the cells floor(c - R) .. floor(c + R) touch, wrapped on a periodic axis,
+// clipped to the grid otherwise; -1 if there are not l + 1 of them.
+LBDEM_HD inline int axis_tile(int l, double c, double R, Index n, int T, bool periodic) {
+  Index lo = static_cast<Index>(floor(c - R)), hi = static_cast<Index>(floor(c + R));
+  if (!periodic) {
+    lo = lo < 0 ? 0 : lo;
+    hi = hi > n - 1 ? n - 1 : hi;
+    if (lo > hi) return -1;
+  }
+  Index g = lo;
+  int first = -1;
+  for (int k = 0;; ++k) {
+    const Index w = periodic ? wrap_index(g, n) : g;
+    const int tile = static_cast<int>(w / T);
+    if (k > 0 && tile == first) return -1;  // wrapped back into the first tile
+    if (k == 0) first = tile;
+    if (k == l) return tile;
+    const Index next = (static_cast<Index>(tile) + 1) * T < n ? (static_cast<Index>(tile) + 1) * T : n;
+    g += next - w;
+    if (g > hi) return -1;
+  }
+}
+
+struct TileBuild {
+  SphereView p;
+  TileView tv;
+  int* count;
+  int* particle;
+  int* entry;
+  int dim, B;
+  int mx, my, mz;
+  int* flags;
+  Index* log_tile;
+  int* log_particle;
+  int log_cap;
+
+  LBDEM_HD void zero_entry(Index e) const {
+    for (int a = 0; a < 6; ++a) tv.partial[e * 6 + a] = 0.0;
+  }
+
+  LBDEM_HD void operator()(Index t) const {
+    const Index pi = t / tv.max_tiles;
+    const int l = static_cast<int>(t - pi * tv.max_tiles);
+    const int lx = l % mx, ly = (l / mx) % my, lz = l / (mx * my);
+    const Index o = pi * p.stride;
+    const double R = p.r[o];
+    if (l == 0 && static_cast<Index>(floor(2.0 * R)) + 2 > B) {  // its box exceeds the tile ranges sized for max_radius
+      atomic_add(&flags[2], 1);
+      flags[3] = static_cast<int>(pi);
+    }
+    const int tx = axis_tile(lx, p.x[o], R, tv.nx, tv.t.tx, tv.periodic[0]);
+    const int ty = axis_tile(ly, p.y[o], R, tv.ny, tv.t.ty, tv.periodic[1]);
+    const int tz = dim == 3 ? axis_tile(lz, p.z[o], R, tv.nz, tv.t.tz, tv.periodic[2]) : (lz == 0 ? 0 : -1);
+    if (tx < 0 || ty < 0 || tz < 0) {
+      zero_entry(t);
+      return;
+    }
+    const Index tile = tx + static_cast<Index>(tv.ntx) * (ty + static_cast<Index>(tv.nty) * tz);
+    const int slot = atomic_add(&count[tile], 1);
+    if (slot < tv.capacity) {
+      particle[tile * tv.capacity + slot] = static_cast<int>(pi);
+      entry[tile * tv.capacity + slot] = static_cast<int>(t);
+    } else {
+      zero_entry(t);
+      const int e = atomic_add(&flags[1], 1);
+      if (e < log_cap) {
+        log_tile[e] = tile;
+        log_particle[e] = static_cast<int>(pi);
+      }
+    }
+  }
+};
+
+// One warp (32 consecutive work items) per particle; lane j adds entries
+// j, j + 32, ...; the lanes combine in a fixed tree (the same on the host).
+struct TileFinish {
+  SphereView p;
+  const double* partial;
+  int max_tiles, dim;
+  double* force;
+  double* torque;
+  int fstride, tstride;
+  double per_volume[3];
+
+  LBDEM_HD void lane_sum(Index i, int lane, double (&acc)[6]) const {
+    for (int a = 0; a < 6; ++a) acc[a] = 0.0;
+    for (int l = lane; l < max_tiles; l += 32) {
+      const double* e = partial + (i * max_tiles + l) * 6;
+      for (int a = 0; a < 6; ++a) acc[a] += e[a];
+    }
+  }
+  LBDEM_HD void finish(Index i, const double (&acc)[6]) const {
+    const double rp = p.r[i * p.stride];
+    const double vol = dim == 3 ? 4.18879020478639098 * rp * rp * rp : 3.14159265358979324 * rp * rp;
+    for (int a = 0; a < 3; ++a) {
+      force[i * fstride + a] = acc[a] + vol * per_volume[a];
+      torque[i * tstride + a] = acc[3 + a];
+    }
+  }
+  LBDEM_HD void operator()(Index t) const {
+    const Index i = t >> 5;
+    const int lane = static_cast<int>(t & 31);
+#if defined(__CUDA_ARCH__)
+    double acc[6];
+    lane_sum(i, lane, acc);
+    for (int off = 16; off > 0; off >>= 1)
+      for (int a = 0; a < 6; ++a) acc[a] += __shfl_down_sync(0xffffffffu, acc[a], off);
+    if (lane == 0) finish(i, acc);
+#else
+    if (lane != 0) return;
+    double part[32][6];
+    for (int j = 0; j < 32; ++j) lane_sum(i, j, part[j]);
+    for (int off = 16; off > 0; off >>= 1)
+      for (int j = 0; j < off; ++j)
+        for (int a = 0; a < 6; ++a) part[j][a] += part[j + off][a];
+    finish(i, part[0]);
+#endif
+  }
+};
+
+struct ZeroIntsT {
+  int* p;
+  LBDEM_HD void operator()(Index i) const { p[i] = 0; }
+};
+
+struct MaxRadiusT {
+  const double* r;
+  int stride;
+  LBDEM_HD double operator()(Index i) const { return r[i * stride]; }
+};
+struct MaxOpT {
+  LBDEM_HD double operator()(double a, double b) const { return a > b ? a : b; }
+};
+
+int ceil_div(Index a, int b) { return static_cast<int>((a + b - 1) / b); }
+
+}  // namespace
+
+TileMap::TileMap(Backend b, GridShape grid, int K, int capacity, int overflow_log)
+    : backend_(b), grid_(grid), shape_(TileShape::for_dim(grid.dim())), K_(K), capacity_(capacity),
+      log_cap_(std::max(overflow_log, 1)), scratch_(std::make_shared<Scratch>()) {
+  if (K_ < 1 || K_ > kFusedMaxSlots)
+    throw ConfigError("coupling.slots (K) = " + std::to_string(K_) + ": the fused PSM pipeline keeps 1.." +
+                      std::to_string(kFusedMaxSlots) + " slots per cell; use psm.pipeline: mapped for more");
+  if (capacity_ < 1 || capacity_ > kFusedMaxCapacity)
+    throw ConfigError("psm.tile_capacity = " + std::to_string(capacity_) + ": must be in 1.." +
+                      std::to_string(kFusedMaxCapacity));
+  if (grid_.cells() > static_cast<Index>(INT32_MAX))
+    throw ConfigError("TileMap: " + std::to_string(grid_.cells()) + " cells exceed 2^31 per rank");
+  ntx_ = ceil_div(grid_.nx, shape_.tx);
+  nty_ = ceil_div(grid_.ny, shape_.ty);
+  ntz_ = ceil_div(grid_.nz, shape_.tz);
+  const Index tiles = static_cast<Index>(ntx_) * nty_ * ntz_;
+  count_ = Buffer<int>(b, tiles);
+  particle_ = Buffer<int>(b, tiles * capacity_);
+  entry_ = Buffer<int>(b, tiles * capacity_);
+  flags_ = Buffer<int>(b, 4);
+  log_cell_ = Buffer<Index>(b, log_cap_);
+  log_particle_ = Buffer<int>(b, log_cap_);
+  log_tile_ = Buffer<Index>(b, log_cap_);
+  log_tile_particle_ = Buffer<int>(b, log_cap_);
+  count_.fill_zero();
+  flags_.fill_zero();
+}
+
+TileView TileMap::view() const {
+  TileView v;
+  v.nx = static_cast<int>(grid_.nx);
+  v.ny = static_cast<int>(grid_.ny);
+  v.nz = static_cast<int>(grid_.nz);
+  v.t = shape_;
+  v.ntx = ntx_;
+  v.nty = nty_;
+  v.ntz = ntz_;
+  for (int a = 0; a < 3; ++a) v.periodic[a] = grid_.periodic[static_cast<std::size_t>(a)];
+  v.capacity = capacity_;
+  v.max_tiles = max_tiles_;
+  v.count = count_.data();
+  v.particle = particle_.data();
+  v.entry = entry_.data();
+  v.partial = const_cast<double*>(partial_.data());
+  v.flags = const_cast<int*>(flags_.data());
+  v.log_cell = const_cast<Index*>(log_cell_.data());
+  v.log_particle = const_cast<int*>(log_particle_.data());
+  v.log_cap = log_cap_;
+  return v;
+}
+
+void TileMap::build(const Exec& ex, const SphereView& p, double max_radius) {
+  if (ex.backend() != backend_)
+    throw ConfigError(std::string("TileMap::build: tiles live on ") + to_string(backend_) + " but the Exec runs on " +
+                      to_string(ex.backend()));
+  const int dim = grid_.dim();
+  if (p.n > 0 && (!p.x || !p.y || !p.r || (dim == 3 && !p.z)))
+    throw ConfigError("TileMap::build: particle view has null position or radius arrays");
+  if (p.n > static_cast<Index>(INT32_MAX) / 64)
+    throw ConfigError("TileMap::build: " + std::to_string(p.n) + " particles exceed the int32 entry index");
+  double rmax = max_radius;
+  if (!(rmax > 0.0) && p.n > 0) rmax = transform_reduce(ex, p.n, 0.0, MaxOpT{}, MaxRadiusT{p.r, p.stride}, *scratch_);
+  rmax = std::max(rmax, 0.0);
+  const int B = static_cast<int>(std::floor(2.0 * rmax)) + 2;
+  const Index ns[3] = {grid_.nx, grid_.ny, grid_.nz};
+  const int ts[3] = {shape_.tx, shape_.ty, shape_.tz};
+  for (int a = 0; a < dim; ++a) {
+    if (grid_.periodic[static_cast<std::size_t>(a)] && B > ns[a])
+      throw ConfigError("PSM tiles: particle radius " + std::to_string(rmax) + " spans " + std::to_string(B) +
+                        " cells, more than the " + std::to_string(ns[a]) + " cells of periodic axis " +
+                        std::string(1, "xyz"[a]) + " (a particle would meet its own image)");
+    axis_max_[a] = 2 + (B - 1) / ts[a];
+  }
+  if (dim == 2) axis_max_[2] = 1;
+  max_tiles_ = axis_max_[0] * axis_max_[1] * axis_max_[2];
+  for_each(ex, count_.size(), ZeroIntsT{count_.data()});
+  built_particles_ = p.n;
+  if (p.n == 0) return;
+  partial_.reserve_discard(backend_, p.n * max_tiles_ * 6);  // grows only: no allocation in a steady time loop
+  TileBuild k{};
+  k.p = p;
+  k.tv = view();
+  k.count = count_.data();
+  k.particle = particle_.data();
+  k.entry = entry_.data();
+  k.dim = dim;
+  k.B = B;
+  k.mx = axis_max_[0];
+  k.my = axis_max_[1];
+  k.mz = axis_max_[2];
+  k.flags = flags_.data();
+  k.log_tile = log_tile_.data();
+  k.log_particle = log_tile_particle_.data();
+  k.log_cap = log_cap_;
+  for_each(ex, p.n * max_tiles_, k);
+}
+
+void TileMap::finish(const Exec& ex, const SphereView& p, const ForceOut& out) const {
+  if (p.n == 0) return;
+  if (p.n != built_particles_)
+    throw ConfigError("TileMap::finish: " + std::to_string(p.n) + " particles but the tiles were built for " +
+                      std::to_string(built_particles_));
+  TileFinish k{p, partial_.data(), max_tiles_, grid_.dim(), out.force, out.torque, out.fstride, out.tstride,
+               {out.per_volume[0], out.per_volume[1], out.per_volume[2]}};
+  for_each(ex, 32 * p.n, k);
+}
+
+void TileMap::clear_overflow(const Exec& ex) { for_each(ex, flags_.size(), ZeroIntsT{flags_.data()}); }
+
+OverflowReport TileMap::overflow() const {
+  OverflowReport r;
+  if (backend_ == Backend::Cuda) {
+#if defined(LBDEM_HAVE_CUDA)
+    LBDEM_CUDA_CHECK(cudaDeviceSynchronize());
+#endif
+  }
+  const std::vector<int> flags = flags_.to_vector();
+  r.events = flags[0] + flags[1];
+  r.radius_too_large = flags[2] > 0;
+  r.bad_particle = r.radius_too_large ? flags[3] : -1;
+  r.overflow = flags[0] > 0 || flags[1] > 0;
+  std::ostringstream msg;
+  if (flags[0] > 0) {
+    const Index logged = std::min<Index>(flags[0], log_cap_);
+    std::vector<Index> cells(static_cast<std::size_t>(logged));
+    std::vector<int> parts(static_cast<std::size_t>(logged));
+    log_cell_.copy_to_host(cells.data(), logged);
+    log_particle_.copy_to_host(parts.data(), logged);
+    r.cell = *std::min_element(cells.begin(), cells.end());
+    r.ijk = {r.cell % grid_.nx, (r.cell / grid_.nx) % grid_.ny, r.cell / (grid_.nx * grid_.ny)};
+    for (Index e = 0; e < logged; ++e)
+      if (cells[static_cast<std::size_t>(e)] == r.cell) r.particles.push_back(parts[static_cast<std::size_t>(e)]);
+    std::sort(r.particles.begin(), r.particles.end());
+    r.count = K_ + static_cast<int>(r.particles.size());
+    msg << "PSM cell slots overflow: cell (" << r.ijk[0] << ", " << r.ijk[1] << ", " << r.ijk[2] << ") [index "
+        << r.cell << "] is overlapped by at least " << r.count << " particles but K = " << K_
+        << " slots per cell; the surplus particles were ";
+    for (std::size_t i = 0; i < r.particles.size(); ++i) msg << (i ? ", " : "") << r.particles[i];
+    msg << " (" << flags[0] << " (cell, particle) pairs found no slot in all). Raise K (slots per cell, at most "
+        << kFusedMaxSlots << " in the fused pipeline), or check for overlapping particles.";
+  }
+  if (flags[1] > 0) {
+    const Index logged = std::min<Index>(flags[1], log_cap_);
+    std::vector<Index> tiles(static_cast<std::size_t>(logged));
+    std::vector<int> parts(static_cast<std::size_t>(logged));
+    log_tile_.copy_to_host(tiles.data(), logged);
+    log_tile_particle_.copy_to_host(parts.data(), logged);
+    const Index t = *std::min_element(tiles.begin(), tiles.end());
+    const Index tx = t % ntx_, ty = (t / ntx_) % nty_, tz = t / (static_cast<Index>(ntx_) * nty_);
+    if (r.cell < 0) {
+      r.cell = tx * shape_.tx + grid_.nx * (ty * shape_.ty + grid_.ny * tz * shape_.tz);
+      r.ijk = {tx * shape_.tx, ty * shape_.ty, tz * shape_.tz};
+      for (Index e = 0; e < logged; ++e)
+        if (tiles[static_cast<std::size_t>(e)] == t) r.particles.push_back(parts[static_cast<std::size_t>(e)]);
+      std::sort(r.particles.begin(), r.particles.end());
+    }
+    if (flags[0] > 0) msg << " ";
+    msg << "PSM tile candidate list overflow: the tile of " << shape_.tx << "x" << shape_.ty << "x" << shape_.tz
+        << " cells from cell (" << tx * shape_.tx << ", " << ty * shape_.ty << ", " << tz * shape_.tz
+        << ") is touched by more than psm.tile_capacity = " << capacity_ << " particles (" << flags[1]
+        << " (tile, particle) pairs found no place). Raise psm.tile_capacity (at most " << kFusedMaxCapacity
+        << ") or use psm.pipeline: mapped.";
+  }
+  if (r.radius_too_large) {
+    if (r.overflow) msg << " ";
+    msg << "Particle " << r.bad_particle << " is larger than MapOptions::max_radius; its cells were clipped. "
+        << "Pass the true largest radius (or 0 to compute it).";
+  }
+  r.message = msg.str();
+  return r;
+}
+
+}  // namespace lbdem::imb
