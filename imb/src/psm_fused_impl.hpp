@@ -67,7 +67,7 @@ __global__ void __launch_bounds__(256, MinBlocks) psm_fused_kernel(Kern k) {
   for (int c0 = 0; c0 < nc; c0 += Kern::kForceChunk) {
     const int cn = nc - c0 < Kern::kForceChunk ? nc - c0 : Kern::kForceChunk;
     for (int c = 0; c < cn; ++c) {
-      R v[6];
+      R v[6] = {R(0), R(0), R(0), R(0), R(0), R(0)};  // lanes off the grid or on a boundary add zeros
       const bool has = fluid && k.contribution(x, y, z, s, c0 + c, cand[order[c0 + c]], rho, u, v);
       const bool any = __any_sync(0xffffffffu, has);
       if (any) {
