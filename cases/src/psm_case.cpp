@@ -322,12 +322,18 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
       }
   fluid->initialize(flags, std::vector<double>(N, 1.0), std::vector<double>(3 * N, 0.0));
   dem::DemSystem dem(Exec(backend), c.dem, c.particles);
+  std::unique_ptr<imb::FractionTable> table;  // outlives cs, which reads it every step
+  if (c.coupling.psm.map.method == imb::FractionMethod::Table) {
+    table = std::make_unique<imb::FractionTable>(imb::build_fraction_table(c.setup.lattice == lbm::LatticeKind::D2Q9 ? 2 : 3));
+    c.coupling.psm.map.table = table.get();
+  }
   imb::CoupledSolver cs(*fluid, dem, c.coupling);
   if (!opt.quiet)
     spdlog::info("scene particles: {} particles (d = {} cells, rho_s/rho_f = {}), grid {}x{}x{}, tau = {}, {} DEM "
-                 "sub-steps, backend {}, weight balance {}; output in {}",
+                 "sub-steps, backend {}, weight balance {}, {} fractions, {} pipeline; output in {}",
                  dem.size(), 2 * c.particles.r[0], c.density_ratio, n[0], n[1], n[2], c.setup.tau,
-                 c.coupling.dem_substeps, to_string(backend), c.balance ? "on" : "off", c.outdir);
+                 c.coupling.dem_substeps, to_string(backend), c.balance ? "on" : "off",
+                 imb::to_string(c.coupling.psm.map.method), imb::to_string(cs.coupling().pipeline()), c.outdir);
   io::ParticleWriter pw(c.outdir, "particles");
   io::GridWriter gw(c.outdir, "fields", {n[0], n[1], n[2]}, {0, 0, 0}, {1, 1, 1});
   io::TimeSeries series(c.outdir + "/series.csv",

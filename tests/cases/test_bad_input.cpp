@@ -205,3 +205,25 @@ diagnostics: {interval: 10, max_mach: 0.3}
 }
 
 }  // namespace
+
+// The fused PSM pipeline evaluates table or linear fractions in its kernel; a
+// case that asks for it with exact fractions is refused before anything runs,
+// naming the key and the way out.
+TEST_F(BadInput, FusedPipelineWithExactFractionsIsRefused) {
+  const std::string text = R"(scene: particles
+units: lattice
+domain: {cells: [24, 24, 24], periodic: [1, 1, 1]}
+fluid: {tau: 0.6}
+physics: {gravity: [0, 0, 0]}
+particles:
+  init: list
+  diameter: 8
+  density_ratio: 2
+  list:
+    - {position: [12, 12, 12]}
+dem: {stiffness: 5000, restitution: 0.5, substeps: 30}
+psm: {fraction: exact, pipeline: fused}
+time: {steps: 10}
+)";
+  expect_refused(text, {"psm.pipeline", "exact", "mapped"});
+}
