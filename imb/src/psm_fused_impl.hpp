@@ -53,7 +53,9 @@ __global__ void __launch_bounds__(256, MinBlocks) psm_fused_kernel(Kern k) {
   FusedSolid<R> s;
   s.eps = &slot_eps[0][tid];
   s.stride = 256;
-  if (fluid && nc > 0) k.overlap(x, y, z, cell, cand, order, nc, s);
+  int lx, ly, lz;  // offsets in the tile: the per-cell arithmetic is relative to its first cell
+  k.local(tid, lx, ly, lz);
+  if (fluid && nc > 0) k.overlap(lx, ly, lz, cell, cand, order, nc, s);
   if constexpr (!LoadsFirst) {
     if (fluid) k.load(cell, nb, f);
   }
@@ -68,7 +70,7 @@ __global__ void __launch_bounds__(256, MinBlocks) psm_fused_kernel(Kern k) {
     const int cn = nc - c0 < Kern::kForceChunk ? nc - c0 : Kern::kForceChunk;
     for (int c = 0; c < cn; ++c) {
       R v[6] = {R(0), R(0), R(0), R(0), R(0), R(0)};  // lanes off the grid or on a boundary add zeros
-      const bool has = fluid && k.contribution(x, y, z, s, c0 + c, cand[order[c0 + c]], rho, u, v);
+      const bool has = fluid && k.contribution(lx, ly, lz, s, c0 + c, cand[order[c0 + c]], rho, u, v);
       const bool any = __any_sync(0xffffffffu, has);
       if (any) {
         for (int off = 16; off > 0; off >>= 1)

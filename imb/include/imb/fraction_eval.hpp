@@ -54,6 +54,20 @@ struct FractionOf {
       return e < Real(0) ? Real(0) : (e > Real(1) ? Real(1) : e);
     }
   }
+  // The same with offsets, radius and aux already in Real (the fused kernel's
+  // per-cell arithmetic in the lattice's precision).
+  LBDEM_HD Real eval(Real rx, Real ry, Real rz, Real R, Real aux) const {
+    if constexpr (std::is_same_v<Real, double> || M == FractionMethod::Exact) {
+      return (*this)(double(rx), double(ry), double(rz), double(R), double(aux));
+    } else if constexpr (M == FractionMethod::Table) {
+      if constexpr (Dim == 3) return table_fraction_3d<Access, Real>(g, tab, rx, ry, rz, R);
+      else return table_fraction_2d<Access, Real>(g, tab, rx, ry, R);
+    } else {
+      const Real d = Dim == 3 ? sqrt(rx * rx + ry * ry + rz * rz) : sqrt(rx * rx + ry * ry);
+      const Real e = aux - d + Real(0.5);
+      return e < Real(0) ? Real(0) : (e > Real(1) ? Real(1) : e);
+    }
+  }
   LBDEM_HD Real operator()(double rx, double ry, double rz, double R) const {
     return (*this)(rx, ry, rz, R, prepare(R));
   }

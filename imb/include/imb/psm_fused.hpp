@@ -33,12 +33,16 @@
 
 namespace lbdem::imb {
 
-// A candidate particle as the block holds it (shared memory on the device).
+// A candidate particle as the block holds it (shared memory on the device),
+// in the lattice's precision R: its centre relative to the tile's first cell
+// corner (formed in double, then rounded: offsets of a few tens of cells, so an
+// fp32 run keeps ~1e-6 cells), radius, FractionOf::prepare(radius), velocity
+// and angular velocity. All per-cell arithmetic then runs in R.
 template <class R>
 struct FusedCand {
-  double x, y, z, r, aux;  // centre (lattice units), radius, FractionOf::prepare(r)
-  double v[3], w[3];       // velocity, angular velocity
-  int p, entry;            // particle index, its partial-force entry for this tile
+  R o[3], r, aux;
+  R v[3], w[3];
+  int p, entry;  // particle index, its partial-force entry for this tile
 };
 
 // The solid state of one cell: up to kFusedMaxSlots slots (ε_k, candidate
@@ -93,25 +97,42 @@ struct PsmFusedKernel {
     return c < tv.capacity ? c : tv.capacity;
   }
 
+  // First cell of the tile and thread tid's offsets from it.
+  LBDEM_HD void tile_origin(Index tile, int (&o)[3]) const {
+    const auto tl = static_cast<unsigned>(tile);
+    const unsigned ntx = static_cast<unsigned>(tv.ntx), nty = static_cast<unsigned>(tv.nty);
+    o[0] = static_cast<int>(tl % ntx) * tv.t.tx;
+    o[1] = static_cast<int>((tl / ntx) % nty) * tv.t.ty;
+    o[2] = static_cast<int>(tl / (ntx * nty)) * tv.t.tz;
+  }
+  LBDEM_HD void local(int tid, int& lx, int& ly, int& lz) const {
+    lx = tid % tv.t.tx;
+    ly = (tid / tv.t.tx) % tv.t.ty;
+    lz = tid / (tv.t.tx * tv.t.ty);
+  }
+
   LBDEM_HD void load_candidate(Index tile, int i, FusedCand<R>& c) const {
     const Index slot = tile * tv.capacity + i;
     c.p = tv.particle[slot];
     c.entry = tv.entry[slot];
     const Index o = static_cast<Index>(c.p) * p.stride;
+    int org[3];
+    tile_origin(tile, org);
     // Centres brought into [0, n) on periodic axes (particles may be given
     // unwrapped, any number of periods away), so that one minimum-image
     // correction in rel() finds the image that overlaps a cell.
-    c.x = wrap_centre(p.x[o], g.nx, tv.periodic[0]);
-    c.y = wrap_centre(p.y[o], g.ny, tv.periodic[1]);
-    c.z = Dim == 3 ? wrap_centre(p.z[o], g.nz, tv.periodic[2]) : 0.5;
-    c.r = p.r[o];
-    c.aux = frac.prepare(c.r);
-    c.v[0] = p.vx ? p.vx[o] : 0.0;
-    c.v[1] = p.vy ? p.vy[o] : 0.0;
-    c.v[2] = p.vz && Dim == 3 ? p.vz[o] : 0.0;
-    c.w[0] = p.wx ? p.wx[o] : 0.0;
-    c.w[1] = p.wy ? p.wy[o] : 0.0;
-    c.w[2] = p.wz ? p.wz[o] : 0.0;
+    c.o[0] = R(wrap_centre(p.x[o], g.nx, tv.periodic[0]) - org[0]);
+    c.o[1] = R(wrap_centre(p.y[o], g.ny, tv.periodic[1]) - org[1]);
+    c.o[2] = Dim == 3 ? R(wrap_centre(p.z[o], g.nz, tv.periodic[2]) - org[2]) : R(0.5);
+    const double rad = p.r[o];
+    c.r = R(rad);
+    c.aux = R(frac.prepare(rad));
+    c.v[0] = R(p.vx ? p.vx[o] : 0.0);
+    c.v[1] = R(p.vy ? p.vy[o] : 0.0);
+    c.v[2] = R(p.vz && Dim == 3 ? p.vz[o] : 0.0);
+    c.w[0] = R(p.wx ? p.wx[o] : 0.0);
+    c.w[1] = R(p.wy ? p.wy[o] : 0.0);
+    c.w[2] = R(p.wz ? p.wz[o] : 0.0);
   }
 
   LBDEM_HD static double wrap_centre(double c, int n, bool periodic) {
@@ -125,36 +146,44 @@ struct PsmFusedKernel {
     return r;
   }
 
-  // Cell centre relative to the candidate's centre, minimum image on periodic axes.
-  LBDEM_HD void rel(int x, int y, int z, const FusedCand<R>& c, double (&r)[3]) const {
-    r[0] = min_image(x + 0.5 - c.x, static_cast<double>(g.nx), tv.periodic[0]);
-    r[1] = min_image(y + 0.5 - c.y, static_cast<double>(g.ny), tv.periodic[1]);
-    r[2] = Dim == 3 ? min_image(z + 0.5 - c.z, static_cast<double>(g.nz), tv.periodic[2]) : 0.0;
+  // Centre of the cell at tile offsets (lx, ly, lz) relative to the
+  // candidate's centre, minimum image on periodic axes.
+  LBDEM_HD static R min_image_r(R d, int n, bool periodic) {
+    if (!periodic) return d;
+    const R h = R(0.5) * R(n);
+    return d > h ? d - R(n) : (d < -h ? d + R(n) : d);
+  }
+  LBDEM_HD void rel(int lx, int ly, int lz, const FusedCand<R>& c, R (&r)[3]) const {
+    r[0] = min_image_r(R(lx) + R(0.5) - c.o[0], g.nx, tv.periodic[0]);
+    r[1] = min_image_r(R(ly) + R(0.5) - c.o[1], g.ny, tv.periodic[1]);
+    r[2] = Dim == 3 ? min_image_r(R(lz) + R(0.5) - c.o[2], g.nz, tv.periodic[2]) : R(0);
   }
 
   // Solid velocity at the cell centre, v + w x r (first paper Eq. 2).
-  LBDEM_HD static void solid_velocity(const FusedCand<R>& c, const double (&r)[3], R (&vs)[3]) {
-    vs[0] = R(c.v[0] + c.w[1] * r[2] - c.w[2] * r[1]);
-    vs[1] = R(c.v[1] + c.w[2] * r[0] - c.w[0] * r[2]);
-    vs[2] = Dim == 3 ? R(c.v[2] + c.w[0] * r[1] - c.w[1] * r[0]) : R(0);
+  LBDEM_HD static void solid_velocity(const FusedCand<R>& c, const R (&r)[3], R (&vs)[3]) {
+    vs[0] = c.v[0] + c.w[1] * r[2] - c.w[2] * r[1];
+    vs[1] = c.v[1] + c.w[2] * r[0] - c.w[0] * r[2];
+    vs[2] = Dim == 3 ? c.v[2] + c.w[0] * r[1] - c.w[1] * r[0] : R(0);
   }
 
-  // Step 2: the cell's slots, B and solid moments. `order[c]` is the candidate
-  // of rank c. Surplus overlaps beyond K are logged (cell, particle).
+  // Step 2: the cell's slots, B and solid moments. (x, y, z): the cell's
+  // offsets in its tile. `order[c]` is the candidate of rank c. Surplus
+  // overlaps beyond K are logged (cell, particle).
   LBDEM_HD void overlap(int x, int y, int z, Index cell, const FusedCand<R>* cand, const unsigned char* order, int nc,
                         FusedSolid<R>& s) const {
     // A cell overlaps a ball only if its centre lies within R + half its diagonal.
     const double half_diag = Dim == 3 ? 0.86602540378443865 : 0.70710678118654752;
     for (int c = 0; c < nc; ++c) {
       const FusedCand<R>& q = cand[order[c]];
-      double r[3];
+      R r[3];
       rel(x, y, z, q, r);
-      // (The offsets are rounded to R here and in frac: in an fp32 run the
-      // bound and the fraction are float arithmetic, offsets below ~6 cells.)
-      const R x2 = R(r[0]) * R(r[0]) + R(r[1]) * R(r[1]) + R(r[2]) * R(r[2]);
-      const R lim = R(q.r + half_diag);
-      if (x2 >= lim * lim) continue;
-      const R e = frac(r[0], r[1], r[2], q.r, q.aux);
+      const R lim = q.r + R(half_diag);
+      // y and z first: the same for a warp's 32 cells (one x row), so most
+      // candidates that miss a row are skipped without divergence.
+      const R yz2 = r[1] * r[1] + r[2] * r[2];
+      if (yz2 >= lim * lim) continue;
+      if (r[0] * r[0] + yz2 >= lim * lim) continue;
+      const R e = frac.eval(r[0], r[1], r[2], q.r, q.aux);
       if (!(e > R(0))) continue;
       if (s.m < K) {
         s.eps_at(s.m) = e;
@@ -172,7 +201,7 @@ struct PsmFusedKernel {
     for (int k = 0; k < kFusedMaxSlots; ++k) {
       if (k >= s.m) break;
       const FusedCand<R>& q = cand[order[s.rank(k)]];
-      double r[3];
+      R r[3];
       rel(x, y, z, q, r);
       R vs[3];
       solid_velocity(q, r, vs);
@@ -234,7 +263,7 @@ struct PsmFusedKernel {
     for (int k = 0; k < kFusedMaxSlots; ++k) {
       if (k >= s.m) break;
       if (s.rank(k) != c) continue;
-      double r[3];
+      R r[3];
       rel(x, y, z, q, r);
       R vs[3];
       solid_velocity(q, r, vs);
@@ -244,7 +273,7 @@ struct PsmFusedKernel {
         const R extra = V == PsmVariant::NEBB ? (Force ? F[a] : R(0)) : (Force ? R(0.5) * omega_m * F[a] : R(0));
         Fk[a] = -(Bk * (rho * (vs[a] - u[a]) + extra));
       }
-      const R rr[3] = {R(r[0]), R(r[1]), R(r[2])};
+      const R(&rr)[3] = r;
       out[0] = Fk[0];
       out[1] = Fk[1];
       out[2] = Fk[2];
@@ -280,9 +309,7 @@ void run_fused_host(const Kern& k) {
     for (int t = 0; t < ncell; ++t) {
       int x, y, z;
       valid[t] = k.coords(tile, t, x, y, z);
-      cx[t] = x;
-      cy[t] = y;
-      cz[t] = z;
+      k.local(t, cx[t], cy[t], cz[t]);  // offsets in the tile (what rel() takes)
       sol[t] = FusedSolid<R>{};
       sol[t].eps = eps_store[t];
       sol[t].stride = 1;
@@ -299,7 +326,7 @@ void run_fused_host(const Kern& k) {
       lbm::Neighbours nb;
       R f[Kern::kQ];
       k.load(cell, nb, f);
-      if (nc > 0) k.overlap(x, y, z, cell, cand, order, nc, sol[t]);
+      if (nc > 0) k.overlap(cx[t], cy[t], cz[t], cell, cand, order, nc, sol[t]);
       k.collide_store(cell, nb, f, sol[t], sol[t].m == 0, rho[t], u[t]);
     }
     for (int c0 = 0; c0 < nc; c0 += Kern::kForceChunk) {
