@@ -45,9 +45,10 @@ __global__ void __launch_bounds__(256, MinBlocks) psm_fused_kernel(Kern k) {
     if (fluid) k.load(cell, nb, f);
   }
   const int nc = k.candidates(tile);
-  if (tid < nc) k.load_candidate(tile, tid, cand[tid]);
-  __syncthreads();
-  if (tid < nc) order[Kern::rank(cand, nc, tid)] = static_cast<unsigned char>(tid);
+  if (tid < nc) {
+    k.load_candidate(tile, tid, cand[k.rank(tile, nc, tid)]);  // stored in particle-index order
+    order[tid] = static_cast<unsigned char>(tid);
+  }
   __syncthreads();
   // 2. Slots, B and solid moments of this cell.
   FusedSolid<R> s;
@@ -69,10 +70,12 @@ __global__ void __launch_bounds__(256, MinBlocks) psm_fused_kernel(Kern k) {
   for (int c0 = 0; c0 < nc; c0 += Kern::kForceChunk) {
     const int cn = nc - c0 < Kern::kForceChunk ? nc - c0 : Kern::kForceChunk;
     for (int c = 0; c < cn; ++c) {
-      R v[6] = {R(0), R(0), R(0), R(0), R(0), R(0)};  // lanes off the grid or on a boundary add zeros
-      const bool has = fluid && k.contribution(lx, ly, lz, s, c0 + c, cand[order[c0 + c]], rho, u, v);
-      const bool any = __any_sync(0xffffffffu, has);
+      // Warps whose cells hold no slot of this candidate write zeros and skip the tree.
+      const int ks = fluid ? Kern::slot_of(s, c0 + c) : -1;
+      const bool any = __any_sync(0xffffffffu, ks >= 0);
+      R v[6] = {R(0), R(0), R(0), R(0), R(0), R(0)};  // lanes without a slot (or off the grid) add zeros
       if (any) {
+        if (ks >= 0) k.contribution(lx, ly, lz, s, ks, cand[order[c0 + c]], rho, u, v);
         for (int off = 16; off > 0; off >>= 1)
           for (int a = 0; a < 6; ++a) v[a] += __shfl_down_sync(0xffffffffu, v[a], off);
       }
@@ -86,7 +89,7 @@ __global__ void __launch_bounds__(256, MinBlocks) psm_fused_kernel(Kern k) {
       for (int w = 0; w < Kern::kWarps; ++w) sum += part[w][c][a];
       k.tv.partial[static_cast<Index>(cand[order[c0 + c]].entry) * 6 + a] = sum;
     }
-    __syncthreads();
+    if (c0 + Kern::kForceChunk < nc) __syncthreads();  // part[] is reused by the next chunk
   }
 }
 #endif

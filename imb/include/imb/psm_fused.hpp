@@ -139,10 +139,14 @@ struct PsmFusedKernel {
     return periodic ? c - n * floor(c / n) : c;
   }
 
-  // Position of candidate i in particle-index order (indices are unique in a tile).
-  LBDEM_HD static int rank(const FusedCand<R>* cand, int nc, int i) {
+  // Position of the tile's candidate i in particle-index order (indices are
+  // unique in a tile), read from the tile list itself: the candidate can then
+  // be stored at its rank before the block's one barrier.
+  LBDEM_HD int rank(Index tile, int nc, int i) const {
+    const int* list = tv.particle + tile * tv.capacity;
+    const int pi = list[i];
     int r = 0;
-    for (int j = 0; j < nc; ++j) r += cand[j].p < cand[i].p ? 1 : 0;
+    for (int j = 0; j < nc; ++j) r += list[j] < pi ? 1 : 0;
     return r;
   }
 
@@ -253,36 +257,34 @@ struct PsmFusedKernel {
     lbm::store_outgoing<L, T, R, S, Parity, Bnd>(dst, nb, cell, f, flags, bt, u);
   }
 
-  // Step 4: force (0..2) and torque (3..5) of this cell on the candidate of
-  // rank c; false (and zeros) if the cell holds no slot of it.
-  LBDEM_HD bool contribution(int x, int y, int z, const FusedSolid<R>& s, int c, const FusedCand<R>& q, R rho,
-                             const R (&u)[3], R (&out)[6]) const {
-    for (int a = 0; a < 6; ++a) out[a] = R(0);
-    bool has = false;
+  // Step 4: the slot of this cell that holds the candidate of rank c, or -1
+  // (a particle holds at most one slot of a cell).
+  LBDEM_HD static int slot_of(const FusedSolid<R>& s, int c) {
+    int found = -1;
     LBDEM_UNROLL
-    for (int k = 0; k < kFusedMaxSlots; ++k) {
-      if (k >= s.m) break;
-      if (s.rank(k) != c) continue;
-      R r[3];
-      rel(x, y, z, q, r);
-      R vs[3];
-      solid_velocity(q, r, vs);
-      const R Bk = s.B * s.eps_at(k) / s.eps_tot;
-      R Fk[3];
-      for (int a = 0; a < 3; ++a) {
-        const R extra = V == PsmVariant::NEBB ? (Force ? F[a] : R(0)) : (Force ? R(0.5) * omega_m * F[a] : R(0));
-        Fk[a] = -(Bk * (rho * (vs[a] - u[a]) + extra));
-      }
-      const R(&rr)[3] = r;
-      out[0] = Fk[0];
-      out[1] = Fk[1];
-      out[2] = Fk[2];
-      out[3] = rr[1] * Fk[2] - rr[2] * Fk[1];
-      out[4] = rr[2] * Fk[0] - rr[0] * Fk[2];
-      out[5] = rr[0] * Fk[1] - rr[1] * Fk[0];
-      has = true;
+    for (int k = 0; k < kFusedMaxSlots; ++k)
+      if (k < s.m && s.rank(k) == c) found = k;
+    return found;
+  }
+  // Force (0..2) and torque (3..5) of this cell on the particle of slot k.
+  LBDEM_HD void contribution(int x, int y, int z, const FusedSolid<R>& s, int k, const FusedCand<R>& q, R rho,
+                             const R (&u)[3], R (&out)[6]) const {
+    R r[3];
+    rel(x, y, z, q, r);
+    R vs[3];
+    solid_velocity(q, r, vs);
+    const R Bk = s.B * s.eps_at(k) / s.eps_tot;
+    R Fk[3];
+    for (int a = 0; a < 3; ++a) {
+      const R extra = V == PsmVariant::NEBB ? (Force ? F[a] : R(0)) : (Force ? R(0.5) * omega_m * F[a] : R(0));
+      Fk[a] = -(Bk * (rho * (vs[a] - u[a]) + extra));
     }
-    return has;
+    out[0] = Fk[0];
+    out[1] = Fk[1];
+    out[2] = Fk[2];
+    out[3] = r[1] * Fk[2] - r[2] * Fk[1];
+    out[4] = r[2] * Fk[0] - r[0] * Fk[2];
+    out[5] = r[0] * Fk[1] - r[1] * Fk[0];
   }
 };
 
@@ -299,8 +301,10 @@ void run_fused_host(const Kern& k) {
     FusedCand<R> cand[kFusedMaxCapacity];
     unsigned char order[kFusedMaxCapacity];
     const int nc = k.candidates(tile);
-    for (int i = 0; i < nc; ++i) k.load_candidate(tile, i, cand[i]);
-    for (int i = 0; i < nc; ++i) order[Kern::rank(cand, nc, i)] = static_cast<unsigned char>(i);
+    for (int i = 0; i < nc; ++i) {
+      k.load_candidate(tile, i, cand[k.rank(tile, nc, i)]);  // stored in particle-index order
+      order[i] = static_cast<unsigned char>(i);
+    }
     FusedSolid<R> sol[256];
     R eps_store[256][kFusedMaxSlots];
     R rho[256], u[256][3];
@@ -339,7 +343,10 @@ void run_fused_host(const Kern& k) {
           bool any = false;
           for (int l = 0; l < 32; ++l) {
             const int t = 32 * w + l;
-            any = k.contribution(cx[t], cy[t], cz[t], sol[t], c0 + c, q, rho[t], u[t], v[l]) || any;
+            for (int a = 0; a < 6; ++a) v[l][a] = R(0);
+            const int ks = valid[t] ? Kern::slot_of(sol[t], c0 + c) : -1;
+            if (ks >= 0) k.contribution(cx[t], cy[t], cz[t], sol[t], ks, q, rho[t], u[t], v[l]);
+            any = any || ks >= 0;
           }
           if (!any) continue;  // the device writes 0 for this warp
           for (int off = 16; off > 0; off >>= 1)
