@@ -42,7 +42,7 @@ __global__ void __launch_bounds__(256, MinBlocks) psm_fused_kernel(Kern k) {
   lbm::Neighbours nb;
   R f[Kern::kQ];
   if constexpr (LoadsFirst) {
-    if (fluid) k.load(cell, nb, f);
+    if (fluid) k.load(x, y, z, cell, nb, f);
   }
   const int nc = k.candidates(tile);
   if (tid < nc) {
@@ -55,10 +55,10 @@ __global__ void __launch_bounds__(256, MinBlocks) psm_fused_kernel(Kern k) {
   s.eps = &slot_eps[0][tid];
   s.stride = 256;
   int lx, ly, lz;  // offsets in the tile: the per-cell arithmetic is relative to its first cell
-  k.local(tid, lx, ly, lz);
+  Kern::local(tid, lx, ly, lz);
   if (fluid && nc > 0) k.overlap(lx, ly, lz, cell, cand, order, nc, s);
   if constexpr (!LoadsFirst) {
-    if (fluid) k.load(cell, nb, f);
+    if (fluid) k.load(x, y, z, cell, nb, f);
   }
   // 3. Collide and store; a warp without a solid lane takes the plain collision.
   const bool plain = !__any_sync(0xffffffffu, s.m > 0);
@@ -146,6 +146,9 @@ void fused_launch_m(const Exec& ex, const FusedArgs& a) {
     k.frac.g = a.opt->map.table->geometry;
     k.frac.tab.p = a.table;
   }
+  if (a.tv.t.tx != k.kTX || a.tv.t.ty != k.kTY || a.tv.t.tz != k.kTZ)
+    throw ConfigError("psm fused step: the tile map's tiles are not the kernel's " + std::to_string(k.kTX) + "x" +
+                      std::to_string(k.kTY) + "x" + std::to_string(k.kTZ));
   launch_fused(ex, k, a.opt->fused_loads_first);
 }
 

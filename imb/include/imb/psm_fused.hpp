@@ -81,14 +81,19 @@ struct PsmFusedKernel {
   SphereView p;
   Frac frac;
 
-  // Cell of thread `tid` in tile `tile`; false if the tile overhangs the grid there.
+  // The tile shape as compile-time constants (TileShape::for_dim): the
+  // per-thread index arithmetic is then shifts and masks.
+  static constexpr int kTX = 32, kTY = Dim == 3 ? 4 : 8, kTZ = Dim == 3 ? 2 : 1;
+
+  // Cell of thread `tid` in tile `tile` and its offsets in the tile; false if
+  // the tile overhangs the grid there.
   LBDEM_HD bool coords(Index tile, int tid, int& x, int& y, int& z) const {
-    const auto tl = static_cast<unsigned>(tile);
-    const unsigned ntx = static_cast<unsigned>(tv.ntx), nty = static_cast<unsigned>(tv.nty);
-    const unsigned tix = tl % ntx, tiy = (tl / ntx) % nty, tiz = tl / (ntx * nty);
-    x = static_cast<int>(tix) * tv.t.tx + tid % tv.t.tx;
-    y = static_cast<int>(tiy) * tv.t.ty + (tid / tv.t.tx) % tv.t.ty;
-    z = static_cast<int>(tiz) * tv.t.tz + tid / (tv.t.tx * tv.t.ty);
+    int o[3], lx, ly, lz;
+    tile_origin(tile, o);
+    local(tid, lx, ly, lz);
+    x = o[0] + lx;
+    y = o[1] + ly;
+    z = o[2] + lz;
     return x < g.nx && y < g.ny && z < g.nz;
   }
 
@@ -101,14 +106,15 @@ struct PsmFusedKernel {
   LBDEM_HD void tile_origin(Index tile, int (&o)[3]) const {
     const auto tl = static_cast<unsigned>(tile);
     const unsigned ntx = static_cast<unsigned>(tv.ntx), nty = static_cast<unsigned>(tv.nty);
-    o[0] = static_cast<int>(tl % ntx) * tv.t.tx;
-    o[1] = static_cast<int>((tl / ntx) % nty) * tv.t.ty;
-    o[2] = static_cast<int>(tl / (ntx * nty)) * tv.t.tz;
+    const unsigned q = tl / ntx;
+    o[0] = static_cast<int>(tl - q * ntx) * kTX;
+    o[1] = static_cast<int>(q % nty) * kTY;
+    o[2] = static_cast<int>(q / nty) * kTZ;
   }
-  LBDEM_HD void local(int tid, int& lx, int& ly, int& lz) const {
-    lx = tid % tv.t.tx;
-    ly = (tid / tv.t.tx) % tv.t.ty;
-    lz = tid / (tv.t.tx * tv.t.ty);
+  LBDEM_HD static void local(int tid, int& lx, int& ly, int& lz) {
+    lx = tid % kTX;
+    ly = (tid / kTX) % kTY;
+    lz = tid / (kTX * kTY);
   }
 
   LBDEM_HD void load_candidate(Index tile, int i, FusedCand<R>& c) const {
@@ -233,8 +239,8 @@ struct PsmFusedKernel {
   }
 
   // Step 1: the cell's incoming populations.
-  LBDEM_HD LBDEM_FORCEINLINE void load(Index cell, lbm::Neighbours& nb, R (&f)[L::Q]) const {
-    nb = lbm::neighbours<L>(g, cell);
+  LBDEM_HD LBDEM_FORCEINLINE void load(int x, int y, int z, Index cell, lbm::Neighbours& nb, R (&f)[L::Q]) const {
+    nb = lbm::neighbours_at<L>(g, x, y, z);
     lbm::load_incoming<L, T, R, S, Parity>(src, nb, cell, f);
   }
 
@@ -329,7 +335,7 @@ void run_fused_host(const Kern& k) {
       }
       lbm::Neighbours nb;
       R f[Kern::kQ];
-      k.load(cell, nb, f);
+      k.load(x, y, z, cell, nb, f);
       if (nc > 0) k.overlap(cx[t], cy[t], cz[t], cell, cand, order, nc, sol[t]);
       k.collide_store(cell, nb, f, sol[t], sol[t].m == 0, rho[t], u[t]);
     }

@@ -39,10 +39,9 @@ struct Neighbours {
   LBDEM_HD Index at(int cx, int cy, int cz) const { return static_cast<Index>(ox[cx + 1] + oy[cy + 1] + oz[cz + 1]); }
 };
 
+// From the cell's coordinates (callers that have them skip two divisions).
 template <class L>
-LBDEM_HD LBDEM_FORCEINLINE Neighbours neighbours(const GridView& g, Index cell) {
-  int x, y, z;
-  g.coords(cell, x, y, z);
+LBDEM_HD LBDEM_FORCEINLINE Neighbours neighbours_at(const GridView& g, int x, int y, int z) {
   Neighbours nb;
   nb.ox[0] = static_cast<unsigned>(x == 0 ? g.nx - 1 : x - 1);
   nb.ox[1] = static_cast<unsigned>(x);
@@ -59,6 +58,13 @@ LBDEM_HD LBDEM_FORCEINLINE Neighbours neighbours(const GridView& g, Index cell) 
     nb.oz[0] = nb.oz[1] = nb.oz[2] = static_cast<unsigned>(z) * nxy;
   }
   return nb;
+}
+
+template <class L>
+LBDEM_HD LBDEM_FORCEINLINE Neighbours neighbours(const GridView& g, Index cell) {
+  int x, y, z;
+  g.coords(cell, x, y, z);
+  return neighbours_at<L>(g, x, y, z);
 }
 
 template <class T>
