@@ -30,10 +30,12 @@ __global__ void __launch_bounds__(256, MinBlocks) psm_fused_kernel(Kern k) {
   using R = typename Kern::R;
   __shared__ FusedCand<R> cand[kFusedMaxCapacity];
   __shared__ unsigned char order[kFusedMaxCapacity];
-  __shared__ double part[Kern::kWarps][Kern::kForceChunk][6];
+  __shared__ R part[Kern::kWarps][Kern::kForceChunk][6];
   __shared__ R slot_eps[kFusedMaxSlots][256];
   const int tid = static_cast<int>(threadIdx.x);
-  const Index tile = blockIdx.x;
+  const typename Kern::TileId tile{
+      blockIdx.x + static_cast<Index>(k.tv.ntx) * (blockIdx.y + static_cast<Index>(k.tv.nty) * blockIdx.z),
+      static_cast<int>(blockIdx.x), static_cast<int>(blockIdx.y), static_cast<int>(blockIdx.z)};
   int x, y, z;
   bool fluid = k.coords(tile, tid, x, y, z);
   const Index cell = fluid ? k.g.index(x, y, z) : 0;
@@ -44,9 +46,9 @@ __global__ void __launch_bounds__(256, MinBlocks) psm_fused_kernel(Kern k) {
   if constexpr (LoadsFirst) {
     if (fluid) k.load(x, y, z, cell, nb, f);
   }
-  const int nc = k.candidates(tile);
+  const int nc = k.candidates(tile.linear);
   if (tid < nc) {
-    k.load_candidate(tile, tid, cand[k.rank(tile, nc, tid)]);  // stored in particle-index order
+    k.load_candidate(tile, tid, cand[k.rank(tile.linear, nc, tid)]);  // stored in particle-index order
     order[tid] = static_cast<unsigned char>(tid);
   }
   __syncthreads();
@@ -69,6 +71,11 @@ __global__ void __launch_bounds__(256, MinBlocks) psm_fused_kernel(Kern k) {
   const int lane = tid & 31, warp = tid >> 5;
   for (int c0 = 0; c0 < nc; c0 += Kern::kForceChunk) {
     const int cn = nc - c0 < Kern::kForceChunk ? nc - c0 : Kern::kForceChunk;
+    if (plain) {  // no slot in this warp: zeros for every candidate
+      if (lane == 0)
+        for (int c = 0; c < cn; ++c)
+          for (int a = 0; a < 6; ++a) part[warp][c][a] = R(0);
+    } else {
     for (int c = 0; c < cn; ++c) {
       // Warps whose cells hold no slot of this candidate write zeros and skip the tree.
       const int ks = fluid ? Kern::slot_of(s, c0 + c) : -1;
@@ -80,13 +87,14 @@ __global__ void __launch_bounds__(256, MinBlocks) psm_fused_kernel(Kern k) {
           for (int a = 0; a < 6; ++a) v[a] += __shfl_down_sync(0xffffffffu, v[a], off);
       }
       if (lane == 0)
-        for (int a = 0; a < 6; ++a) part[warp][c][a] = any ? static_cast<double>(v[a]) : 0.0;
+        for (int a = 0; a < 6; ++a) part[warp][c][a] = any ? v[a] : R(0);
+    }
     }
     __syncthreads();
     if (tid < 6 * cn) {
       const int c = tid / 6, a = tid % 6;
       double sum = 0.0;
-      for (int w = 0; w < Kern::kWarps; ++w) sum += part[w][c][a];
+      for (int w = 0; w < Kern::kWarps; ++w) sum += static_cast<double>(part[w][c][a]);
       k.tv.partial[static_cast<Index>(cand[order[c0 + c]].entry) * 6 + a] = sum;
     }
     if (c0 + Kern::kForceChunk < nc) __syncthreads();  // part[] is reused by the next chunk
@@ -99,7 +107,10 @@ void launch_fused(const Exec& ex, const Kern& k, bool loads_first) {
   if (ex.on_device()) {
 #if defined(__CUDACC__)
     constexpr int kMinBlocks = sizeof(typename Kern::R) == 4 ? 3 : 2;  // as the mapped kernel (psm_impl.hpp)
-    const auto grid = static_cast<unsigned>(k.tv.tiles());
+    if (k.tv.nty > 65535 || k.tv.ntz > 65535)
+      throw ConfigError("psm fused step: " + std::to_string(k.tv.nty) + " x " + std::to_string(k.tv.ntz) +
+                        " tiles along y and z exceed the launch grid (65535 each); use psm.pipeline: mapped");
+    const dim3 grid(static_cast<unsigned>(k.tv.ntx), static_cast<unsigned>(k.tv.nty), static_cast<unsigned>(k.tv.ntz));
     if (loads_first) psm_fused_kernel<kMinBlocks, true><<<grid, 256, 0, ex.stream()>>>(k);
     else psm_fused_kernel<kMinBlocks, false><<<grid, 256, 0, ex.stream()>>>(k);
     LBDEM_CUDA_CHECK(cudaGetLastError());

@@ -85,11 +85,28 @@ struct PsmFusedKernel {
   // per-thread index arithmetic is then shifts and masks.
   static constexpr int kTX = 32, kTY = Dim == 3 ? 4 : 8, kTZ = Dim == 3 ? 2 : 1;
 
-  // Cell of thread `tid` in tile `tile` and its offsets in the tile; false if
-  // the tile overhangs the grid there.
-  LBDEM_HD bool coords(Index tile, int tid, int& x, int& y, int& z) const {
+  // A tile: its index in the lists and its position in the tile grid (the
+  // device takes the position from a 3D launch grid, no division).
+  struct TileId {
+    Index linear;
+    int ix, iy, iz;
+  };
+  LBDEM_HD TileId tile_id(Index linear) const {
+    const auto tl = static_cast<unsigned>(linear);
+    const unsigned ntx = static_cast<unsigned>(tv.ntx), nty = static_cast<unsigned>(tv.nty);
+    const unsigned q = tl / ntx;
+    return {linear, static_cast<int>(tl - q * ntx), static_cast<int>(q % nty), static_cast<int>(q / nty)};
+  }
+  LBDEM_HD static void tile_origin(const TileId& t, int (&o)[3]) {
+    o[0] = t.ix * kTX;
+    o[1] = t.iy * kTY;
+    o[2] = t.iz * kTZ;
+  }
+
+  // Cell of thread `tid` in tile `t`; false if the tile overhangs the grid there.
+  LBDEM_HD bool coords(const TileId& t, int tid, int& x, int& y, int& z) const {
     int o[3], lx, ly, lz;
-    tile_origin(tile, o);
+    tile_origin(t, o);
     local(tid, lx, ly, lz);
     x = o[0] + lx;
     y = o[1] + ly;
@@ -102,23 +119,15 @@ struct PsmFusedKernel {
     return c < tv.capacity ? c : tv.capacity;
   }
 
-  // First cell of the tile and thread tid's offsets from it.
-  LBDEM_HD void tile_origin(Index tile, int (&o)[3]) const {
-    const auto tl = static_cast<unsigned>(tile);
-    const unsigned ntx = static_cast<unsigned>(tv.ntx), nty = static_cast<unsigned>(tv.nty);
-    const unsigned q = tl / ntx;
-    o[0] = static_cast<int>(tl - q * ntx) * kTX;
-    o[1] = static_cast<int>(q % nty) * kTY;
-    o[2] = static_cast<int>(q / nty) * kTZ;
-  }
+  // Thread tid's offsets from its tile's first cell.
   LBDEM_HD static void local(int tid, int& lx, int& ly, int& lz) {
     lx = tid % kTX;
     ly = (tid / kTX) % kTY;
     lz = tid / (kTX * kTY);
   }
 
-  LBDEM_HD void load_candidate(Index tile, int i, FusedCand<R>& c) const {
-    const Index slot = tile * tv.capacity + i;
+  LBDEM_HD void load_candidate(const TileId& tile, int i, FusedCand<R>& c) const {
+    const Index slot = tile.linear * tv.capacity + i;
     c.p = tv.particle[slot];
     c.entry = tv.entry[slot];
     const Index o = static_cast<Index>(c.p) * p.stride;
@@ -303,12 +312,13 @@ void run_fused_host(const Kern& k) {
   const Index ntiles = k.tv.tiles();
   const int ncell = k.tv.t.cells();
 #pragma omp parallel for schedule(dynamic, 8)
-  for (Index tile = 0; tile < ntiles; ++tile) {
+  for (Index tl = 0; tl < ntiles; ++tl) {
+    const auto tile = k.tile_id(tl);
     FusedCand<R> cand[kFusedMaxCapacity];
     unsigned char order[kFusedMaxCapacity];
-    const int nc = k.candidates(tile);
+    const int nc = k.candidates(tl);
     for (int i = 0; i < nc; ++i) {
-      k.load_candidate(tile, i, cand[k.rank(tile, nc, i)]);  // stored in particle-index order
+      k.load_candidate(tile, i, cand[k.rank(tl, nc, i)]);  // stored in particle-index order
       order[i] = static_cast<unsigned char>(i);
     }
     FusedSolid<R> sol[256];
