@@ -193,6 +193,40 @@ TEST_P(PsmFused, TileCapacityOverflowIsRefused) {
   }
 }
 
+// Twelve small spheres in one row of tiles: more candidates per tile than the
+// kTileRecords whose data the build copies next to the list, so the kernel's
+// long path (tile list -> particle arrays) runs too. Fused against mapped as
+// above (same bounds and reasons).
+TEST_P(PsmFused, CrowdedTileMatchesMapped) {
+  std::vector<test::PsmSphere> s;
+  for (int i = 0; i < 12; ++i)
+    s.push_back({2.0 + 2.6 * i, 2.1 + 0.1 * (i % 3), 1.3, 1.2, 0.004, -0.002 * (i % 2), 0.001, 0, 0, 1e-3});
+  auto go = [&](imb::PsmPipeline pl) {
+    imb::PsmOptions opt;
+    opt.map.method = imb::FractionMethod::Table;
+    opt.map.table = &table(3);
+    opt.pipeline = pl;
+    test::PsmScene scene(test::psm_box(40, 12, 10, 0.6, 1e-3, {1e-6, 0, 0}), GetParam(), 2, s, opt);
+    for (int step = 0; step < 20; ++step) {
+      auto m = s;
+      for (auto& p : m) p.x += p.vx * step;
+      scene.set_particles(m);
+      scene.map();
+      scene.step();
+    }
+    return std::pair{scene.forces(), scene.solver().populations()};
+  };
+  const auto [fm, pm] = go(imb::PsmPipeline::Mapped);
+  const auto [ff, pf] = go(imb::PsmPipeline::Fused);
+  const auto ft = ft_diff(fm, ff);
+  const double df = max_diff(pm, pf) / max_abs(pm);
+  std::printf("crowded tile: force %.1e, torque %.1e, populations %.1e (relative)\n", ft[0], ft[1], df);
+  EXPECT_LT(ft[0], 1e-5);
+  EXPECT_LT(ft[1], 1e-5);
+  EXPECT_LT(df, 1e-8);
+  for (std::size_t i = 0; i < 12; ++i) EXPECT_GT(std::abs(ff[6 * i]), 0.0) << "particle " << i;
+}
+
 INSTANTIATE_TEST_SUITE_P(Backends, PsmFused, ::testing::ValuesIn(lbdem::test::backends()), lbdem::test::backend_name);
 
 TEST(PsmPipeline, ResolvesAndRefuses) {
