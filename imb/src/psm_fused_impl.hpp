@@ -40,32 +40,15 @@ __global__ void __launch_bounds__(256, MinBlocks) psm_fused_kernel(Kern k) {
   bool fluid = k.coords(tile, tid, x, y, z);
   const Index cell = fluid ? k.g.index(x, y, z) : 0;
   if constexpr (Kern::kBnd) fluid = fluid && k.flags[cell] == 0;
-  // 1. The first lanes fetch the tile's candidate records without waiting for
-  // the count (one round trip; records past the count are stale and unused),
-  // then every cell issues its population loads, then the candidates are
-  // placed in particle-index order.
-  __shared__ double stage[kTileRecords][kRecordDoubles];
-  if (tid < kTileRecords) {
-    double d[kRecordDoubles];
-    k.candidate_data(tile.linear, tid, d);
-    for (int a = 0; a < kRecordDoubles; ++a) stage[tid][a] = d[a];
-  }
+  // 1. Populations first (their latency hides the candidate reads), then the tile's candidates.
   lbm::Neighbours nb;
   R f[Kern::kQ];
   if constexpr (LoadsFirst) {
     if (fluid) k.load(x, y, z, cell, nb, f);
   }
   const int nc = k.candidates(tile.linear);
-  __syncthreads();
   if (tid < nc) {
-    double d[kRecordDoubles];
-    if (tid < kTileRecords) {
-      for (int a = 0; a < kRecordDoubles; ++a) d[a] = stage[tid][a];
-    } else {
-      k.candidate_data(tile.linear, tid, d);
-    }
-    const Index slot = tile.linear * k.tv.capacity + tid;
-    k.fill_candidate(tile, d, k.tv.particle[slot], k.tv.entry[slot], cand[k.rank(tile.linear, nc, tid)]);
+    k.load_candidate(tile, tid, cand[k.rank(tile.linear, nc, tid)]);  // stored in particle-index order
     order[tid] = static_cast<unsigned char>(tid);
   }
   __syncthreads();

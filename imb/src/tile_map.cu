@@ -57,7 +57,6 @@ struct TileBuild {
   int* count;
   int* particle;
   int* entry;
-  double* record;
   int dim, B;
   int mx, my, mz;
   int* flags;
@@ -91,19 +90,6 @@ struct TileBuild {
     if (slot < tv.capacity) {
       particle[tile * tv.capacity + slot] = static_cast<int>(pi);
       entry[tile * tv.capacity + slot] = static_cast<int>(t);
-      if (slot < kTileRecords) {
-        double* rec = record + (tile * kTileRecords + slot) * kRecordDoubles;
-        rec[0] = p.x[o];
-        rec[1] = p.y[o];
-        rec[2] = dim == 3 ? p.z[o] : 0.5;
-        rec[3] = R;
-        rec[4] = p.vx ? p.vx[o] : 0.0;
-        rec[5] = p.vy ? p.vy[o] : 0.0;
-        rec[6] = p.vz && dim == 3 ? p.vz[o] : 0.0;
-        rec[7] = p.wx ? p.wx[o] : 0.0;
-        rec[8] = p.wy ? p.wy[o] : 0.0;
-        rec[9] = p.wz ? p.wz[o] : 0.0;
-      }
     } else {
       zero_entry(t);
       const int e = atomic_add(&flags[1], 1);
@@ -198,7 +184,6 @@ TileMap::TileMap(Backend b, GridShape grid, int K, int capacity, int overflow_lo
   count_ = Buffer<int>(b, tiles);
   particle_ = Buffer<int>(b, tiles * capacity_);
   entry_ = Buffer<int>(b, tiles * capacity_);
-  record_ = Buffer<double>(b, tiles * kTileRecords * kRecordDoubles);
   flags_ = Buffer<int>(b, 4);
   log_cell_ = Buffer<Index>(b, log_cap_);
   log_particle_ = Buffer<int>(b, log_cap_);
@@ -224,7 +209,6 @@ TileView TileMap::view() const {
   v.particle = particle_.data();
   v.entry = entry_.data();
   v.partial = const_cast<double*>(partial_.data());
-  v.record = record_.data();
   v.flags = const_cast<int*>(flags_.data());
   v.log_cell = const_cast<Index*>(log_cell_.data());
   v.log_particle = const_cast<int*>(log_particle_.data());
@@ -266,7 +250,6 @@ void TileMap::build(const Exec& ex, const SphereView& p, double max_radius) {
   k.count = count_.data();
   k.particle = particle_.data();
   k.entry = entry_.data();
-  k.record = record_.data();
   k.dim = dim;
   k.B = B;
   k.mx = axis_max_[0];

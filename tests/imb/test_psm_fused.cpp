@@ -193,10 +193,9 @@ TEST_P(PsmFused, TileCapacityOverflowIsRefused) {
   }
 }
 
-// Twelve small spheres in one row of tiles: more candidates per tile than the
-// kTileRecords whose data the build copies next to the list, so the kernel's
-// long path (tile list -> particle arrays) runs too. Fused against mapped as
-// above (same bounds and reasons).
+// Twelve small spheres in one row of tiles: a tile with many candidates (the
+// rank order, the slot choice and the force sums over a long list). Fused
+// against mapped as above (same bounds and reasons).
 TEST_P(PsmFused, CrowdedTileMatchesMapped) {
   std::vector<test::PsmSphere> s;
   for (int i = 0; i < 12; ++i)

@@ -126,53 +126,28 @@ struct PsmFusedKernel {
     lz = tid / (kTX * kTY);
   }
 
-  // Candidate i's particle data (centre, radius, velocity, angular velocity:
-  // the TileView::record layout): from the tile's records for the first
-  // kTileRecords, else from the particle arrays.
-  LBDEM_HD void candidate_data(Index tile, int i, double (&d)[kRecordDoubles]) const {
-    if (i < kTileRecords) {
-      const double* rec = tv.record + (tile * kTileRecords + i) * kRecordDoubles;
-      for (int a = 0; a < kRecordDoubles; ++a) d[a] = rec[a];
-      return;
-    }
-    const Index o = static_cast<Index>(tv.particle[tile * tv.capacity + i]) * p.stride;
-    d[0] = p.x[o];
-    d[1] = p.y[o];
-    d[2] = Dim == 3 ? p.z[o] : 0.5;
-    d[3] = p.r[o];
-    d[4] = p.vx ? p.vx[o] : 0.0;
-    d[5] = p.vy ? p.vy[o] : 0.0;
-    d[6] = p.vz && Dim == 3 ? p.vz[o] : 0.0;
-    d[7] = p.wx ? p.wx[o] : 0.0;
-    d[8] = p.wy ? p.wy[o] : 0.0;
-    d[9] = p.wz ? p.wz[o] : 0.0;
-  }
-
-  LBDEM_HD void fill_candidate(const TileId& tile, const double (&d)[kRecordDoubles], int pi, int entry,
-                               FusedCand<R>& c) const {
-    c.p = pi;
-    c.entry = entry;
+  LBDEM_HD void load_candidate(const TileId& tile, int i, FusedCand<R>& c) const {
+    const Index slot = tile.linear * tv.capacity + i;
+    c.p = tv.particle[slot];
+    c.entry = tv.entry[slot];
+    const Index o = static_cast<Index>(c.p) * p.stride;
     int org[3];
     tile_origin(tile, org);
     // Centres brought into [0, n) on periodic axes (particles may be given
     // unwrapped, any number of periods away), so that one minimum-image
     // correction in rel() finds the image that overlaps a cell.
-    c.o[0] = R(wrap_centre(d[0], g.nx, tv.periodic[0]) - org[0]);
-    c.o[1] = R(wrap_centre(d[1], g.ny, tv.periodic[1]) - org[1]);
-    c.o[2] = Dim == 3 ? R(wrap_centre(d[2], g.nz, tv.periodic[2]) - org[2]) : R(0.5);
-    c.r = R(d[3]);
-    c.aux = R(frac.prepare(d[3]));
-    for (int a = 0; a < 3; ++a) {
-      c.v[a] = R(d[4 + a]);
-      c.w[a] = R(d[7 + a]);
-    }
-  }
-
-  LBDEM_HD void load_candidate(const TileId& tile, int i, FusedCand<R>& c) const {
-    double d[kRecordDoubles];
-    candidate_data(tile.linear, i, d);
-    const Index slot = tile.linear * tv.capacity + i;
-    fill_candidate(tile, d, tv.particle[slot], tv.entry[slot], c);
+    c.o[0] = R(wrap_centre(p.x[o], g.nx, tv.periodic[0]) - org[0]);
+    c.o[1] = R(wrap_centre(p.y[o], g.ny, tv.periodic[1]) - org[1]);
+    c.o[2] = Dim == 3 ? R(wrap_centre(p.z[o], g.nz, tv.periodic[2]) - org[2]) : R(0.5);
+    const double rad = p.r[o];
+    c.r = R(rad);
+    c.aux = R(frac.prepare(rad));
+    c.v[0] = R(p.vx ? p.vx[o] : 0.0);
+    c.v[1] = R(p.vy ? p.vy[o] : 0.0);
+    c.v[2] = R(p.vz && Dim == 3 ? p.vz[o] : 0.0);
+    c.w[0] = R(p.wx ? p.wx[o] : 0.0);
+    c.w[1] = R(p.wy ? p.wy[o] : 0.0);
+    c.w[2] = R(p.wz ? p.wz[o] : 0.0);
   }
 
   LBDEM_HD static double wrap_centre(double c, int n, bool periodic) {

@@ -39,12 +39,6 @@ namespace lbdem::imb {
 inline constexpr int kFusedMaxSlots = 4;
 // Largest candidate list per tile the fused kernel's shared memory holds.
 inline constexpr int kFusedMaxCapacity = 128;
-// Candidates per tile whose particle data the build copies next to the list
-// (centre, radius, velocity, angular velocity: kRecordDoubles each), so the
-// kernel reads them in one round trip, together with the count, instead of
-// count -> list -> particle. Candidates beyond these few take the long way.
-inline constexpr int kTileRecords = 8;
-inline constexpr int kRecordDoubles = 10;
 
 struct TileShape {
   int tx = 32, ty = 4, tz = 2;
@@ -64,7 +58,6 @@ struct TileView {
   const int* particle = nullptr;  // [tile * capacity + i]
   const int* entry = nullptr;     // [tile * capacity + i]: particle * max_tiles + its tile number
   double* partial = nullptr;      // [entry * 6 + a]: force (0..2) and torque (3..5) from that tile
-  const double* record = nullptr; // [(tile * kTileRecords + i) * kRecordDoubles + ...] for i < kTileRecords
   // Overflow of the K slots of a cell (written by the fused kernel):
   // flags[0] surplus (cell, particle) pairs, flags[1] tile list overflows.
   int* flags = nullptr;
@@ -107,7 +100,6 @@ class TileMap {
   int max_tiles_ = 0;
   int axis_max_[3] = {1, 1, 1};
   Buffer<int> count_, particle_, entry_;
-  Buffer<double> record_;
   Buffer<double> partial_;
   Buffer<int> flags_;  // [0] cell slot surplus, [1] tile surplus, [2] radius too large, [3] its particle
   Buffer<Index> log_cell_;
