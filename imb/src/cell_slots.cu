@@ -11,6 +11,7 @@
 #include "core/algorithms.hpp"
 #include "core/error.hpp"
 #include "imb/fraction_eval.hpp"
+#include "map_functors.hpp"
 
 namespace lbdem::imb {
 
@@ -334,19 +335,7 @@ struct ClearPaired {
   }
 };
 
-struct ZeroInts {
-  int* p;
-  LBDEM_HD void operator()(Index i) const { p[i] = 0; }
-};
-
-struct MaxRadius {
-  const double* r;
-  int stride;
-  LBDEM_HD double operator()(Index i) const { return r[i * stride]; }
-};
-struct MaxOp {
-  LBDEM_HD double operator()(double a, double b) const { return a > b ? a : b; }
-};
+using mapk::ZeroInts;
 
 template <int Dim, FractionMethod M>
 struct LaunchMap {
@@ -439,7 +428,7 @@ void CellSlots::map(const Exec& ex, const SphereView& particles, const MapOption
     throw ConfigError("CellSlots::map: " + std::to_string(particles.n) + " particles exceed the int32 slot index");
   double rmax = opt.max_radius;
   if (!(rmax > 0.0) && particles.n > 0) {
-    rmax = transform_reduce(ex, particles.n, 0.0, MaxOp{}, MaxRadius{particles.r, particles.stride}, *scratch_);
+    rmax = mapk::largest_radius(ex, particles, *scratch_);
   }
   max_radius_ = std::max(rmax, 0.0);
   const int B = static_cast<int>(std::floor(2.0 * std::max(rmax, 0.0))) + 2;

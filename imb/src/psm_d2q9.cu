@@ -14,8 +14,9 @@ void psm_step_d2q9(const Exec& ex, const lbm::LbmSetup& s, const lbm::LbmRaw& ra
 
 void psm_gather(const Exec& ex, const CellSlotsView& slots, const SlotForceView& sf, const PairView& pairs,
                 const PsmParticles& p, int dim, const ForceOut& out) {
-  GatherPairs k{p, slots, sf, pairs, dim, out.force, out.torque, out.fstride, out.tstride,
-                {out.per_volume[0], out.per_volume[1], out.per_volume[2]}};
+  GatherPairs k{p, slots, sf, pairs, dim,
+                ForceWriter{p, dim, out.force, out.torque, out.fstride, out.tstride,
+                            {out.per_volume[0], out.per_volume[1], out.per_volume[2]}}};
   for_each(ex, 32 * p.n, k);  // one warp per particle (block size a multiple of 32)
 }
 

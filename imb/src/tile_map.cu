@@ -9,6 +9,7 @@
 #include "core/algorithms.hpp"
 #include "core/error.hpp"
 #include "imb/psm_coupling.hpp"
+#include "map_functors.hpp"
 
 namespace lbdem::imb {
 
@@ -101,16 +102,12 @@ struct TileBuild {
   }
 };
 
-// One warp (32 consecutive work items) per particle; lane j adds entries
-// j, j + 32, ...; the lanes combine in a fixed tree (the same on the host).
+// Per particle (one warp, imb/psm.hpp warp_gather): lane j adds the
+// particle's tile entries j, j + 32, ...
 struct TileFinish {
-  SphereView p;
   const double* partial;
-  int max_tiles, dim;
-  double* force;
-  double* torque;
-  int fstride, tstride;
-  double per_volume[3];
+  int max_tiles;
+  ForceWriter write;
 
   LBDEM_HD void lane_sum(Index i, int lane, double (&acc)[6]) const {
     for (int a = 0; a < 6; ++a) acc[a] = 0.0;
@@ -119,48 +116,10 @@ struct TileFinish {
       for (int a = 0; a < 6; ++a) acc[a] += e[a];
     }
   }
-  LBDEM_HD void finish(Index i, const double (&acc)[6]) const {
-    const double rp = p.r[i * p.stride];
-    const double vol = dim == 3 ? 4.18879020478639098 * rp * rp * rp : 3.14159265358979324 * rp * rp;
-    for (int a = 0; a < 3; ++a) {
-      force[i * fstride + a] = acc[a] + vol * per_volume[a];
-      torque[i * tstride + a] = acc[3 + a];
-    }
-  }
-  LBDEM_HD void operator()(Index t) const {
-    const Index i = t >> 5;
-    const int lane = static_cast<int>(t & 31);
-#if defined(__CUDA_ARCH__)
-    double acc[6];
-    lane_sum(i, lane, acc);
-    for (int off = 16; off > 0; off >>= 1)
-      for (int a = 0; a < 6; ++a) acc[a] += __shfl_down_sync(0xffffffffu, acc[a], off);
-    if (lane == 0) finish(i, acc);
-#else
-    if (lane != 0) return;
-    double part[32][6];
-    for (int j = 0; j < 32; ++j) lane_sum(i, j, part[j]);
-    for (int off = 16; off > 0; off >>= 1)
-      for (int j = 0; j < off; ++j)
-        for (int a = 0; a < 6; ++a) part[j][a] += part[j + off][a];
-    finish(i, part[0]);
-#endif
-  }
+  LBDEM_HD void operator()(Index t) const { warp_gather(*this, t); }
 };
 
-struct ZeroIntsT {
-  int* p;
-  LBDEM_HD void operator()(Index i) const { p[i] = 0; }
-};
-
-struct MaxRadiusT {
-  const double* r;
-  int stride;
-  LBDEM_HD double operator()(Index i) const { return r[i * stride]; }
-};
-struct MaxOpT {
-  LBDEM_HD double operator()(double a, double b) const { return a > b ? a : b; }
-};
+using mapk::ZeroInts;
 
 int ceil_div(Index a, int b) { return static_cast<int>((a + b - 1) / b); }
 
@@ -226,7 +185,7 @@ void TileMap::build(const Exec& ex, const SphereView& p, double max_radius) {
   if (p.n > static_cast<Index>(INT32_MAX) / 64)
     throw ConfigError("TileMap::build: " + std::to_string(p.n) + " particles exceed the int32 entry index");
   double rmax = max_radius;
-  if (!(rmax > 0.0) && p.n > 0) rmax = transform_reduce(ex, p.n, 0.0, MaxOpT{}, MaxRadiusT{p.r, p.stride}, *scratch_);
+  if (!(rmax > 0.0) && p.n > 0) rmax = mapk::largest_radius(ex, p, *scratch_);
   rmax = std::max(rmax, 0.0);
   const int B = static_cast<int>(std::floor(2.0 * rmax)) + 2;
   const Index ns[3] = {grid_.nx, grid_.ny, grid_.nz};
@@ -240,7 +199,7 @@ void TileMap::build(const Exec& ex, const SphereView& p, double max_radius) {
   }
   if (dim == 2) axis_max_[2] = 1;
   max_tiles_ = axis_max_[0] * axis_max_[1] * axis_max_[2];
-  for_each(ex, count_.size(), ZeroIntsT{count_.data()});
+  for_each(ex, count_.size(), ZeroInts{count_.data()});
   built_particles_ = p.n;
   if (p.n == 0) return;
   partial_.reserve_discard(backend_, p.n * max_tiles_ * 6);  // grows only: no allocation in a steady time loop
@@ -267,12 +226,13 @@ void TileMap::finish(const Exec& ex, const SphereView& p, const ForceOut& out) c
   if (p.n != built_particles_)
     throw ConfigError("TileMap::finish: " + std::to_string(p.n) + " particles but the tiles were built for " +
                       std::to_string(built_particles_));
-  TileFinish k{p, partial_.data(), max_tiles_, grid_.dim(), out.force, out.torque, out.fstride, out.tstride,
-               {out.per_volume[0], out.per_volume[1], out.per_volume[2]}};
+  TileFinish k{partial_.data(), max_tiles_,
+               ForceWriter{p, grid_.dim(), out.force, out.torque, out.fstride, out.tstride,
+                           {out.per_volume[0], out.per_volume[1], out.per_volume[2]}}};
   for_each(ex, 32 * p.n, k);
 }
 
-void TileMap::clear_overflow(const Exec& ex) { for_each(ex, flags_.size(), ZeroIntsT{flags_.data()}); }
+void TileMap::clear_overflow(const Exec& ex) { for_each(ex, flags_.size(), ZeroInts{flags_.data()}); }
 
 OverflowReport TileMap::overflow() const {
   OverflowReport r;

@@ -240,24 +240,61 @@ struct PsmStepKernel {
   }
 };
 
-// Force gather, deterministic (fixed order, no atomics): one warp (32
-// consecutive work items) per particle walks the particle's map pairs
-// (PairView, contiguous per particle), lane j taking entries j, j + 32, ...;
-// the 32 partial sums are then combined by a fixed tree (shuffles on the
-// device; the same tree in the same order on the host, so both backends add
-// in one order). Torque = sum (x_cell - x_p) x F with the unwrapped box
-// coordinate, the kernel's minimum-image lever arm. Writes (not adds) force
-// (+ buoyancy per_volume times the volume) and torque.
+// Writes one particle's gathered force (plus its buoyancy: per_volume times
+// the volume) and torque: the common end of both force gathers.
+struct ForceWriter {
+  PsmParticles p;
+  int dim;
+  double* force;
+  double* torque;
+  int fstride, tstride;
+  double per_volume[3];
+  LBDEM_HD void operator()(Index i, const double (&acc)[6]) const {
+    const double rp = p.r[i * p.stride];
+    const double vol = dim == 3 ? 4.18879020478639098 * rp * rp * rp : 3.14159265358979324 * rp * rp;
+    for (int a = 0; a < 3; ++a) {
+      force[i * fstride + a] = acc[a] + vol * per_volume[a];
+      torque[i * tstride + a] = acc[3 + a];
+    }
+  }
+};
+
+// One warp (32 consecutive work items t) per particle i = t / 32: lane j's
+// partial sums (g.lane_sum(i, j, acc)) are combined by a fixed tree (shuffles
+// on the device; the same tree in the same order on the host, so both
+// backends add in one order) and written by g.write.
+template <class G>
+LBDEM_HD void warp_gather(const G& g, Index t) {
+  const Index i = t >> 5;
+  const int lane = static_cast<int>(t & 31);
+#if defined(__CUDA_ARCH__)
+  double acc[6];
+  g.lane_sum(i, lane, acc);
+  for (int off = 16; off > 0; off >>= 1)
+    for (int a = 0; a < 6; ++a) acc[a] += __shfl_down_sync(0xffffffffu, acc[a], off);
+  if (lane == 0) g.write(i, acc);
+#else
+  if (lane != 0) return;
+  double part[32][6];
+  for (int j = 0; j < 32; ++j) g.lane_sum(i, j, part[j]);
+  for (int off = 16; off > 0; off >>= 1)
+    for (int j = 0; j < off; ++j)
+      for (int a = 0; a < 6; ++a) part[j][a] += part[j + off][a];
+  g.write(i, part[0]);
+#endif
+}
+
+// Force gather of the mapped pipeline, deterministic (fixed order, no
+// atomics): particle i's warp walks its map pairs (PairView, contiguous per
+// particle), lane j taking entries j, j + 32, ... Torque = sum (x_cell - x_p)
+// x F with the unwrapped box coordinate, the kernel's minimum-image lever arm.
 struct GatherPairs {
   PsmParticles p;
   CellSlotsView slots;
   SlotForceView sf;
   PairView pairs;
   int dim;
-  double* force;
-  double* torque;
-  int fstride, tstride;
-  double per_volume[3];
+  ForceWriter write;
 
   LBDEM_HD void lane_sum(Index i, int lane, double (&acc)[6]) const {
     for (int a = 0; a < 6; ++a) acc[a] = 0.0;
@@ -286,34 +323,7 @@ struct GatherPairs {
     }
   }
 
-  LBDEM_HD void finish(Index i, const double (&acc)[6]) const {
-    const double rp = p.r[i * p.stride];
-    const double vol = dim == 3 ? 4.18879020478639098 * rp * rp * rp : 3.14159265358979324 * rp * rp;
-    for (int a = 0; a < 3; ++a) {
-      force[i * fstride + a] = acc[a] + vol * per_volume[a];
-      torque[i * tstride + a] = acc[3 + a];
-    }
-  }
-
-  LBDEM_HD void operator()(Index t) const {
-    const Index i = t >> 5;
-    const int lane = static_cast<int>(t & 31);
-#if defined(__CUDA_ARCH__)
-    double acc[6];
-    lane_sum(i, lane, acc);
-    for (int off = 16; off > 0; off >>= 1)
-      for (int a = 0; a < 6; ++a) acc[a] += __shfl_down_sync(0xffffffffu, acc[a], off);
-    if (lane == 0) finish(i, acc);
-#else
-    if (lane != 0) return;
-    double part[32][6];
-    for (int j = 0; j < 32; ++j) lane_sum(i, j, part[j]);
-    for (int off = 16; off > 0; off >>= 1)
-      for (int j = 0; j < off; ++j)
-        for (int a = 0; a < 6; ++a) part[j][a] += part[j + off][a];
-    finish(i, part[0]);
-#endif
-  }
+  LBDEM_HD void operator()(Index t) const { warp_gather(*this, t); }
 };
 
 }  // namespace lbdem::imb
