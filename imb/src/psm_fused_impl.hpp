@@ -29,7 +29,6 @@ template <int MinBlocks, bool LoadsFirst, class Kern>
 __global__ void __launch_bounds__(256, MinBlocks) psm_fused_kernel(Kern k) {
   using R = typename Kern::R;
   __shared__ FusedCand<R> cand[kFusedMaxCapacity];
-  __shared__ unsigned char order[kFusedMaxCapacity];
   __shared__ R part[Kern::kWarps][Kern::kForceChunk][6];
   __shared__ R slot_eps[kFusedMaxSlots][256];
   const int tid = static_cast<int>(threadIdx.x);
@@ -47,10 +46,7 @@ __global__ void __launch_bounds__(256, MinBlocks) psm_fused_kernel(Kern k) {
     if (fluid) k.load(x, y, z, cell, nb, f);
   }
   const int nc = k.candidates(tile.linear);
-  if (tid < nc) {
-    k.load_candidate(tile, tid, cand[k.rank(tile.linear, nc, tid)]);  // stored in particle-index order
-    order[tid] = static_cast<unsigned char>(tid);
-  }
+  if (tid < nc) k.load_candidate(tile, tid, cand[k.rank(tile.linear, nc, tid)]);  // in particle-index order
   __syncthreads();
   // 2. Slots, B and solid moments of this cell.
   FusedSolid<R> s;
@@ -58,7 +54,7 @@ __global__ void __launch_bounds__(256, MinBlocks) psm_fused_kernel(Kern k) {
   s.stride = 256;
   int lx, ly, lz;  // offsets in the tile: the per-cell arithmetic is relative to its first cell
   Kern::local(tid, lx, ly, lz);
-  if (fluid && nc > 0) k.overlap(lx, ly, lz, cell, cand, order, nc, s);
+  if (fluid && nc > 0) k.overlap(lx, ly, lz, cell, cand, nc, s);
   if constexpr (!LoadsFirst) {
     if (fluid) k.load(x, y, z, cell, nb, f);
   }
@@ -82,7 +78,7 @@ __global__ void __launch_bounds__(256, MinBlocks) psm_fused_kernel(Kern k) {
       const bool any = __any_sync(0xffffffffu, ks >= 0);
       R v[6] = {R(0), R(0), R(0), R(0), R(0), R(0)};  // lanes without a slot (or off the grid) add zeros
       if (any) {
-        if (ks >= 0) k.contribution(lx, ly, lz, s, ks, cand[order[c0 + c]], rho, u, v);
+        if (ks >= 0) k.contribution(lx, ly, lz, s, ks, cand[c0 + c], rho, u, v);
         for (int off = 16; off > 0; off >>= 1)
           for (int a = 0; a < 6; ++a) v[a] += __shfl_down_sync(0xffffffffu, v[a], off);
       }
@@ -95,7 +91,7 @@ __global__ void __launch_bounds__(256, MinBlocks) psm_fused_kernel(Kern k) {
       const int c = tid / 6, a = tid % 6;
       double sum = 0.0;
       for (int w = 0; w < Kern::kWarps; ++w) sum += static_cast<double>(part[w][c][a]);
-      k.tv.partial[static_cast<Index>(cand[order[c0 + c]].entry) * 6 + a] = sum;
+      k.tv.partial[static_cast<Index>(cand[c0 + c].entry) * 6 + a] = sum;
     }
     if (c0 + Kern::kForceChunk < nc) __syncthreads();  // part[] is reused by the next chunk
   }

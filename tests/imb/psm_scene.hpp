@@ -4,6 +4,7 @@
 // steps them. Moving particles are updated on the host and copied (a few
 // hundred bytes per step: simple, and exact on both backends).
 #include <algorithm>
+#include <cmath>
 #include <array>
 #include <cstdint>
 #include <memory>
@@ -93,6 +94,35 @@ class PsmScene {
   std::unique_ptr<imb::PsmCoupling> coupling_;
   std::size_t cells_ = 0;
 };
+
+// Comparison helpers of the PSM tests.
+inline double max_abs(const std::vector<double>& v) {
+  double m = 0;
+  for (double x : v) m = std::max(m, std::abs(x));
+  return m;
+}
+inline double max_diff(const std::vector<double>& a, const std::vector<double>& b) {
+  double m = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) m = std::max(m, std::abs(a[i] - b[i]));
+  return m;
+}
+
+// Largest difference of particle forces (0..2) and torques (3..5) relative to
+// the largest force resp. torque in the scene; `perm` maps b's particles to a's.
+inline std::array<double, 2> force_torque_diff(const std::vector<double>& a, const std::vector<double>& b,
+                                        const std::vector<int>& perm_b_to_a) {
+  double fa = 0, ta = 0, df = 0, dt = 0;
+  for (std::size_t i = 0; i < perm_b_to_a.size(); ++i) {
+    const std::size_t j = static_cast<std::size_t>(perm_b_to_a[i]);
+    for (std::size_t k = 0; k < 3; ++k) {
+      fa = std::max(fa, std::abs(a[6 * j + k]));
+      ta = std::max(ta, std::abs(a[6 * j + 3 + k]));
+      df = std::max(df, std::abs(a[6 * j + k] - b[6 * i + k]));
+      dt = std::max(dt, std::abs(a[6 * j + 3 + k] - b[6 * i + 3 + k]));
+    }
+  }
+  return {df / fa, dt / ta};
+}
 
 // D3Q19 (or D2Q9 with nz = 1) periodic box, fp64, TRT, AA streaming.
 inline lbm::LbmSetup psm_box(long nx, long ny, long nz, double tau, double magic,

@@ -21,6 +21,9 @@
 #include "psm_scene.hpp"
 
 using namespace lbdem;
+using lbdem::test::force_torque_diff;
+using lbdem::test::max_abs;
+using lbdem::test::max_diff;
 
 namespace {
 
@@ -90,34 +93,6 @@ Snapshot run_scene(Backend b, bool moving, long steps, const std::vector<int>& o
   std::vector<double> rho;
   scene.solver().macroscopic(rho, r.u);
   return r;
-}
-
-double max_abs(const std::vector<double>& v) {
-  double m = 0;
-  for (double x : v) m = std::max(m, std::abs(x));
-  return m;
-}
-double max_diff(const std::vector<double>& a, const std::vector<double>& b) {
-  double m = 0;
-  for (std::size_t i = 0; i < a.size(); ++i) m = std::max(m, std::abs(a[i] - b[i]));
-  return m;
-}
-
-// Largest difference of particle forces (0..2) and torques (3..5) relative to
-// the largest force resp. torque in the scene; `perm` maps b's particles to a's.
-std::array<double, 2> force_torque_diff(const std::vector<double>& a, const std::vector<double>& b,
-                                        const std::vector<int>& perm_b_to_a) {
-  double fa = 0, ta = 0, df = 0, dt = 0;
-  for (std::size_t i = 0; i < perm_b_to_a.size(); ++i) {
-    const std::size_t j = static_cast<std::size_t>(perm_b_to_a[i]);
-    for (std::size_t k = 0; k < 3; ++k) {
-      fa = std::max(fa, std::abs(a[6 * j + k]));
-      ta = std::max(ta, std::abs(a[6 * j + 3 + k]));
-      df = std::max(df, std::abs(a[6 * j + k] - b[6 * i + k]));
-      dt = std::max(dt, std::abs(a[6 * j + 3 + k] - b[6 * i + 3 + k]));
-    }
-  }
-  return {df / fa, dt / ta};
 }
 
 }  // namespace

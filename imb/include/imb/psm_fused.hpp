@@ -186,14 +186,14 @@ struct PsmFusedKernel {
   }
 
   // Step 2: the cell's slots, B and solid moments. (x, y, z): the cell's
-  // offsets in its tile. `order[c]` is the candidate of rank c. Surplus
+  // offsets in its tile. `cand` is in particle-index order. Surplus
   // overlaps beyond K are logged (cell, particle).
-  LBDEM_HD void overlap(int x, int y, int z, Index cell, const FusedCand<R>* cand, const unsigned char* order, int nc,
+  LBDEM_HD void overlap(int x, int y, int z, Index cell, const FusedCand<R>* cand, int nc,
                         FusedSolid<R>& s) const {
     // A cell overlaps a ball only if its centre lies within R + half its diagonal.
     const double half_diag = Dim == 3 ? 0.86602540378443865 : 0.70710678118654752;
     for (int c = 0; c < nc; ++c) {
-      const FusedCand<R>& q = cand[order[c]];
+      const FusedCand<R>& q = cand[c];
       R r[3];
       rel(x, y, z, q, r);
       const R lim = q.r + R(half_diag);
@@ -219,7 +219,7 @@ struct PsmFusedKernel {
     LBDEM_UNROLL
     for (int k = 0; k < kFusedMaxSlots; ++k) {
       if (k >= s.m) break;
-      const FusedCand<R>& q = cand[order[s.rank(k)]];
+      const FusedCand<R>& q = cand[s.rank(k)];
       R r[3];
       rel(x, y, z, q, r);
       R vs[3];
@@ -315,12 +315,8 @@ void run_fused_host(const Kern& k) {
   for (Index tl = 0; tl < ntiles; ++tl) {
     const auto tile = k.tile_id(tl);
     FusedCand<R> cand[kFusedMaxCapacity];
-    unsigned char order[kFusedMaxCapacity];
     const int nc = k.candidates(tl);
-    for (int i = 0; i < nc; ++i) {
-      k.load_candidate(tile, i, cand[k.rank(tl, nc, i)]);  // stored in particle-index order
-      order[i] = static_cast<unsigned char>(i);
-    }
+    for (int i = 0; i < nc; ++i) k.load_candidate(tile, i, cand[k.rank(tl, nc, i)]);  // in particle-index order
     FusedSolid<R> sol[256];
     R eps_store[256][kFusedMaxSlots];
     R rho[256], u[256][3];
@@ -346,13 +342,13 @@ void run_fused_host(const Kern& k) {
       lbm::Neighbours nb;
       R f[Kern::kQ];
       k.load(x, y, z, cell, nb, f);
-      if (nc > 0) k.overlap(cx[t], cy[t], cz[t], cell, cand, order, nc, sol[t]);
+      if (nc > 0) k.overlap(cx[t], cy[t], cz[t], cell, cand, nc, sol[t]);
       k.collide_store(cell, nb, f, sol[t], sol[t].m == 0, rho[t], u[t]);
     }
     for (int c0 = 0; c0 < nc; c0 += Kern::kForceChunk) {
       const int cn = nc - c0 < Kern::kForceChunk ? nc - c0 : Kern::kForceChunk;
       for (int c = 0; c < cn; ++c) {
-        const FusedCand<R>& q = cand[order[c0 + c]];
+        const FusedCand<R>& q = cand[c0 + c];
         double total[6] = {0, 0, 0, 0, 0, 0};
         for (int w = 0; w < ncell / 32; ++w) {
           R v[32][6];
