@@ -30,11 +30,19 @@ std::uint64_t g_uploaded_table = 0;
 struct ConstTableAccess {
   const float* host = nullptr;
   const float* global = nullptr;
-  LBDEM_HD float operator()(int i) const {
+  LBDEM_HD void pair(int i, float& e0, float& e1) const {
 #if defined(__CUDA_ARCH__)
-    return global ? __ldg(global + i) : c_fraction_table[i];
+    if (global) {
+      const float2 v = __ldg(reinterpret_cast<const float2*>(global) + i);
+      e0 = v.x;
+      e1 = v.y;
+    } else {
+      e0 = c_fraction_table[2 * i];
+      e1 = c_fraction_table[2 * i + 1];
+    }
 #else
-    return host[i];
+    e0 = host[2 * i];
+    e1 = host[2 * i + 1];
 #endif
   }
 };

@@ -58,8 +58,8 @@ FractionTable build_fraction_table(int dim, int nt, int nu, int nv, double r_fit
     const double ea = eps_at(r_fit_a), eb = eps_at(r_fit_b);
     const double e1 = (ea - eb) / (ia - ib);
     const double e0 = ea - e1 * ia;
-    tab.values[static_cast<std::size_t>(idx)] = static_cast<float>(e0);
-    tab.values[static_cast<std::size_t>(nodes + idx)] = static_cast<float>(e1);
+    tab.values[2 * static_cast<std::size_t>(idx)] = static_cast<float>(e0);
+    tab.values[2 * static_cast<std::size_t>(idx) + 1] = static_cast<float>(e1);
   }
   tab.id = g_next_table_id.fetch_add(1);
   return tab;

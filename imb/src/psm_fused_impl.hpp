@@ -9,14 +9,18 @@
 namespace lbdem::imb {
 
 // Table entries from a plain pointer (the device's global-memory copy, read
-// through the read-only cache, or the host copy).
+// through the read-only cache, or the host copy): node i's (e0, e1) in one
+// 8-byte read on the device (the copy is cudaMalloc'd, so 8-byte aligned).
 struct LdgTableAccess {
   const float* p = nullptr;
-  LBDEM_HD float operator()(int i) const {
+  LBDEM_HD void pair(int i, float& e0, float& e1) const {
 #if defined(__CUDA_ARCH__)
-    return __ldg(p + i);
+    const float2 v = __ldg(reinterpret_cast<const float2*>(p) + i);
+    e0 = v.x;
+    e1 = v.y;
 #else
-    return p[i];
+    e0 = p[2 * i];
+    e1 = p[2 * i + 1];
 #endif
   }
 };
@@ -102,7 +106,10 @@ template <class Kern>
 void launch_fused(const Exec& ex, const Kern& k, bool loads_first) {
   if (ex.on_device()) {
 #if defined(__CUDACC__)
-    constexpr int kMinBlocks = sizeof(typename Kern::R) == 4 ? 3 : 2;  // as the mapped kernel (psm_impl.hpp)
+    // fp32: 4 blocks of 256 (64 registers, no spill with linear fractions; H100 fp32 linear 67.6 -> 73.6 %
+    // of fluid-only against 3 blocks); 5 blocks (48 registers) or fp64 at 3 (80) spill 150-650 B per
+    // thread and lose 20-30 % (bench/imb/NOTES.md, session 7).
+    constexpr int kMinBlocks = sizeof(typename Kern::R) == 4 ? 4 : 2;
     if (k.tv.nty > 65535 || k.tv.ntz > 65535)
       throw ConfigError("psm fused step: " + std::to_string(k.tv.nty) + " x " + std::to_string(k.tv.ntz) +
                         " tiles along y and z exceed the launch grid (65535 each); use psm.pipeline: mapped");

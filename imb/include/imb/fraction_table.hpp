@@ -36,13 +36,17 @@ struct TableGeometry {
   int nt = 0, nu = 0, nv = 1;  // nodes per coordinate (nv = 1 in 2D)
   float t_min = -1.25f, t_max = 1.0f;
   LBDEM_HD int nodes() const { return nt * nu * nv; }
-  LBDEM_HD int floats() const { return 2 * nodes(); }  // [coef][v][u][t]
+  LBDEM_HD int floats() const { return 2 * nodes(); }  // [v][u][t][coef]: a node's (e0, e1) side by side
 };
 
-// Reads table entries from a plain pointer (host copy, or any device pointer).
+// Reads table entries from a plain pointer (host copy, or any device pointer):
+// node i's coefficients (e0, e1), stored side by side.
 struct PointerTableAccess {
   const float* p = nullptr;
-  LBDEM_HD float operator()(int i) const { return p[i]; }
+  LBDEM_HD void pair(int i, float& e0, float& e1) const {
+    e0 = p[2 * i];
+    e1 = p[2 * i + 1];
+  }
 };
 
 namespace detail {
@@ -85,7 +89,6 @@ LBDEM_HD inline Real table_interpolate(const TableGeometry& g, const Access& tab
   detail::grid_coord<Real>(q.t, Real(g.t_min), Real(g.t_max), g.nt, it, ft);
   detail::grid_coord<Real>(q.u, Real(0), Real(1), g.nu, iu, fu);
   detail::grid_coord<Real>(q.v, Real(0), Real(1), g.nv, iv, fv);
-  const int nodes = g.nodes();
   const Real inv_r = Real(1) / R;
   Real acc = 0;
   const int kv_end = g.nv > 1 ? 2 : 1;
@@ -96,7 +99,9 @@ LBDEM_HD inline Real table_interpolate(const TableGeometry& g, const Access& tab
       for (int kt = 0; kt < 2; ++kt) {
         const Real w = wv * wu * (kt ? ft : Real(1) - ft);
         const int idx = ((iv + kv) * g.nu + (iu + ku)) * g.nt + (it + kt);
-        acc += w * (static_cast<Real>(tab(idx)) + static_cast<Real>(tab(nodes + idx)) * inv_r);
+        float e0, e1;
+        tab.pair(idx, e0, e1);  // one 8-byte read where the access allows it
+        acc += w * (static_cast<Real>(e0) + static_cast<Real>(e1) * inv_r);
       }
     }
   }
