@@ -30,11 +30,11 @@ struct LdgTableAccess {
 // fractions (their latency overlaps that work, but the populations then hold
 // 19 registers through the fraction arithmetic), or after the fractions.
 template <int MinBlocks, bool LoadsFirst, class Kern>
-__global__ void __launch_bounds__(256, MinBlocks) psm_fused_kernel(Kern k) {
+__global__ void __launch_bounds__(Kern::kCells, MinBlocks) psm_fused_kernel(Kern k) {
   using R = typename Kern::R;
   __shared__ FusedCand<R> cand[kFusedMaxCapacity];
   __shared__ R part[Kern::kWarps][Kern::kForceChunk][6];
-  __shared__ R slot_eps[kFusedMaxSlots][256];
+  __shared__ R slot_eps[kFusedMaxSlots][Kern::kCells];
   const int tid = static_cast<int>(threadIdx.x);
   const typename Kern::TileId tile{
       blockIdx.x + static_cast<Index>(k.tv.ntx) * (blockIdx.y + static_cast<Index>(k.tv.nty) * blockIdx.z),
@@ -55,7 +55,7 @@ __global__ void __launch_bounds__(256, MinBlocks) psm_fused_kernel(Kern k) {
   // 2. Slots, B and solid moments of this cell.
   FusedSolid<R> s;
   s.eps = &slot_eps[0][tid];
-  s.stride = 256;
+  s.stride = Kern::kCells;
   int lx, ly, lz;  // offsets in the tile: the per-cell arithmetic is relative to its first cell
   Kern::local(tid, lx, ly, lz);
   if (fluid && nc > 0) k.overlap(lx, ly, lz, cell, cand, nc, s);
@@ -109,13 +109,13 @@ void launch_fused(const Exec& ex, const Kern& k, bool loads_first) {
     // fp32: 4 blocks of 256 (64 registers, no spill with linear fractions; H100 fp32 linear 67.6 -> 73.6 %
     // of fluid-only against 3 blocks); 5 blocks (48 registers) or fp64 at 3 (80) spill 150-650 B per
     // thread and lose 20-30 % (bench/imb/NOTES.md, session 7).
-    constexpr int kMinBlocks = sizeof(typename Kern::R) == 4 ? 4 : 2;
+    constexpr int kMinBlocks = (sizeof(typename Kern::R) == 4 ? 4 : 2) * 256 / Kern::kCells;
     if (k.tv.nty > 65535 || k.tv.ntz > 65535)
       throw ConfigError("psm fused step: " + std::to_string(k.tv.nty) + " x " + std::to_string(k.tv.ntz) +
                         " tiles along y and z exceed the launch grid (65535 each); use psm.pipeline: mapped");
     const dim3 grid(static_cast<unsigned>(k.tv.ntx), static_cast<unsigned>(k.tv.nty), static_cast<unsigned>(k.tv.ntz));
-    if (loads_first) psm_fused_kernel<kMinBlocks, true><<<grid, 256, 0, ex.stream()>>>(k);
-    else psm_fused_kernel<kMinBlocks, false><<<grid, 256, 0, ex.stream()>>>(k);
+    if (loads_first) psm_fused_kernel<kMinBlocks, true><<<grid, Kern::kCells, 0, ex.stream()>>>(k);
+    else psm_fused_kernel<kMinBlocks, false><<<grid, Kern::kCells, 0, ex.stream()>>>(k);
     LBDEM_CUDA_CHECK(cudaGetLastError());
     return;
 #else

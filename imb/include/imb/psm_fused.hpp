@@ -67,7 +67,7 @@ struct PsmFusedKernel {
   static constexpr int Dim = L::D;
   static constexpr int kQ = L::Q;
   static constexpr bool kBnd = Bnd;
-  static constexpr int kWarps = 8;        // 256 threads per tile
+
   static constexpr int kForceChunk = 16;  // candidates per shared-memory force pass
   lbm::PopView<T> src, dst;
   lbm::GridView g;
@@ -83,7 +83,10 @@ struct PsmFusedKernel {
 
   // The tile shape as compile-time constants (TileShape::for_dim): the
   // per-thread index arithmetic is then shifts and masks.
-  static constexpr int kTX = 32, kTY = Dim == 3 ? 4 : 8, kTZ = Dim == 3 ? 2 : 1;
+  static constexpr int kTX = 32, kTY = Dim == 3 ? 4 : 8, kTZ = Dim == 3 ? LBDEM_FUSED_TZ : 1;
+  static constexpr int kCells = kTX * kTY * kTZ;  // threads per block
+  static constexpr int kWarps = kCells / 32;
+  static_assert(kCells <= 256 && kCells >= 6 * 16, "the host runner's arrays and the force sums");
 
   // A tile: its index in the lists and its position in the tile grid (the
   // device takes the position from a 3D launch grid, no division).
