@@ -36,6 +36,7 @@ __global__ void __launch_bounds__(Kern::kCells, MinBlocks) psm_fused_kernel(Kern
   __shared__ R part[Kern::kWarps][Kern::kForceChunk][6];
   __shared__ R slot_eps[kFusedMaxSlots][Kern::kCells];
   const int tid = static_cast<int>(threadIdx.x);
+  const int lane = tid & 31, warp = tid >> 5;
   const typename Kern::TileId tile{
       blockIdx.x + static_cast<Index>(k.tv.ntx) * (blockIdx.y + static_cast<Index>(k.tv.nty) * blockIdx.z),
       static_cast<int>(blockIdx.x), static_cast<int>(blockIdx.y), static_cast<int>(blockIdx.z)};
@@ -49,8 +50,24 @@ __global__ void __launch_bounds__(Kern::kCells, MinBlocks) psm_fused_kernel(Kern
   if constexpr (LoadsFirst) {
     if (fluid) k.load(x, y, z, cell, nb, f);
   }
+  // The tile's list entries are read beside its count, not after it (entries
+  // past the count are defined but unused): the chain the block's barrier
+  // waits for is then count|list -> particle, not count -> list -> particle.
+  const Index slot = tile.linear * k.tv.capacity + tid;
+  const bool listed = tid < k.tv.capacity;
+  const int pi = listed ? k.tv.particle[slot] : 0;
+  const int ei = listed ? k.tv.entry[slot] : 0;
   const int nc = k.candidates(tile.linear);
-  if (tid < nc) k.load_candidate(tile, tid, cand[k.rank(tile.linear, nc, tid)]);  // in particle-index order
+  if (nc <= 32) {
+    // Rank in particle-index order (indices are unique in a tile) by shuffles within warp 0.
+    if (warp == 0) {
+      int r = 0;
+      for (int j = 0; j < nc; ++j) r += __shfl_sync(0xffffffffu, pi, j) < pi ? 1 : 0;
+      if (lane < nc) k.load_candidate(tile, pi, ei, cand[r]);
+    }
+  } else if (tid < nc) {
+    k.load_candidate(tile, pi, ei, cand[k.rank(tile.linear, nc, tid)]);
+  }
   __syncthreads();
   // 2. Slots, B and solid moments of this cell.
   FusedSolid<R> s;
@@ -68,7 +85,6 @@ __global__ void __launch_bounds__(Kern::kCells, MinBlocks) psm_fused_kernel(Kern
   if (fluid) k.collide_store(cell, nb, f, s, plain, rho, u);
   if (nc == 0) return;  // block-uniform
   // 4. Force and torque per candidate: shuffle tree per warp, warps in order.
-  const int lane = tid & 31, warp = tid >> 5;
   for (int c0 = 0; c0 < nc; c0 += Kern::kForceChunk) {
     const int cn = nc - c0 < Kern::kForceChunk ? nc - c0 : Kern::kForceChunk;
     if (plain) {  // no slot in this warp: zeros for every candidate

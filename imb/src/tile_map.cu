@@ -150,6 +150,10 @@ TileMap::TileMap(Backend b, GridShape grid, int K, int capacity, int overflow_lo
   log_tile_particle_ = Buffer<int>(b, log_cap_);
   count_.fill_zero();
   flags_.fill_zero();
+  // The fused kernel reads a tile's list entries before its count arrives
+  // (entries past the count are not used): they are defined from the start.
+  particle_.fill_zero();
+  entry_.fill_zero();
 }
 
 TileView TileMap::view() const {

@@ -131,8 +131,12 @@ struct PsmFusedKernel {
 
   LBDEM_HD void load_candidate(const TileId& tile, int i, FusedCand<R>& c) const {
     const Index slot = tile.linear * tv.capacity + i;
-    c.p = tv.particle[slot];
-    c.entry = tv.entry[slot];
+    load_candidate(tile, tv.particle[slot], tv.entry[slot], c);
+  }
+  // The same with the list entry (particle index, partial-force entry) already read.
+  LBDEM_HD void load_candidate(const TileId& tile, int particle, int entry, FusedCand<R>& c) const {
+    c.p = particle;
+    c.entry = entry;
     const Index o = static_cast<Index>(c.p) * p.stride;
     int org[3];
     tile_origin(tile, org);
