@@ -37,6 +37,14 @@ using namespace lbdem;
 
 namespace {
 
+// The device a JSON was measured on (CUDA device 0's name and size, or "host").
+std::string device_of(Backend b) {
+  if (b != Backend::Cuda) return "host";
+  const auto devs = cuda_device_descriptions();
+  return devs.empty() ? "cuda (no description)" : devs.front();
+}
+
+
 std::vector<std::string> split(const std::string& s) {
   std::vector<std::string> out;
   std::stringstream ss(s);
@@ -119,7 +127,8 @@ int sweep(int argc, char** argv) {
   std::vector<imb::FractionTable> tables;
   tables.reserve(1);
   std::ostringstream head;
-  head << "{\n  \"backend\": \"" << (b == Backend::Cuda ? "cuda" : "host") << "\",\n  \"chi\": " << chi
+  head << "{\n  \"backend\": \"" << (b == Backend::Cuda ? "cuda" : "host") << "\",\n  \"device\": \""
+       << device_of(b) << "\",\n  \"chi\": " << chi
        << ",\n  \"tolerance\": " << tol << ",\n  \"start\": \"" << start
        << "\",\n  \"reference\": \"Sangani & Acrivos (1982) Eq. 60, Stokes flow\""
        << ",\n  \"paper\": \"first paper Table 1, Re_p = 0.2, against Fluent at the same Re_p\",\n  \"rows\": [\n";
@@ -342,7 +351,8 @@ int suspension(int argc, char** argv) {
               1e3 * t_map, 1e3 * t_psm, 1e3 * t_fluid, 1e3 * t_dem);
   if (!out.empty()) {
     std::ofstream js(out);
-    js << "{\n  \"backend\": \"" << (b == Backend::Cuda ? "cuda" : "host") << "\",\n  \"n\": " << n
+    js << "{\n  \"backend\": \"" << (b == Backend::Cuda ? "cuda" : "host") << "\",\n  \"device\": \""
+       << device_of(b) << "\",\n  \"n\": " << n
        << ",\n  \"particles\": " << hp.size() << ",\n  \"d\": " << d << ",\n  \"phi\": " << phi
        << ",\n  \"precision\": \"" << prec << "\",\n  \"fraction\": \"" << fraction << "\",\n  \"pipeline\": \"" << used << "\",\n  \"fused_order\": \"" << fused_order
        << "\",\n  \"substeps\": " << substeps << ",\n  \"steps\": " << steps
