@@ -483,24 +483,15 @@ void CellSlots::clear_overflow(const Exec& ex) { for_each(ex, flags_.size(), Zer
 
 OverflowReport CellSlots::overflow() const {
   OverflowReport r;
-  if (backend_ == Backend::Cuda) {
-#if defined(LBDEM_HAVE_CUDA)
-    LBDEM_CUDA_CHECK(cudaDeviceSynchronize());
-#endif
-  }
-  const std::vector<int> flags = flags_.to_vector();
+  const std::vector<int> flags = mapk::read_flags(backend_, flags_);
   r.events = flags[0];
   r.radius_too_large = flags[1] > 0;
   r.bad_particle = r.radius_too_large ? flags[2] : -1;
   r.overflow = flags[0] > 0;
   std::ostringstream msg;
   if (r.overflow) {
-    const Index logged = std::min<Index>(flags[0], log_cap_);
-    std::vector<Index> cells(static_cast<std::size_t>(logged));
-    std::vector<int> parts(static_cast<std::size_t>(logged));
-    log_cell_.copy_to_host(cells.data(), logged);
-    log_particle_.copy_to_host(parts.data(), logged);
-    r.cell = *std::min_element(cells.begin(), cells.end());
+    const mapk::LoggedOverflow lo = mapk::read_overflow_log(log_cell_, log_particle_, flags[0], log_cap_);
+    r.cell = lo.key;
     r.ijk = {r.cell % grid_.nx, (r.cell / grid_.nx) % grid_.ny, r.cell / (grid_.nx * grid_.ny)};
     int cnt = 0;
     count_.copy_to_host(&cnt, 1, r.cell);
@@ -510,8 +501,7 @@ OverflowReport CellSlots::overflow() const {
       particle_.copy_to_host(&pk, 1, static_cast<Index>(k) * grid_.cells() + r.cell);
       r.particles.push_back(pk);
     }
-    for (Index e = 0; e < logged; ++e)
-      if (cells[static_cast<std::size_t>(e)] == r.cell) r.particles.push_back(parts[static_cast<std::size_t>(e)]);
+    r.particles.insert(r.particles.end(), lo.particles.begin(), lo.particles.end());
     std::sort(r.particles.begin(), r.particles.end());
     msg << "PSM cell slots overflow: cell (" << r.ijk[0] << ", " << r.ijk[1] << ", " << r.ijk[2] << ") [index "
         << r.cell << "] is overlapped by " << r.count << " particles (";

@@ -1,7 +1,11 @@
 #pragma once
-// Small kernel bodies shared by the slot map (cell_slots.cu) and the tile map
-// (tile_map.cu).
+// Small kernel bodies and host helpers shared by the slot map (cell_slots.cu)
+// and the tile map (tile_map.cu).
+#include <algorithm>
+#include <vector>
+
 #include "core/algorithms.hpp"
+#include "core/buffer.hpp"
 #include "core/exec.hpp"
 #include "imb/particle_view.hpp"
 
@@ -24,6 +28,37 @@ struct MaxOp {
 // Largest radius of the particles (a synchronous reduction on the backend).
 inline double largest_radius(const Exec& ex, const SphereView& p, Scratch& scratch) {
   return transform_reduce(ex, p.n, 0.0, MaxOp{}, ParticleRadius{p.r, p.stride}, scratch);
+}
+
+// The map's overflow counters, after the backend's work has finished.
+inline std::vector<int> read_flags(Backend b, const Buffer<int>& flags) {
+  if (b == Backend::Cuda) {
+#if defined(LBDEM_HAVE_CUDA)
+    LBDEM_CUDA_CHECK(cudaDeviceSynchronize());
+#endif
+  }
+  return flags.to_vector();
+}
+
+// An overflow log of (key, particle) pairs (key: a cell or a tile): the
+// smallest logged key and the logged particles at it, in log order.
+struct LoggedOverflow {
+  Index key = -1;
+  std::vector<int> particles;
+};
+inline LoggedOverflow read_overflow_log(const Buffer<Index>& keys, const Buffer<int>& parts, Index events,
+                                        Index log_cap) {
+  LoggedOverflow r;
+  const Index logged = std::min<Index>(events, log_cap);
+  if (logged <= 0) return r;
+  std::vector<Index> k(static_cast<std::size_t>(logged));
+  std::vector<int> p(static_cast<std::size_t>(logged));
+  keys.copy_to_host(k.data(), logged);
+  parts.copy_to_host(p.data(), logged);
+  r.key = *std::min_element(k.begin(), k.end());
+  for (std::size_t e = 0; e < k.size(); ++e)
+    if (k[e] == r.key) r.particles.push_back(p[e]);
+  return r;
 }
 
 }  // namespace lbdem::imb::mapk

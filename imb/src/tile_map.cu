@@ -240,27 +240,17 @@ void TileMap::clear_overflow(const Exec& ex) { for_each(ex, flags_.size(), ZeroI
 
 OverflowReport TileMap::overflow() const {
   OverflowReport r;
-  if (backend_ == Backend::Cuda) {
-#if defined(LBDEM_HAVE_CUDA)
-    LBDEM_CUDA_CHECK(cudaDeviceSynchronize());
-#endif
-  }
-  const std::vector<int> flags = flags_.to_vector();
+  const std::vector<int> flags = mapk::read_flags(backend_, flags_);
   r.events = flags[0] + flags[1];
   r.radius_too_large = flags[2] > 0;
   r.bad_particle = r.radius_too_large ? flags[3] : -1;
   r.overflow = flags[0] > 0 || flags[1] > 0;
   std::ostringstream msg;
   if (flags[0] > 0) {
-    const Index logged = std::min<Index>(flags[0], log_cap_);
-    std::vector<Index> cells(static_cast<std::size_t>(logged));
-    std::vector<int> parts(static_cast<std::size_t>(logged));
-    log_cell_.copy_to_host(cells.data(), logged);
-    log_particle_.copy_to_host(parts.data(), logged);
-    r.cell = *std::min_element(cells.begin(), cells.end());
+    mapk::LoggedOverflow lo = mapk::read_overflow_log(log_cell_, log_particle_, flags[0], log_cap_);
+    r.cell = lo.key;
     r.ijk = {r.cell % grid_.nx, (r.cell / grid_.nx) % grid_.ny, r.cell / (grid_.nx * grid_.ny)};
-    for (Index e = 0; e < logged; ++e)
-      if (cells[static_cast<std::size_t>(e)] == r.cell) r.particles.push_back(parts[static_cast<std::size_t>(e)]);
+    r.particles = std::move(lo.particles);
     std::sort(r.particles.begin(), r.particles.end());
     r.count = K_ + static_cast<int>(r.particles.size());
     msg << "PSM cell slots overflow: cell (" << r.ijk[0] << ", " << r.ijk[1] << ", " << r.ijk[2] << ") [index "
@@ -271,18 +261,13 @@ OverflowReport TileMap::overflow() const {
         << kFusedMaxSlots << " in the fused pipeline), or check for overlapping particles.";
   }
   if (flags[1] > 0) {
-    const Index logged = std::min<Index>(flags[1], log_cap_);
-    std::vector<Index> tiles(static_cast<std::size_t>(logged));
-    std::vector<int> parts(static_cast<std::size_t>(logged));
-    log_tile_.copy_to_host(tiles.data(), logged);
-    log_tile_particle_.copy_to_host(parts.data(), logged);
-    const Index t = *std::min_element(tiles.begin(), tiles.end());
+    mapk::LoggedOverflow lo = mapk::read_overflow_log(log_tile_, log_tile_particle_, flags[1], log_cap_);
+    const Index t = lo.key;
     const Index tx = t % ntx_, ty = (t / ntx_) % nty_, tz = t / (static_cast<Index>(ntx_) * nty_);
     if (r.cell < 0) {
       r.cell = tx * shape_.tx + grid_.nx * (ty * shape_.ty + grid_.ny * tz * shape_.tz);
       r.ijk = {tx * shape_.tx, ty * shape_.ty, tz * shape_.tz};
-      for (Index e = 0; e < logged; ++e)
-        if (tiles[static_cast<std::size_t>(e)] == t) r.particles.push_back(parts[static_cast<std::size_t>(e)]);
+      r.particles = std::move(lo.particles);
       std::sort(r.particles.begin(), r.particles.end());
     }
     if (flags[0] > 0) msg << " ";
