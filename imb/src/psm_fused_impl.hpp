@@ -156,17 +156,7 @@ template <class L, class T, lbm::StreamKind S, int P, bool B, bool Force, PsmVar
 void fused_launch_m(const Exec& ex, const FusedArgs& a) {
   using Frac = FractionOf<L::D, M, LdgTableAccess, T>;  // fractions in the lattice's precision
   PsmFusedKernel<L, T, S, P, B, Force, V, Frac> k;
-  const lbm::LbmRaw& raw = *a.raw;
-  k.src = lbm::PopView<T>{static_cast<T*>(raw.src), raw.stride};
-  k.dst = lbm::PopView<T>{static_cast<T*>(raw.dst), raw.stride};
-  k.g = raw.grid;
-  k.flags = raw.flags;
-  k.bt = raw.boundaries;
-  k.omega_p = static_cast<T>(raw.omega_p);
-  k.omega_m = static_cast<T>(raw.omega_m);
-  for (int d = 0; d < 3; ++d) k.F[d] = static_cast<T>(raw.body_force[static_cast<std::size_t>(d)]);
-  k.tm = static_cast<T>(a.setup->tau - 0.5);
-  k.weight = a.opt->weight;
+  k.set_lattice(*a.raw, a.setup->tau, a.opt->weight);
   k.K = a.K;
   k.tv = a.tv;
   k.p = a.p;

@@ -11,16 +11,7 @@ void psm_launch_f(const Exec& ex, const lbm::LbmSetup& s, const lbm::LbmRaw& raw
                   const SlotForceView& sf, const PsmOptions& opt,
                   const std::array<bool, 3>& periodic) {
   PsmStepKernel<L, T, S, P, B, Force, V> k;
-  k.src = lbm::PopView<T>{static_cast<T*>(raw.src), raw.stride};
-  k.dst = lbm::PopView<T>{static_cast<T*>(raw.dst), raw.stride};
-  k.g = raw.grid;
-  k.flags = raw.flags;
-  k.bt = raw.boundaries;
-  k.omega_p = static_cast<T>(raw.omega_p);
-  k.omega_m = static_cast<T>(raw.omega_m);
-  for (int a = 0; a < 3; ++a) k.F[a] = static_cast<T>(raw.body_force[static_cast<std::size_t>(a)]);
-  k.tm = static_cast<T>(s.tau - 0.5);
-  k.weight = opt.weight;
+  k.set_lattice(raw, s.tau, opt.weight);
   for (int a = 0; a < 3; ++a) k.periodic[a] = periodic[static_cast<std::size_t>(a)];
   k.slots = slots;
   k.out = sf;

@@ -150,16 +150,48 @@ LBDEM_HD LBDEM_FORCEINLINE void psm_collide(R (&f)[L::Q], R B, const R (&M1)[3],
   }
 }
 
-template <class L, class T, lbm::StreamKind S, int Parity, bool Bnd, bool Force, PsmVariant V>
-struct PsmStepKernel {
-  using R = T;
+// The lattice side of a PSM stream-collide kernel, shared by the mapped
+// (PsmStepKernel) and the fused (PsmFusedKernel) kernels: populations, grid,
+// boundaries, relaxation rates, body force, tau - 1/2 and the weighting.
+template <class T>
+struct PsmLatticeFields {
   lbm::PopView<T> src, dst;
   lbm::GridView g;
   const std::uint8_t* flags;
   lbm::BoundaryTable bt;
-  R omega_p, omega_m, F[3];
-  R tm;  // tau - 1/2
+  T omega_p, omega_m, F[3];
+  T tm;  // tau - 1/2
   PsmWeight weight;
+
+  // From the solver's raw view (lbm::LbmRaw) and tau; host side, once per launch.
+  template <class Raw>
+  void set_lattice(const Raw& raw, double tau, PsmWeight w) {
+    src = lbm::PopView<T>{static_cast<T*>(raw.src), raw.stride};
+    dst = lbm::PopView<T>{static_cast<T*>(raw.dst), raw.stride};
+    g = raw.grid;
+    flags = raw.flags;
+    bt = raw.boundaries;
+    omega_p = static_cast<T>(raw.omega_p);
+    omega_m = static_cast<T>(raw.omega_m);
+    for (int a = 0; a < 3; ++a) F[a] = static_cast<T>(raw.body_force[static_cast<std::size_t>(a)]);
+    tm = static_cast<T>(tau - 0.5);
+    weight = w;
+  }
+};
+
+template <class L, class T, lbm::StreamKind S, int Parity, bool Bnd, bool Force, PsmVariant V>
+struct PsmStepKernel : PsmLatticeFields<T> {
+  using R = T;
+  using PsmLatticeFields<T>::src;
+  using PsmLatticeFields<T>::dst;
+  using PsmLatticeFields<T>::g;
+  using PsmLatticeFields<T>::flags;
+  using PsmLatticeFields<T>::bt;
+  using PsmLatticeFields<T>::omega_p;
+  using PsmLatticeFields<T>::omega_m;
+  using PsmLatticeFields<T>::F;
+  using PsmLatticeFields<T>::tm;
+  using PsmLatticeFields<T>::weight;
   bool periodic[3];
   CellSlotsView slots;
   SlotForceView out;

@@ -62,20 +62,23 @@ struct FusedSolid {
 };
 
 template <class L, class T, lbm::StreamKind S, int Parity, bool Bnd, bool Force, PsmVariant V, class Frac>
-struct PsmFusedKernel {
+struct PsmFusedKernel : PsmLatticeFields<T> {
   using R = T;
   static constexpr int Dim = L::D;
   static constexpr int kQ = L::Q;
   static constexpr bool kBnd = Bnd;
 
   static constexpr int kForceChunk = 16;  // candidates per shared-memory force pass
-  lbm::PopView<T> src, dst;
-  lbm::GridView g;
-  const std::uint8_t* flags;
-  lbm::BoundaryTable bt;
-  R omega_p, omega_m, F[3];
-  R tm;  // tau - 1/2
-  PsmWeight weight;
+  using PsmLatticeFields<T>::src;
+  using PsmLatticeFields<T>::dst;
+  using PsmLatticeFields<T>::g;
+  using PsmLatticeFields<T>::flags;
+  using PsmLatticeFields<T>::bt;
+  using PsmLatticeFields<T>::omega_p;
+  using PsmLatticeFields<T>::omega_m;
+  using PsmLatticeFields<T>::F;
+  using PsmLatticeFields<T>::tm;
+  using PsmLatticeFields<T>::weight;
   int K;  // slots per cell in use (<= kFusedMaxSlots)
   TileView tv;
   SphereView p;
