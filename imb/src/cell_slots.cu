@@ -510,12 +510,7 @@ OverflowReport CellSlots::overflow() const {
         << " (cell, particle) pairs found no slot in all. Raise K (slots per cell) to at least " << r.count
         << ", or check for overlapping particles.";
   }
-  if (r.radius_too_large) {
-    if (r.overflow) msg << " ";
-    msg << "Particle " << r.bad_particle << " is larger than MapOptions::max_radius; its cells were clipped. "
-        << "Pass the true largest radius (or 0 to compute it).";
-  }
-  r.message = msg.str();
+  mapk::finish_report(r, msg);
   return r;
 }
 

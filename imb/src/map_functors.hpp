@@ -2,11 +2,13 @@
 // Small kernel bodies and host helpers shared by the slot map (cell_slots.cu)
 // and the tile map (tile_map.cu).
 #include <algorithm>
+#include <sstream>
 #include <vector>
 
 #include "core/algorithms.hpp"
 #include "core/buffer.hpp"
 #include "core/exec.hpp"
+#include "imb/cell_slots.hpp"
 #include "imb/particle_view.hpp"
 
 namespace lbdem::imb::mapk {
@@ -59,6 +61,16 @@ inline LoggedOverflow read_overflow_log(const Buffer<Index>& keys, const Buffer<
   for (std::size_t e = 0; e < k.size(); ++e)
     if (k[e] == r.key) r.particles.push_back(p[e]);
   return r;
+}
+
+// Ends a report: the clipped-radius note (after the overflow text, if any).
+inline void finish_report(OverflowReport& r, std::ostringstream& msg) {
+  if (r.radius_too_large) {
+    if (r.overflow) msg << " ";
+    msg << "Particle " << r.bad_particle << " is larger than MapOptions::max_radius; its cells were clipped. "
+        << "Pass the true largest radius (or 0 to compute it).";
+  }
+  r.message = msg.str();
 }
 
 }  // namespace lbdem::imb::mapk

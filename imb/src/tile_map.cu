@@ -277,12 +277,7 @@ OverflowReport TileMap::overflow() const {
         << " (tile, particle) pairs found no place). Raise psm.tile_capacity (at most " << kFusedMaxCapacity
         << ") or use psm.pipeline: mapped.";
   }
-  if (r.radius_too_large) {
-    if (r.overflow) msg << " ";
-    msg << "Particle " << r.bad_particle << " is larger than MapOptions::max_radius; its cells were clipped. "
-        << "Pass the true largest radius (or 0 to compute it).";
-  }
-  r.message = msg.str();
+  mapk::finish_report(r, msg);
   return r;
 }
 
