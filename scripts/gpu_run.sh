@@ -3,6 +3,7 @@
 # suite (host and CUDA backends), run the benchmarks; logs and JSON go to $OUT.
 #   scripts/gpu_run.sh [build] [test] [bench-lbm] [bench-dem] [bench-imb] [bench-psm] [bench-susp]
 #                      [build-psm] [test-imb] [profile-susp] [profile-psm-kernel] [profile-fused] [profile-map] [scan] [lambda]
+#                      [variants] (FUSED_VARIANTS, VARIANT_CASES: see the step)
 #                      (quicker partial calls)
 #   (default: all)
 set -uo pipefail
@@ -106,6 +107,32 @@ for s in "${steps[@]}"; do
             --out "$OUT/psm_susp_${prec}_${fr}_${pl}.json" >> "$OUT/psm_susp.log" 2>&1; echo "susp $prec $fr $pl exit $?"
         done; done; done
       cat "$OUT/psm_susp.log" | grep -v "^\[" ;;
+    variants)
+      # Build-time variants of the fused kernel (imb/CMakeLists.txt LBDEM_FUSED_DEFS), one after another
+      # in the same build tree (only the fused translation units recompile):
+      #   FUSED_VARIANTS="name:DEF=1,DEF2=2 name2:..." (an empty list after ':' is the default kernel).
+      # Each: the fused GPU tests (not for names starting with diag: those drop work for attribution),
+      # then the suspension benchmark for VARIANT_CASES ("prec/fraction ..."). JSONs in $OUT/variants.tgz.
+      b="$build/bench/imb/lbdem_bench_psm"; vd="$OUT/variants"; mkdir -p "$vd"
+      for v in ${FUSED_VARIANTS:-base:}; do
+        name="${v%%:*}"; defs="${v#*:}"; defs="${defs//,/;}"
+        cmake -S "$here" -B "$build" -DLBDEM_FUSED_DEFS="$defs" >> "$vd/build_$name.log" 2>&1 &&
+        cmake --build "$build" -j"$(nproc)" --target lbdem_bench_psm imb_tests -- -k 0 >> "$vd/build_$name.log" 2>&1
+        echo "variant $name [$defs] build exit $?"; grep -E "error|spill" "$vd/build_$name.log" | head -5
+        case "$name" in diag*) ;; *)
+          (cd "$build" && OMP_NUM_THREADS=8 timeout 200 ./tests/imb/imb_tests --gtest_brief=1 \
+            --gtest_filter='*PsmFused*:*PsmCrossBackend*:*Reordered*:*PsmGalilean*' > "$vd/test_$name.log" 2>&1)
+          echo "variant $name tests exit $?"; tail -2 "$vd/test_$name.log" ;;
+        esac
+        for c in ${VARIANT_CASES:-fp32/table fp32/linear fp64/table fp64/linear}; do
+          prec="${c%/*}"; fr="${c#*/}"
+          timeout 60 "$b" suspension --n 256 --steps 100 --precision $prec --fraction $fr --pipeline fused \
+            --out "$vd/susp_${name}_${prec}_${fr}.json" > "$vd/susp_${name}_${prec}_${fr}.log" 2>&1
+          echo "variant $name $prec $fr: $(grep -E 'fluid-only' "$vd/susp_${name}_${prec}_${fr}.log" | sed 's/^ *//')"
+        done
+      done
+      cmake -S "$here" -B "$build" -DLBDEM_FUSED_DEFS="" > /dev/null 2>&1
+      (cd "$OUT" && tar czf variants.tgz variants && rm -rf variants) ;;
     *) echo "unknown step $s"; exit 2 ;;
   esac
 done

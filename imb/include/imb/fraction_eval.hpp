@@ -60,7 +60,11 @@ struct FractionOf {
     if constexpr (std::is_same_v<Real, double> || M == FractionMethod::Exact) {
       return (*this)(double(rx), double(ry), double(rz), double(R), double(aux));
     } else if constexpr (M == FractionMethod::Table) {
+#if defined(LBDEM_FUSED_ONEDIV) && LBDEM_FUSED_ONEDIV
+      if constexpr (Dim == 3) return table_fraction_3d_one_div<Access, Real>(g, tab, rx, ry, rz, R);
+#else
       if constexpr (Dim == 3) return table_fraction_3d<Access, Real>(g, tab, rx, ry, rz, R);
+#endif
       else return table_fraction_2d<Access, Real>(g, tab, rx, ry, R);
     } else {
       const Real d = Dim == 3 ? sqrt(rx * rx + ry * ry + rz * rz) : sqrt(rx * rx + ry * ry);

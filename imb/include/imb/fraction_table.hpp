@@ -81,15 +81,37 @@ LBDEM_HD inline TableCoordT<Real> table_coord(Real rx, Real ry, Real rz, Real R)
   return {(d - R) * (Real(2) * d) / (a + b + c), a > Real(0) ? b / a : Real(0), b > Real(0) ? c / b : Real(0)};
 }
 
-// Interpolated table value at (t, u, v) for radius R (no in/out test, no clamp).
+// The same coordinates with one division (float arithmetic of the fused
+// kernel; the double path keeps the three divisions of table_coord): with
+// P = a b s, s = a + b + c, and inv = 1 / (P R): u = b² s R inv, v = c a s R inv,
+// t = 2 d (d - R) a b R inv, and 1 / R = P inv (returned in inv_r). A few ulp
+// from table_coord. b = 0 (then c = 0): u = v = 0 and b is taken as 1 in P.
+template <class Real>
+LBDEM_HD inline TableCoordT<Real> table_coord_one_div(Real rx, Real ry, Real rz, Real R, Real& inv_r) {
+  Real a = fabs(rx), b = fabs(ry), c = fabs(rz), tmp;
+  if (a < b) { tmp = a; a = b; b = tmp; }
+  if (b < c) { tmp = b; b = c; c = tmp; }
+  if (a < b) { tmp = a; a = b; b = tmp; }
+  const Real d = sqrt(a * a + b * b + c * c);
+  const Real s = a + b + c;
+  const bool flat = !(b > Real(0));
+  const Real ab = a * (flat ? Real(1) : b);
+  const Real P = ab * s;
+  const Real inv = Real(1) / (P * R);
+  inv_r = P * inv;
+  const Real sRi = s * R * inv;  // 1 / (a b)
+  return {(d - R) * (Real(2) * d) * (ab * R * inv), flat ? Real(0) : b * b * sRi, flat ? Real(0) : c * a * sRi};
+}
+
+// Interpolated table value at (t, u, v) for 1 / R = inv_r (no in/out test, no clamp).
 template <class Access, class Real = double>
-LBDEM_HD inline Real table_interpolate(const TableGeometry& g, const Access& tab, const TableCoordT<Real>& q, Real R) {
+LBDEM_HD inline Real table_interpolate_inv(const TableGeometry& g, const Access& tab, const TableCoordT<Real>& q,
+                                           Real inv_r) {
   int it, iu, iv;
   Real ft, fu, fv;
   detail::grid_coord<Real>(q.t, Real(g.t_min), Real(g.t_max), g.nt, it, ft);
   detail::grid_coord<Real>(q.u, Real(0), Real(1), g.nu, iu, fu);
   detail::grid_coord<Real>(q.v, Real(0), Real(1), g.nv, iv, fv);
-  const Real inv_r = Real(1) / R;
   Real acc = 0;
   const int kv_end = g.nv > 1 ? 2 : 1;
   for (int kv = 0; kv < kv_end; ++kv) {
@@ -106,6 +128,12 @@ LBDEM_HD inline Real table_interpolate(const TableGeometry& g, const Access& tab
     }
   }
   return acc;
+}
+
+// The same for radius R.
+template <class Access, class Real = double>
+LBDEM_HD inline Real table_interpolate(const TableGeometry& g, const Access& tab, const TableCoordT<Real>& q, Real R) {
+  return table_interpolate_inv<Access, Real>(g, tab, q, Real(1) / R);
 }
 
 // Squared distances from the centre to the nearest point / farthest corner of
@@ -139,6 +167,18 @@ LBDEM_HD inline Real table_fraction_3d(const TableGeometry& g, const Access& tab
     if (cell_far2_t(rx, ry, rz) <= R * R) return Real(1);
   }
   return detail::clamp01<Real>(table_interpolate<Access, Real>(g, tab, table_coord<Real>(rx, ry, rz, R), R));
+}
+
+// 3D table fraction with the one-division coordinates (the fused kernel's
+// float path with LBDEM_FUSED_ONEDIV).
+template <class Access, class Real>
+LBDEM_HD inline Real table_fraction_3d_one_div(const TableGeometry& g, const Access& tab, Real rx, Real ry, Real rz,
+                                               Real R) {
+  if (cell_near2_t(rx, ry, rz) >= R * R) return Real(0);
+  if (cell_far2_t(rx, ry, rz) <= R * R) return Real(1);
+  Real inv_r;
+  const TableCoordT<Real> q = table_coord_one_div<Real>(rx, ry, rz, R, inv_r);
+  return detail::clamp01<Real>(table_interpolate_inv<Access, Real>(g, tab, q, inv_r));
 }
 
 template <class Access, class Real = double>

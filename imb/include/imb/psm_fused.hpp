@@ -31,6 +31,13 @@
 #include "imb/tile_map.hpp"
 #include "lbm/kernels.hpp"
 
+// Build-time variants of the fused kernel (benchmark sweeps: imb/CMakeLists.txt
+// LBDEM_FUSED_DEFS). Every variant computes the same result; the tests hold
+// for each.
+#ifndef LBDEM_FUSED_WX
+#define LBDEM_FUSED_WX 32  // a warp's cells along x (32, 16 or 8)
+#endif
+
 namespace lbdem::imb {
 
 // A candidate particle as the block holds it (shared memory on the device),
@@ -125,11 +132,21 @@ struct PsmFusedKernel : PsmLatticeFields<T> {
     return c < tv.capacity ? c : tv.capacity;
   }
 
-  // Thread tid's offsets from its tile's first cell.
+  // A warp's footprint in its tile: kWX cells along x by kWY = 32 / kWX along
+  // y (LBDEM_FUSED_WX, default 32: one x row). A narrower footprint is more
+  // compact, so fewer warps meet a sphere's surface (and take the PSM path and
+  // the force trees); its loads are kWY segments of kWX cells.
+  static constexpr int kWX = LBDEM_FUSED_WX, kWY = 32 / kWX;
+  static_assert(kWX * kWY == 32 && kTX % kWX == 0 && kTY % kWY == 0, "LBDEM_FUSED_WX: 32, 16 or 8");
+  static constexpr int kWarpsX = kTX / kWX, kWarpsY = kTY / kWY;
+
+  // Thread tid's offsets from its tile's first cell: lane l of warp w at
+  // (l % kWX, l / kWX) inside the warp's footprint, the warps in x, then y, then z.
   LBDEM_HD static void local(int tid, int& lx, int& ly, int& lz) {
-    lx = tid % kTX;
-    ly = (tid / kTX) % kTY;
-    lz = tid / (kTX * kTY);
+    const int lane = tid % 32, w = tid / 32;
+    lx = lane % kWX + kWX * (w % kWarpsX);
+    ly = lane / kWX + kWY * ((w / kWarpsX) % kWarpsY);
+    lz = w / (kWarpsX * kWarpsY);
   }
 
   LBDEM_HD void load_candidate(const TileId& tile, int i, FusedCand<R>& c) const {
