@@ -3,7 +3,7 @@
 # suite (host and CUDA backends), run the benchmarks; logs and JSON go to $OUT.
 #   scripts/gpu_run.sh [build] [test] [bench-lbm] [bench-dem] [bench-imb] [bench-psm] [bench-susp]
 #                      [build-psm] [test-imb] [profile-susp] [profile-psm-kernel] [profile-fused] [profile-map] [scan] [lambda]
-#                      [variants] (FUSED_VARIANTS, VARIANT_CASES: see the step)
+#                      [variants] [variants-f32] (FUSED_VARIANTS, VARIANT_CASES: see the steps)
 #                      (quicker partial calls)
 #   (default: all)
 set -uo pipefail
@@ -132,6 +132,42 @@ for s in "${steps[@]}"; do
         done
       done
       cmake -S "$here" -B "$build" -DLBDEM_FUSED_DEFS="" > /dev/null 2>&1
+      (cd "$OUT" && tar czf variants.tgz variants && rm -rf variants) ;;
+    variants-f32)
+      # As variants, but only the fp32 D3Q19 fused translation unit changes, and the variants' objects
+      # compile in parallel first (nvcc with the build's own command plus -D...); each is then swapped
+      # into the build tree and linked. fp32 cases only (VARIANT_CASES, default fp32/table fp32/linear).
+      b="$build/bench/imb/lbdem_bench_psm"; vd="$OUT/variants"; mkdir -p "$vd"
+      obj=$(cd "$build" && ninja -t targets all | grep -o '^[^:]*psm_fused_d3q19_f32.cu.o' | head -1)
+      cmd=$(cd "$build" && ninja -t commands "$obj" | tail -1)
+      cp "$build/$obj" "$vd/default.o"
+      for v in ${FUSED_VARIANTS:-base:}; do
+        name="${v%%:*}"; defs="${v#*:}"; dflags=""
+        IFS=',' read -ra dl <<< "$defs"; for d in "${dl[@]}"; do [ -n "$d" ] && dflags="$dflags -D$d"; done
+        vcmd="${cmd/ -o $obj / -o $vd/$name.o $dflags }"
+        (cd "$build" && eval "$vcmd" > "$vd/nvcc_$name.log" 2>&1; echo "nvcc $name exit $?") &
+      done
+      wait
+      for v in ${FUSED_VARIANTS:-base:}; do
+        name="${v%%:*}"
+        [ -f "$vd/$name.o" ] || { echo "variant $name: no object"; continue; }
+        cp "$vd/$name.o" "$build/$obj" && touch "$build/$obj"
+        tg="lbdem_bench_psm"; [ "${VARIANT_TESTS:-1}" = 1 ] && tg="$tg imb_tests"
+        (cd "$build" && ninja $tg > "$vd/link_$name.log" 2>&1); echo "variant $name link exit $?"
+        case "$name:${VARIANT_TESTS:-1}" in diag*|*:0) ;; *)
+          (cd "$build" && OMP_NUM_THREADS=8 timeout 200 ./tests/imb/imb_tests --gtest_brief=1 \
+            --gtest_filter='*PsmFused*:*PsmCrossBackend*:*Reordered*:*PsmGalilean*' > "$vd/test_$name.log" 2>&1)
+          echo "variant $name tests exit $?: $(tail -1 "$vd/test_$name.log")" ;;
+        esac
+        for c in ${VARIANT_CASES:-fp32/table fp32/linear}; do
+          prec="${c%/*}"; fr="${c#*/}"
+          timeout 60 "$b" suspension --n 256 --steps 100 --precision $prec --fraction $fr --pipeline fused \
+            --out "$vd/susp_${name}_${prec}_${fr}.json" > "$vd/susp_${name}_${prec}_${fr}.log" 2>&1
+          echo "variant $name $prec $fr: $(grep -E 'fluid-only' "$vd/susp_${name}_${prec}_${fr}.log" | sed 's/^ *//')"
+        done
+      done
+      cp "$vd/default.o" "$build/$obj" && touch "$build/$obj"
+      rm -f "$vd"/*.o
       (cd "$OUT" && tar czf variants.tgz variants && rm -rf variants) ;;
     *) echo "unknown step $s"; exit 2 ;;
   esac
