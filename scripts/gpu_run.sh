@@ -137,10 +137,14 @@ for s in "${steps[@]}"; do
       # As variants, but only the fp32 D3Q19 fused translation unit changes, and the variants' objects
       # compile in parallel first (nvcc with the build's own command plus -D...); each is then swapped
       # into the build tree and linked. fp32 cases only (VARIANT_CASES, default fp32/table fp32/linear).
+      # On a fresh machine the build of the default tree runs beside the variants' compiles.
       b="$build/bench/imb/lbdem_bench_psm"; vd="$OUT/variants"; mkdir -p "$vd"
+      cmake -S "$here" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DLBDEM_ENABLE_CUDA=ON \
+        -DCMAKE_CUDA_ARCHITECTURES=90 -DLBDEM_FUSED_DEFS="" > "$vd/configure.log" 2>&1 || { echo "configure failed"; tail "$vd/configure.log"; }
       obj=$(cd "$build" && ninja -t targets all | grep -o '^[^:]*psm_fused_d3q19_f32.cu.o' | head -1)
       cmd=$(cd "$build" && ninja -t commands "$obj" | tail -1)
-      cp "$build/$obj" "$vd/default.o"
+      tg="lbdem_bench_psm"; [ "${VARIANT_TESTS:-1}" = 1 ] && tg="$tg imb_tests"
+      (cd "$build" && ninja -j8 $tg > "$vd/build_default.log" 2>&1; echo "default build exit $?") &
       for v in ${FUSED_VARIANTS:-base:}; do
         name="${v%%:*}"; defs="${v#*:}"; dflags=""
         IFS=',' read -ra dl <<< "$defs"; for d in "${dl[@]}"; do [ -n "$d" ] && dflags="$dflags -D$d"; done
@@ -148,11 +152,11 @@ for s in "${steps[@]}"; do
         (cd "$build" && eval "$vcmd" > "$vd/nvcc_$name.log" 2>&1; echo "nvcc $name exit $?") &
       done
       wait
+      cp "$build/$obj" "$vd/default.o"
       for v in ${FUSED_VARIANTS:-base:}; do
         name="${v%%:*}"
         [ -f "$vd/$name.o" ] || { echo "variant $name: no object"; continue; }
         cp "$vd/$name.o" "$build/$obj" && touch "$build/$obj"
-        tg="lbdem_bench_psm"; [ "${VARIANT_TESTS:-1}" = 1 ] && tg="$tg imb_tests"
         (cd "$build" && ninja $tg > "$vd/link_$name.log" 2>&1); echo "variant $name link exit $?"
         case "$name:${VARIANT_TESTS:-1}" in diag*|*:0) ;; *)
           (cd "$build" && OMP_NUM_THREADS=8 timeout 200 ./tests/imb/imb_tests --gtest_brief=1 \
