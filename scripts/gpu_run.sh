@@ -148,7 +148,7 @@ for s in "${steps[@]}"; do
       for v in ${FUSED_VARIANTS:-base:}; do
         name="${v%%:*}"; defs="${v#*:}"; dflags=""
         IFS=',' read -ra dl <<< "$defs"; for d in "${dl[@]}"; do [ -n "$d" ] && dflags="$dflags -D$d"; done
-        vcmd="${cmd/ -o $obj / -o $vd/$name.o $dflags }"
+        vcmd="$cmd "; vcmd="${vcmd/ -o $obj / -o $vd/$name.o $dflags }"
         (cd "$build" && eval "$vcmd" > "$vd/nvcc_$name.log" 2>&1; echo "nvcc $name exit $?") &
       done
       wait
