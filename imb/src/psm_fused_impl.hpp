@@ -26,7 +26,7 @@ struct LdgTableAccess {
 };
 
 #ifndef LBDEM_FUSED_XTREE
-#define LBDEM_FUSED_XTREE 0  // 1: the force tree exchanges halves of the 6 sums (9 shuffles, not 30)
+#define LBDEM_FUSED_XTREE 1  // the force tree exchanges halves of the 6 sums (9 shuffles, not 30); 0: plain tree
 #endif
 #ifndef LBDEM_FUSED_WARP_STAGE
 #define LBDEM_FUSED_WARP_STAGE 0  // 1: each warp stages its own copy of up to 16 candidates (no block barrier)

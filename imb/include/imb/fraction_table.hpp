@@ -130,6 +130,30 @@ LBDEM_HD inline Real table_interpolate_inv(const TableGeometry& g, const Access&
   return acc;
 }
 
+// The same value by nested lerps (4 along t, 2 along u, 1 along v: fewer
+// multiplications than the weighted sum; the same up to round-off). A 3D
+// table with one v node reads its v = 0 nodes twice (fv = 0).
+template <class Access, class Real>
+LBDEM_HD inline Real table_interpolate_lerp(const TableGeometry& g, const Access& tab, const TableCoordT<Real>& q,
+                                            Real inv_r) {
+  int it, iu, iv;
+  Real ft, fu, fv;
+  detail::grid_coord<Real>(q.t, Real(g.t_min), Real(g.t_max), g.nt, it, ft);
+  detail::grid_coord<Real>(q.u, Real(0), Real(1), g.nu, iu, fu);
+  detail::grid_coord<Real>(q.v, Real(0), Real(1), g.nv, iv, fv);
+  const int du = g.nt, dv = g.nv > 1 ? g.nu * g.nt : 0;
+  const int i0 = (iv * g.nu + iu) * g.nt + it;
+  auto node = [&](int i) {
+    float e0, e1;
+    tab.pair(i, e0, e1);
+    return static_cast<Real>(e0) + static_cast<Real>(e1) * inv_r;
+  };
+  auto lerp = [](Real a, Real b, Real f) { return a + f * (b - a); };
+  const Real c00 = lerp(node(i0), node(i0 + 1), ft), c10 = lerp(node(i0 + du), node(i0 + du + 1), ft);
+  const Real c01 = lerp(node(i0 + dv), node(i0 + dv + 1), ft), c11 = lerp(node(i0 + dv + du), node(i0 + dv + du + 1), ft);
+  return lerp(lerp(c00, c10, fu), lerp(c01, c11, fu), fv);
+}
+
 // The same for radius R.
 template <class Access, class Real = double>
 LBDEM_HD inline Real table_interpolate(const TableGeometry& g, const Access& tab, const TableCoordT<Real>& q, Real R) {
@@ -178,7 +202,11 @@ LBDEM_HD inline Real table_fraction_3d_one_div(const TableGeometry& g, const Acc
   if (cell_far2_t(rx, ry, rz) <= R * R) return Real(1);
   Real inv_r;
   const TableCoordT<Real> q = table_coord_one_div<Real>(rx, ry, rz, R, inv_r);
+#if defined(LBDEM_FUSED_LERP) && LBDEM_FUSED_LERP
+  return detail::clamp01<Real>(table_interpolate_lerp<Access, Real>(g, tab, q, inv_r));
+#else
   return detail::clamp01<Real>(table_interpolate_inv<Access, Real>(g, tab, q, inv_r));
+#endif
 }
 
 template <class Access, class Real = double>
