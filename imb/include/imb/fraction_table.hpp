@@ -193,8 +193,8 @@ LBDEM_HD inline Real table_fraction_3d(const TableGeometry& g, const Access& tab
   return detail::clamp01<Real>(table_interpolate<Access, Real>(g, tab, table_coord<Real>(rx, ry, rz, R), R));
 }
 
-// 3D table fraction with the one-division coordinates (the fused kernel's
-// float path with LBDEM_FUSED_ONEDIV).
+// 3D table fraction with the one-division coordinates and the nested lerps
+// (the fused kernel's float path; LBDEM_FUSED_LERP=0: the weighted sum).
 template <class Access, class Real>
 LBDEM_HD inline Real table_fraction_3d_one_div(const TableGeometry& g, const Access& tab, Real rx, Real ry, Real rz,
                                                Real R) {
@@ -202,7 +202,8 @@ LBDEM_HD inline Real table_fraction_3d_one_div(const TableGeometry& g, const Acc
   if (cell_far2_t(rx, ry, rz) <= R * R) return Real(1);
   Real inv_r;
   const TableCoordT<Real> q = table_coord_one_div<Real>(rx, ry, rz, R, inv_r);
-#if defined(LBDEM_FUSED_LERP) && LBDEM_FUSED_LERP
+#if !defined(LBDEM_FUSED_LERP) || LBDEM_FUSED_LERP
+  // H100 fp32 table 68.6 -> 71.7 % of fluid-only (bench/results/psm_susp_fused_2026-11-22_26c4bba.md)
   return detail::clamp01<Real>(table_interpolate_lerp<Access, Real>(g, tab, q, inv_r));
 #else
   return detail::clamp01<Real>(table_interpolate_inv<Access, Real>(g, tab, q, inv_r));
