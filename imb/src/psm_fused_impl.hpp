@@ -25,12 +25,6 @@ struct LdgTableAccess {
   }
 };
 
-#ifndef LBDEM_FUSED_XTREE
-#define LBDEM_FUSED_XTREE 1  // the force tree exchanges halves of the 6 sums (9 shuffles, not 30); 0: plain tree
-#endif
-#ifndef LBDEM_FUSED_WARP_STAGE
-#define LBDEM_FUSED_WARP_STAGE 0  // 1: each warp stages its own copy of up to 16 candidates (no block barrier)
-#endif
 #ifndef LBDEM_FUSED_DIAG
 #define LBDEM_FUSED_DIAG 0  // benchmark attribution only, wrong forces: 1 no force stage, 2 also no overlap
 #endif
@@ -88,30 +82,6 @@ __global__ void __launch_bounds__(Kern::kCells, MinBlocks) psm_fused_kernel(Kern
   // The tile's list entries are read beside its count, not after it (entries
   // past the count are defined but unused): the chain the block's barrier
   // waits for is then count|list -> particle, not count -> list -> particle.
-#if LBDEM_FUSED_WARP_STAGE
-  // Up to kWarpCands candidates every warp stages its own copy (ranked by
-  // shuffles) and goes on after a __syncwarp: no warp waits for another.
-  // More: one block copy behind a block barrier.
-  constexpr int kWarpCands = 16;
-  __shared__ FusedCand<R> wcand[Kern::kWarps][kWarpCands];
-  const FusedCand<R>* C = cand;
-  const Index slot = tile.linear * k.tv.capacity + lane;
-  const bool listed = lane < k.tv.capacity;
-  const int pi = listed ? k.tv.particle[slot] : 0;
-  const int ei = listed ? k.tv.entry[slot] : 0;
-  const int nc = k.candidates(tile.linear);
-  if (nc <= kWarpCands) {  // block-uniform
-    int r = 0;
-    for (int j = 0; j < nc; ++j) r += __shfl_sync(0xffffffffu, pi, j) < pi ? 1 : 0;
-    if (lane < nc) k.load_candidate(tile, pi, ei, wcand[warp][r]);
-    __syncwarp();
-    C = wcand[warp];
-  } else {
-    if (tid < nc) k.load_candidate(tile, tid, cand[k.rank(tile.linear, nc, tid)]);
-    __syncthreads();
-  }
-#else
-  const FusedCand<R>* C = cand;
   const Index slot = tile.linear * k.tv.capacity + tid;
   const bool listed = tid < k.tv.capacity;
   const int pi = listed ? k.tv.particle[slot] : 0;
@@ -128,17 +98,14 @@ __global__ void __launch_bounds__(Kern::kCells, MinBlocks) psm_fused_kernel(Kern
     k.load_candidate(tile, pi, ei, cand[k.rank(tile.linear, nc, tid)]);
   }
   __syncthreads();
-#endif
   // 2. Slots, B and solid moments of this cell.
   FusedSolid<R> s;
   s.eps = &slot_eps[0][tid];
   s.stride = Kern::kCells;
   int lx, ly, lz;  // offsets in the tile: the per-cell arithmetic is relative to its first cell
   Kern::local(tid, lx, ly, lz);
-#if LBDEM_FUSED_DIAG == 2
-  (void)C;
-#else
-  if (fluid && nc > 0) k.overlap(lx, ly, lz, cell, C, nc, s);
+#if LBDEM_FUSED_DIAG != 2
+  if (fluid && nc > 0) k.overlap(lx, ly, lz, cell, cand, nc, s);
 #endif
   if constexpr (!LoadsFirst) {
     if (fluid) k.load(x, y, z, cell, nb, f);
@@ -148,7 +115,7 @@ __global__ void __launch_bounds__(Kern::kCells, MinBlocks) psm_fused_kernel(Kern
   R rho = R(1), u[3] = {R(0), R(0), R(0)};
   if (fluid) k.collide_store(cell, nb, f, s, plain, rho, u);
   if (nc == 0 || LBDEM_FUSED_DIAG != 0) return;  // block-uniform
-  // 4. Force and torque per candidate: shuffle tree per warp, warps in order.
+  // 4. Force and torque per candidate: exchange tree per warp (warp_sum6_exchange), warps in order.
   for (int c0 = 0; c0 < nc; c0 += Kern::kForceChunk) {
     const int cn = nc - c0 < Kern::kForceChunk ? nc - c0 : Kern::kForceChunk;
     if (plain) {  // no slot in this warp: zeros for every candidate
@@ -161,23 +128,13 @@ __global__ void __launch_bounds__(Kern::kCells, MinBlocks) psm_fused_kernel(Kern
       const int ks = fluid ? Kern::slot_of(s, c0 + c) : -1;
       const bool any = __any_sync(0xffffffffu, ks >= 0);
       R v[6] = {R(0), R(0), R(0), R(0), R(0), R(0)};  // lanes without a slot (or off the grid) add zeros
-#if LBDEM_FUSED_XTREE
       R sum = R(0);
       if (any) {
-        if (ks >= 0) k.contribution(lx, ly, lz, s, ks, C[c0 + c], rho, u, v);
+        if (ks >= 0) k.contribution(lx, ly, lz, s, ks, cand[c0 + c], rho, u, v);
         sum = warp_sum6_exchange(v, lane);
       }
       const int a = 4 * ((lane >> 4) & 1) + 2 * ((lane >> 3) & 1) + ((lane >> 2) & 1);
       if ((lane & 3) == 0 && a < 6) part[warp][c][a] = sum;
-#else
-      if (any) {
-        if (ks >= 0) k.contribution(lx, ly, lz, s, ks, C[c0 + c], rho, u, v);
-        for (int off = 16; off > 0; off >>= 1)
-          for (int a = 0; a < 6; ++a) v[a] += __shfl_down_sync(0xffffffffu, v[a], off);
-      }
-      if (lane == 0)
-        for (int a = 0; a < 6; ++a) part[warp][c][a] = any ? v[a] : R(0);
-#endif
     }
     }
     __syncthreads();
@@ -185,7 +142,7 @@ __global__ void __launch_bounds__(Kern::kCells, MinBlocks) psm_fused_kernel(Kern
       const int c = tid / 6, a = tid % 6;
       double sum = 0.0;
       for (int w = 0; w < Kern::kWarps; ++w) sum += static_cast<double>(part[w][c][a]);
-      k.tv.partial[static_cast<Index>(C[c0 + c].entry) * 6 + a] = sum;
+      k.tv.partial[static_cast<Index>(cand[c0 + c].entry) * 6 + a] = sum;
     }
     if (c0 + Kern::kForceChunk < nc) __syncthreads();  // part[] is reused by the next chunk
   }

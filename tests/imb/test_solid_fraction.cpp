@@ -199,11 +199,12 @@ TEST_F(TableFixture, AgreesWithExactInBand3D) {
 // lookup by a few ulp of t, u, v; the steepest node slope dε/dt is about 1 per
 // unit t, so 2e-5 holds with a margin of ~10 over float round-off (measured
 // max: recorded), and far below the table's own 0.025. The nested-lerp
-// interpolation (LBDEM_FUSED_LERP) against the weighted sum at the same coordinates.
+// interpolation (LBDEM_FUSED_LERP) against the weighted sum at the same coordinates,
+// and the same one-division, nested-lerp lookup in double (the fused fp64 path).
 TEST_F(TableFixture, FloatLookupsMatchDouble3D) {
   const auto g = t3->geometry;
   const auto acc = t3->host_access();
-  double worst3 = 0.0, worst1 = 0.0, worstl = 0.0;
+  double worst3 = 0.0, worst1 = 0.0, worstl = 0.0, worstd = 0.0;
   int band = 0;
   for (const auto& c : random_cases(20, 23)) {
     const int B = static_cast<int>(c.R) + 2;
@@ -217,6 +218,8 @@ TEST_F(TableFixture, FloatLookupsMatchDouble3D) {
           const float f3 = table_fraction_3d<decltype(acc), float>(g, acc, fx, fy, fz, fr);
           const float f1 = table_fraction_3d_one_div<decltype(acc), float>(g, acc, fx, fy, fz, fr);
           ASSERT_TRUE(std::isfinite(f1)) << rx << " " << ry << " " << rz;
+          const double d1 = table_fraction_3d_one_div<decltype(acc), double>(g, acc, rx, ry, rz, c.R);
+          worstd = std::max(worstd, std::fabs(d1 - d));
           if (cell_near2(rx, ry, rz) < c.R * c.R && cell_far2(rx, ry, rz) > c.R * c.R) {
             float inv_r;
             const auto q = table_coord_one_div<float>(fx, fy, fz, fr, inv_r);
@@ -232,7 +235,8 @@ TEST_F(TableFixture, FloatLookupsMatchDouble3D) {
   EXPECT_GT(band, 1000);
   EXPECT_LE(worst3, 2e-5);
   EXPECT_LE(worst1, 2e-5);
-  EXPECT_LE(worstl, 2e-6);  // nested lerps against the weighted sum: float round-off of values <= ~1.1
+  EXPECT_LE(worstl, 2e-6);
+  EXPECT_LE(worstd, 1e-12);  // the fused fp64 path (one division, nested lerps) against the slot map's double  // nested lerps against the weighted sum: float round-off of values <= ~1.1
   RecordProperty("max_err_three_div", std::to_string(worst3));
   RecordProperty("max_err_one_div", std::to_string(worst1));
 }
