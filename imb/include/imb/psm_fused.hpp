@@ -14,8 +14,10 @@
 //   3. collides (psm_collide, the same arithmetic as the mapped kernel) and
 //      stores;
 //   4. sums the force and torque on each candidate over the block: a fixed
-//      shuffle tree per warp, then the warps in order, into the particle's
-//      entry for this tile. TileMap::finish adds a particle's entries in order.
+//      tree per warp (the plain shuffle tree's sums, computed by exchanging
+//      halves of the six values: warp_sum6_exchange), then the warps in order,
+//      into the particle's entry for this tile. TileMap::finish adds a
+//      particle's entries in order.
 // The mapped pipeline wrote per-cell slots (0.35 ms per step at φ 0.128 on
 // 256³) and a per-(slot, cell) force array that a gather read back; here
 // nothing per cell leaves the kernel but the populations.
