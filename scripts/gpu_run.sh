@@ -17,6 +17,23 @@ commit="${LBDEM_COMMIT:-$(git -C "$here" rev-parse --short HEAD 2>/dev/null || e
 echo "commit $commit" | tee "$OUT/env.txt"
 nvidia-smi --query-gpu=name,memory.total,clocks.sm,clocks.mem --format=csv >> "$OUT/env.txt" 2>&1
 nproc >> "$OUT/env.txt"
+# Steps variants / variants-f32: the fused GPU tests of variant $1 (not for diag*: those drop work on purpose,
+# nor with VARIANT_TESTS=0), and its suspension runs for VARIANT_CASES (default $2).
+variant_tests() {
+  case "$1:${VARIANT_TESTS:-1}" in diag*|*:0) return ;; esac
+  (cd "$build" && OMP_NUM_THREADS=8 timeout 200 ./tests/imb/imb_tests --gtest_brief=1 \
+    --gtest_filter='*PsmFused*:*PsmCrossBackend*:*Reordered*:*PsmGalilean*:*PsmHard*/cuda:*FloatLookups*' > "$vd/test_$1.log" 2>&1)
+  echo "variant $1 tests exit $?: $(tail -1 "$vd/test_$1.log")"
+}
+variant_cases() {
+  local c prec fr
+  for c in ${VARIANT_CASES:-$2}; do
+    prec="${c%/*}"; fr="${c#*/}"
+    timeout 60 "$build/bench/imb/lbdem_bench_psm" suspension --n 256 --steps 100 --precision $prec --fraction $fr \
+      --pipeline fused --out "$vd/susp_${1}_${prec}_${fr}.json" > "$vd/susp_${1}_${prec}_${fr}.log" 2>&1
+    echo "variant $1 $prec $fr: $(grep -E 'fluid-only' "$vd/susp_${1}_${prec}_${fr}.log" | sed 's/^ *//')"
+  done
+}
 for s in "${steps[@]}"; do
   case "$s" in
     build)
@@ -113,23 +130,14 @@ for s in "${steps[@]}"; do
       #   FUSED_VARIANTS="name:DEF=1,DEF2=2 name2:..." (an empty list after ':' is the default kernel).
       # Each: the fused GPU tests (not for names starting with diag: those drop work for attribution),
       # then the suspension benchmark for VARIANT_CASES ("prec/fraction ..."). JSONs in $OUT/variants.tgz.
-      b="$build/bench/imb/lbdem_bench_psm"; vd="$OUT/variants"; mkdir -p "$vd"
+      vd="$OUT/variants"; mkdir -p "$vd"
       for v in ${FUSED_VARIANTS:-base:}; do
         name="${v%%:*}"; defs="${v#*:}"; defs="${defs//,/;}"
         cmake -S "$here" -B "$build" -DLBDEM_FUSED_DEFS="$defs" >> "$vd/build_$name.log" 2>&1 &&
         cmake --build "$build" -j"$(nproc)" --target lbdem_bench_psm imb_tests -- -k 0 >> "$vd/build_$name.log" 2>&1
         echo "variant $name [$defs] build exit $?"; grep -E "error|spill" "$vd/build_$name.log" | head -5
-        case "$name" in diag*) ;; *)
-          (cd "$build" && OMP_NUM_THREADS=8 timeout 200 ./tests/imb/imb_tests --gtest_brief=1 \
-            --gtest_filter='*PsmFused*:*PsmCrossBackend*:*Reordered*:*PsmGalilean*:*PsmHard*/cuda:*FloatLookups*' > "$vd/test_$name.log" 2>&1)
-          echo "variant $name tests exit $?"; tail -2 "$vd/test_$name.log" ;;
-        esac
-        for c in ${VARIANT_CASES:-fp32/table fp32/linear fp64/table fp64/linear}; do
-          prec="${c%/*}"; fr="${c#*/}"
-          timeout 60 "$b" suspension --n 256 --steps 100 --precision $prec --fraction $fr --pipeline fused \
-            --out "$vd/susp_${name}_${prec}_${fr}.json" > "$vd/susp_${name}_${prec}_${fr}.log" 2>&1
-          echo "variant $name $prec $fr: $(grep -E 'fluid-only' "$vd/susp_${name}_${prec}_${fr}.log" | sed 's/^ *//')"
-        done
+        variant_tests "$name"
+        variant_cases "$name" "fp32/table fp32/linear fp64/table fp64/linear"
       done
       cmake -S "$here" -B "$build" -DLBDEM_FUSED_DEFS="" > /dev/null 2>&1
       (cd "$OUT" && tar czf variants.tgz variants && rm -rf variants) ;;
@@ -138,7 +146,7 @@ for s in "${steps[@]}"; do
       # compile in parallel first (nvcc with the build's own command plus -D...); each is then swapped
       # into the build tree and linked. fp32 cases only (VARIANT_CASES, default fp32/table fp32/linear).
       # On a fresh machine the build of the default tree runs beside the variants' compiles.
-      b="$build/bench/imb/lbdem_bench_psm"; vd="$OUT/variants"; mkdir -p "$vd"
+      vd="$OUT/variants"; mkdir -p "$vd"
       cmake -S "$here" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DLBDEM_ENABLE_CUDA=ON \
         -DCMAKE_CUDA_ARCHITECTURES=90 -DLBDEM_FUSED_DEFS="" > "$vd/configure.log" 2>&1 || { echo "configure failed"; tail "$vd/configure.log"; }
       obj=$(cd "$build" && ninja -t targets all | grep -o '^[^:]*psm_fused_d3q19_f32.cu.o' | head -1)
@@ -161,17 +169,8 @@ for s in "${steps[@]}"; do
         (cd "$build" && for t in $tg; do ninja -t commands "$t" | grep -E "liblbdem_imb.a|-o [^ ]*/$t( |$)" |
            while read -r line; do eval "$line" || exit 1; done; done > "$vd/link_$name.log" 2>&1)
         echo "variant $name link exit $?"
-        case "$name:${VARIANT_TESTS:-1}" in diag*|*:0) ;; *)
-          (cd "$build" && OMP_NUM_THREADS=8 timeout 200 ./tests/imb/imb_tests --gtest_brief=1 \
-            --gtest_filter='*PsmFused*:*PsmCrossBackend*:*Reordered*:*PsmGalilean*:*PsmHard*/cuda:*FloatLookups*' > "$vd/test_$name.log" 2>&1)
-          echo "variant $name tests exit $?: $(tail -1 "$vd/test_$name.log")" ;;
-        esac
-        for c in ${VARIANT_CASES:-fp32/table fp32/linear}; do
-          prec="${c%/*}"; fr="${c#*/}"
-          timeout 60 "$b" suspension --n 256 --steps 100 --precision $prec --fraction $fr --pipeline fused \
-            --out "$vd/susp_${name}_${prec}_${fr}.json" > "$vd/susp_${name}_${prec}_${fr}.log" 2>&1
-          echo "variant $name $prec $fr: $(grep -E 'fluid-only' "$vd/susp_${name}_${prec}_${fr}.log" | sed 's/^ *//')"
-        done
+        variant_tests "$name"
+        variant_cases "$name" "fp32/table fp32/linear"
       done
       rm -f "$vd"/*.o "$build/$obj"  # ninja rebuilds the default object next time
       (cd "$OUT" && tar czf variants.tgz variants && rm -rf variants) ;;

@@ -103,15 +103,22 @@ LBDEM_HD inline TableCoordT<Real> table_coord_one_div(Real rx, Real ry, Real rz,
   return {(d - R) * (Real(2) * d) * (ab * R * inv), flat ? Real(0) : b * b * sRi, flat ? Real(0) : c * a * sRi};
 }
 
+// The table cell holding (t, u, v): first node (it, iu, iv) and the offsets in it.
+template <class Real>
+LBDEM_HD inline void table_cell(const TableGeometry& g, const TableCoordT<Real>& q, int& it, int& iu, int& iv, Real& ft,
+                                Real& fu, Real& fv) {
+  detail::grid_coord<Real>(q.t, Real(g.t_min), Real(g.t_max), g.nt, it, ft);
+  detail::grid_coord<Real>(q.u, Real(0), Real(1), g.nu, iu, fu);
+  detail::grid_coord<Real>(q.v, Real(0), Real(1), g.nv, iv, fv);
+}
+
 // Interpolated table value at (t, u, v) for 1 / R = inv_r (no in/out test, no clamp).
 template <class Access, class Real = double>
 LBDEM_HD inline Real table_interpolate_inv(const TableGeometry& g, const Access& tab, const TableCoordT<Real>& q,
                                            Real inv_r) {
   int it, iu, iv;
   Real ft, fu, fv;
-  detail::grid_coord<Real>(q.t, Real(g.t_min), Real(g.t_max), g.nt, it, ft);
-  detail::grid_coord<Real>(q.u, Real(0), Real(1), g.nu, iu, fu);
-  detail::grid_coord<Real>(q.v, Real(0), Real(1), g.nv, iv, fv);
+  table_cell<Real>(g, q, it, iu, iv, ft, fu, fv);
   Real acc = 0;
   const int kv_end = g.nv > 1 ? 2 : 1;
   for (int kv = 0; kv < kv_end; ++kv) {
@@ -138,9 +145,7 @@ LBDEM_HD inline Real table_interpolate_lerp(const TableGeometry& g, const Access
                                             Real inv_r) {
   int it, iu, iv;
   Real ft, fu, fv;
-  detail::grid_coord<Real>(q.t, Real(g.t_min), Real(g.t_max), g.nt, it, ft);
-  detail::grid_coord<Real>(q.u, Real(0), Real(1), g.nu, iu, fu);
-  detail::grid_coord<Real>(q.v, Real(0), Real(1), g.nv, iv, fv);
+  table_cell<Real>(g, q, it, iu, iv, ft, fu, fv);
   const int du = g.nt, dv = g.nv > 1 ? g.nu * g.nt : 0;
   const int i0 = (iv * g.nu + iu) * g.nt + it;
   auto node = [&](int i) {
