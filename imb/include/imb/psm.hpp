@@ -182,16 +182,8 @@ struct PsmLatticeFields {
 template <class L, class T, lbm::StreamKind S, int Parity, bool Bnd, bool Force, PsmVariant V>
 struct PsmStepKernel : PsmLatticeFields<T> {
   using R = T;
-  using PsmLatticeFields<T>::src;
-  using PsmLatticeFields<T>::dst;
-  using PsmLatticeFields<T>::g;
-  using PsmLatticeFields<T>::flags;
-  using PsmLatticeFields<T>::bt;
-  using PsmLatticeFields<T>::omega_p;
-  using PsmLatticeFields<T>::omega_m;
-  using PsmLatticeFields<T>::F;
-  using PsmLatticeFields<T>::tm;
-  using PsmLatticeFields<T>::weight;
+  using Lat = PsmLatticeFields<T>;  // the lattice side's members, by name (a dependent base)
+  using Lat::src, Lat::dst, Lat::g, Lat::flags, Lat::bt, Lat::omega_p, Lat::omega_m, Lat::F, Lat::tm, Lat::weight;
   bool periodic[3];
   CellSlotsView slots;
   SlotForceView out;

@@ -78,16 +78,8 @@ struct PsmFusedKernel : PsmLatticeFields<T> {
   static constexpr bool kBnd = Bnd;
 
   static constexpr int kForceChunk = 16;  // candidates per shared-memory force pass
-  using PsmLatticeFields<T>::src;
-  using PsmLatticeFields<T>::dst;
-  using PsmLatticeFields<T>::g;
-  using PsmLatticeFields<T>::flags;
-  using PsmLatticeFields<T>::bt;
-  using PsmLatticeFields<T>::omega_p;
-  using PsmLatticeFields<T>::omega_m;
-  using PsmLatticeFields<T>::F;
-  using PsmLatticeFields<T>::tm;
-  using PsmLatticeFields<T>::weight;
+  using Lat = PsmLatticeFields<T>;  // the lattice side's members, by name (a dependent base)
+  using Lat::src, Lat::dst, Lat::g, Lat::flags, Lat::bt, Lat::omega_p, Lat::omega_m, Lat::F, Lat::tm, Lat::weight;
   int K;  // slots per cell in use (<= kFusedMaxSlots)
   TileView tv;
   SphereView p;
