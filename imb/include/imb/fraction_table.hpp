@@ -81,8 +81,8 @@ LBDEM_HD inline TableCoordT<Real> table_coord(Real rx, Real ry, Real rz, Real R)
   return {(d - R) * (Real(2) * d) / (a + b + c), a > Real(0) ? b / a : Real(0), b > Real(0) ? c / b : Real(0)};
 }
 
-// The same coordinates with one division (float arithmetic of the fused
-// kernel; the double path keeps the three divisions of table_coord): with
+// The same coordinates with one division (the fused kernel's lookup, float or
+// double; the slot map keeps the three divisions of table_coord): with
 // P = a b s, s = a + b + c, and inv = 1 / (P R): u = b² s R inv, v = c a s R inv,
 // t = 2 d (d - R) a b R inv, and 1 / R = P inv (returned in inv_r). A few ulp
 // from table_coord. b = 0 (then c = 0): u = v = 0 and b is taken as 1 in P.
@@ -199,7 +199,8 @@ LBDEM_HD inline Real table_fraction_3d(const TableGeometry& g, const Access& tab
 }
 
 // 3D table fraction with the one-division coordinates and the nested lerps
-// (the fused kernel's float path; LBDEM_FUSED_LERP=0: the weighted sum).
+// (the fused kernel's lookup in the lattice's precision; LBDEM_FUSED_LERP=0:
+// the weighted sum).
 template <class Access, class Real>
 LBDEM_HD inline Real table_fraction_3d_one_div(const TableGeometry& g, const Access& tab, Real rx, Real ry, Real rz,
                                                Real R) {

@@ -34,8 +34,8 @@
 #include "lbm/kernels.hpp"
 
 // Build-time variants of the fused kernel (benchmark sweeps: imb/CMakeLists.txt
-// LBDEM_FUSED_DEFS). Every variant computes the same result; the tests hold
-// for each.
+// LBDEM_FUSED_DEFS). Every variant but LBDEM_FUSED_DIAG (attribution only)
+// computes the same result up to round-off, and the fused tests hold for each.
 #ifndef LBDEM_FUSED_WX
 #define LBDEM_FUSED_WX 32  // a warp's cells along x (32, 16 or 8)
 #endif
