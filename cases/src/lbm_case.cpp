@@ -199,7 +199,7 @@ int run_parsed(LbmCase& c, const RunOptions& opt);
 // 1 + 5 doubles per cell) for set-up and output.
 void check_memory(const LbmCase& c, Backend backend) {
   const std::size_t need = lbm::lbm_memory_estimate(c.setup);
-  const auto cells = static_cast<std::size_t>(lbm::make_grid_view(c.setup.domain).n);
+  const auto cells = static_cast<std::size_t>(c.setup.domain.storage_cells());
   const std::size_t host_need = cells * (1 + 5 * sizeof(double)) + (backend == Backend::Host ? need : 0);
   const std::size_t have = backend_free_bytes(backend);
   const std::size_t host_have = backend_free_bytes(Backend::Host);

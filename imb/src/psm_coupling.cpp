@@ -45,7 +45,7 @@ PsmPipeline resolve_pipeline(const PsmOptions& o, int K) {
 PsmCoupling::PsmCoupling(lbm::LbmSolver& solver, int K, std::array<bool, 3> periodic)
     : solver_(solver), periodic_(periodic), K_(K), ex_(solver.backend()) {
   if (K < 1) throw ConfigError("PSM slots per cell K = " + std::to_string(K) + ": must be >= 1");
-  const lbm::GridView g = lbm::make_grid_view(solver.setup().domain);
+  const lbm::GridView g = solver.setup().domain.view();
   shape_.nx = g.nx;
   shape_.ny = g.ny;
   shape_.nz = g.nz;

@@ -1,5 +1,7 @@
 #include "lbm/solver.hpp"
 
+#include <stdexcept>
+
 #include "core/error.hpp"
 
 namespace lbdem::lbm {
@@ -16,7 +18,7 @@ const char* to_string(CollisionKind k) { return k == CollisionKind::BGK ? "bgk" 
 const char* to_string(StreamKind k) { return k == StreamKind::AA ? "aa" : "two_lattice"; }
 
 std::size_t lbm_memory_estimate(const LbmSetup& s) {
-  const GridView g = make_grid_view(s.domain);
+  const GridView g = s.domain.view();
   const std::size_t stride = static_cast<std::size_t>((g.n + 63) / 64 * 64);
   const std::size_t tsize = s.precision == Precision::FP32 ? 4 : 8;
   const std::size_t lattices = s.streaming == StreamKind::AA ? 1 : 2;
@@ -33,9 +35,11 @@ std::unique_ptr<LbmSolver> make_lbm_solver(const LbmSetup& s, Backend b) {
     throw ConfigError("D2Q9 needs nz = 1, got " + std::to_string(s.domain.local[2]));
   if (s.boundaries.count > kMaxBoundaries)
     throw ConfigError("at most " + std::to_string(kMaxBoundaries) + " boundary kinds per case");
-  const GridView g = make_grid_view(s.domain);
-  if (g.n >= (Index{1} << 31))
-    throw ConfigError("domain of " + std::to_string(g.n) + " cells: one rank holds fewer than 2^31 cells; split the domain across ranks");
+  try {
+    s.domain.validate();
+  } catch (const std::invalid_argument& e) {
+    throw ConfigError(e.what());
+  }
   const bool f32 = s.precision == Precision::FP32;
   if (s.lattice == LatticeKind::D2Q9) return f32 ? make_solver_d2q9_f32(s, b) : make_solver_d2q9_f64(s, b);
   return f32 ? make_solver_d3q19_f32(s, b) : make_solver_d3q19_f64(s, b);

@@ -17,8 +17,8 @@ struct PopulationKernel {
   PopView<T> src;
   GridView g;
   double* out;
-  LBDEM_HD void operator()(Index cell) const {
-    const Neighbours nb = neighbours<L>(g, cell);
+  LBDEM_HD void operator()(Index cell, int x, int y, int z) const {
+    const Neighbours nb = neighbours_at<L>(g, x, y, z);
     double f[L::Q];
     load_incoming<L, T, double, S, Parity>(src, nb, cell, f);
     LBDEM_UNROLL
@@ -30,7 +30,8 @@ template <class L, class T>
 class SolverImpl final : public LbmSolver {
  public:
   SolverImpl(const LbmSetup& s, Backend b) : s_(s), ex_(b) {
-    g_ = make_grid_view(s_.domain);
+    g_ = s_.domain.view();
+    owned_ = s_.domain.owned();
     stride_ = (g_.n + 63) / 64 * 64;
     f0_ = Buffer<T>(b, stride_ * L::Q);
     if (s_.streaming == StreamKind::TwoLattice) f1_ = Buffer<T>(b, stride_ * L::Q);
@@ -65,21 +66,30 @@ class SolverImpl final : public LbmSolver {
 
   void step(long n) override {
     for (long i = 0; i < n; ++i) {
-      if (s_.streaming == StreamKind::AA) {
-        if ((t_ & 1) == 0) dispatch<StreamKind::AA, 0>();
-        else dispatch<StreamKind::AA, 1>();
-      } else {
-        dispatch<StreamKind::TwoLattice, 0>();
-        f0_.swap(f1_);
-      }
-      ++t_;
+      step_box(owned_);
+      end_step();
     }
+  }
+
+  void step_box(const CellBox& box) override {
+    if (box.empty()) return;
+    if (s_.streaming == StreamKind::AA) {
+      if ((t_ & 1) == 0) dispatch<StreamKind::AA, 0>(box);
+      else dispatch<StreamKind::AA, 1>(box);
+    } else {
+      dispatch<StreamKind::TwoLattice, 0>(box);
+    }
+  }
+
+  void end_step() override {
+    if (s_.streaming == StreamKind::TwoLattice) f0_.swap(f1_);
+    ++t_;
   }
 
   void macroscopic(std::vector<double>& rho, std::vector<double>& u) override {
     ensure_macro_buffers();
     with_parity([&](auto S, auto P) {
-      for_each(ex_, g_.n,
+      for_each_cell(ex_, g_, owned_,
                MacroKernel<L, T, decltype(S)::value, decltype(P)::value>{
                    src_view(), g_, has_bnd_ ? flags_.data() : nullptr,
                    {s_.body_force[0], s_.body_force[1], s_.body_force[2]}, rho_d_.data(), u_d_.data()});
@@ -92,7 +102,7 @@ class SolverImpl final : public LbmSolver {
   LbmDiagnostics diagnostics() override {
     Diag d;
     with_parity([&](auto S, auto P) {
-      d = transform_reduce(ex_, g_.n, Diag{}, DiagOp{},
+      d = transform_reduce_cells(ex_, g_, owned_, Diag{}, DiagOp{},
                            DiagKernel<L, T, decltype(S)::value, decltype(P)::value>{
                                src_view(), g_, has_bnd_ ? flags_.data() : nullptr,
                                {s_.body_force[0], s_.body_force[1], s_.body_force[2]}},
@@ -117,8 +127,8 @@ class SolverImpl final : public LbmSolver {
   std::vector<double> populations() override {
     Buffer<double> out(ex_.backend(), g_.n * L::Q);
     with_parity([&](auto S, auto P) {
-      for_each(ex_, g_.n,
-               PopulationKernel<L, T, decltype(S)::value, decltype(P)::value>{src_view(), g_, out.data()});
+      for_each_cell(ex_, g_, owned_,
+                    PopulationKernel<L, T, decltype(S)::value, decltype(P)::value>{src_view(), g_, out.data()});
     });
     ex_.synchronize();
     return out.to_vector();
@@ -138,6 +148,7 @@ class SolverImpl final : public LbmSolver {
     r.dst = s_.streaming == StreamKind::AA ? f0_.data() : f1_.data();
     r.stride = stride_;
     r.grid = g_;
+    r.owned = owned_;
     r.flags = flags_.data();
     r.has_boundaries = has_bnd_;
     r.step = t_;
@@ -172,23 +183,30 @@ class SolverImpl final : public LbmSolver {
   PopView<T> src_view() const { return PopView<T>{f0_.data(), stride_}; }
 
   void ensure_macro_buffers() {
-    if (rho_d_.size() != g_.n) rho_d_ = Buffer<double>(ex_.backend(), g_.n);
-    if (u_d_.size() != 3 * g_.n) u_d_ = Buffer<double>(ex_.backend(), 3 * g_.n);
+    // Zeroed once: cells outside the owned box (ghosts) are never written.
+    if (rho_d_.size() != g_.n) {
+      rho_d_ = Buffer<double>(ex_.backend(), g_.n);
+      rho_d_.fill_zero();
+    }
+    if (u_d_.size() != 3 * g_.n) {
+      u_d_ = Buffer<double>(ex_.backend(), 3 * g_.n);
+      u_d_.fill_zero();
+    }
   }
 
   template <StreamKind S, int P>
-  void dispatch() {
+  void dispatch(const CellBox& box) {
     if (has_bnd_) {
-      if (force_) run<S, P, true, true>();
-      else run<S, P, true, false>();
+      if (force_) run<S, P, true, true>(box);
+      else run<S, P, true, false>(box);
     } else {
-      if (force_) run<S, P, false, true>();
-      else run<S, P, false, false>();
+      if (force_) run<S, P, false, true>(box);
+      else run<S, P, false, false>(box);
     }
   }
 
   template <StreamKind S, int P, bool B, bool F>
-  void run() {
+  void run(const CellBox& box) {
     StepKernel<L, T, S, P, B, F> k;
     k.src = PopView<T>{f0_.data(), stride_};
     k.dst = S == StreamKind::AA ? k.src : PopView<T>{f1_.data(), stride_};
@@ -198,12 +216,13 @@ class SolverImpl final : public LbmSolver {
     k.coll.omega_p = static_cast<T>(omega_p_);
     k.coll.omega_m = static_cast<T>(omega_m_);
     for (int a = 0; a < 3; ++a) k.coll.F[a] = static_cast<T>(s_.body_force[static_cast<std::size_t>(a)]);
-    for_each(ex_, g_.n, k);
+    for_each_cell(ex_, g_, box, k);
   }
 
   LbmSetup s_;
   Exec ex_;
   GridView g_;
+  CellBox owned_;
   Index stride_ = 0;
   Buffer<T> f0_, f1_;
   Buffer<std::uint8_t> flags_;

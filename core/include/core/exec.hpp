@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 #include "core/error.hpp"
+#include "core/grid.hpp"
 #include "core/hd.hpp"
 
 namespace lbdem {
@@ -108,6 +109,31 @@ void for_each_bounded(const Exec& ex, Index n, const F& f) {
   }
 #pragma omp parallel for schedule(static)
   for (Index i = 0; i < n; ++i) f(i);
+}
+
+// A per-cell functor f(cell, x, y, z) over the cells of a box of storage
+// (core/grid.hpp): thread t takes the box's t-th cell, so one kernel body
+// serves the owned cells, the inner cells and each outer slab alike.
+template <class F>
+struct BoxCells {
+  CellBox box;
+  GridView g;
+  F f;
+  LBDEM_HD LBDEM_FORCEINLINE void operator()(Index t) const {
+    int x, y, z;
+    box.coords(t, x, y, z);
+    f(g.index(x, y, z), x, y, z);
+  }
+};
+
+template <class F>
+void for_each_cell(const Exec& ex, const GridView& g, const CellBox& box, const F& f) {
+  for_each(ex, box.size(), BoxCells<F>{box, g, f});
+}
+
+template <int MinBlocks, class F>
+void for_each_cell_bounded(const Exec& ex, const GridView& g, const CellBox& box, const F& f) {
+  for_each_bounded<MinBlocks>(ex, box.size(), BoxCells<F>{box, g, f});
 }
 
 }  // namespace lbdem

@@ -10,6 +10,8 @@
 //                f_qbar(x) = -f*_q(x) + 2 w_q rho_w [1 + (c_q.u)^2/(2cs^4) - u^2/(2cs^2)],
 //              u = velocity of the fluid cell x (first-order extrapolation to the wall).
 // All three place the wall half-way between the fluid and the boundary cell.
+#include <cstdint>
+
 #include "core/hd.hpp"
 
 namespace lbdem::lbm {
@@ -17,6 +19,15 @@ namespace lbdem::lbm {
 enum class BoundaryKind : int { Wall = 0, Velocity = 1, Pressure = 2 };
 
 inline constexpr int kMaxBoundaries = 8;
+
+// Flag of a ghost cell: a copy of a neighbour rank's cell, filled by the halo
+// exchange. Streaming treats it as fluid (populations go into it and are sent
+// on), never as a wall, and no kernel updates it.
+inline constexpr std::uint8_t kGhostFlag = 0xFF;
+
+// True if a cell with this flag reflects populations (boundary entries
+// 1..kMaxBoundaries); false for fluid (0) and ghost cells. One comparison.
+LBDEM_HD inline bool reflects(int flag) { return static_cast<unsigned>(flag - 1) < static_cast<unsigned>(kMaxBoundaries); }
 
 // Boundary id k (flag value k, 1..kMaxBoundaries) -> entry k-1.
 struct BoundaryTable {

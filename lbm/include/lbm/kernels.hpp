@@ -14,7 +14,8 @@
 //      even step: read A[q][x],            write f*_q to A[qbar][x];
 //      odd step:  read A[qbar][x - c_q],   write f*_q to A[q][x + c_q].
 //    Each step touches only the slots it reads, so no second array is needed.
-// Boundaries are applied on the store: if x + c_q is a boundary cell b, the
+// Boundaries are applied on the store: if x + c_q is a boundary cell b (flag
+// 1..kMaxBoundaries; ghost cells are streamed into like fluid), the
 // reflected value goes where x reads its qbar population next step
 // (TwoLattice: dst[qbar][b]; AA even: A[q][b]; AA odd: A[qbar][x]); each slot
 // has exactly one writer, so loads never branch.
@@ -31,9 +32,13 @@ namespace lbdem::lbm {
 
 enum class StreamKind { AA, TwoLattice };
 
-// Neighbour offsets of one cell with periodic wrap on every axis.
-// 32-bit offsets (fewer than 2^31 cells per rank); widened only when added to
-// the 64-bit slab offset q*stride.
+// Neighbour offsets of one cell, wrapping at the ends of storage.
+// The wrap only ever applies to the outermost storage layer: on a periodic
+// axis owned whole by this rank that is the periodic image; on a walled axis
+// the outermost layer is boundary cells and on a split axis it is ghost
+// cells, neither of which a step updates, so an owned cell never reads or
+// writes across a wrap there. 32-bit offsets (fewer than 2^31 cells per rank);
+// widened only when added to the 64-bit slab offset q*stride.
 struct Neighbours {
   unsigned ox[3], oy[3], oz[3];
   LBDEM_HD Index at(int cx, int cy, int cz) const { return static_cast<Index>(ox[cx + 1] + oy[cy + 1] + oz[cz + 1]); }
@@ -153,7 +158,7 @@ LBDEM_HD LBDEM_FORCEINLINE void store_outgoing(const PopView<T>& dst, const Neig
     const Index t = nb.at(L::c(q, 0), L::c(q, 1), L::c(q, 2));
     if constexpr (Bnd) {
       const int fl = flags[t];
-      if (fl != 0) {
+      if (reflects(fl)) {
         const T r = static_cast<T>(reflect<L, R>(q, f[q], bt, fl - 1, u));
         if constexpr (S == StreamKind::TwoLattice) dst.f[qb * dst.stride + t] = r;
         else if constexpr (Parity == 0) dst.f[q * dst.stride + t] = r;
@@ -177,11 +182,12 @@ struct StepKernel {
   BoundaryTable bt;
   Collider<L, R, Force> coll;
 
-  LBDEM_HD void operator()(Index cell) const {
+  // Cell `cell` at storage coordinates (x, y, z) (core/exec.hpp for_each_cell).
+  LBDEM_HD void operator()(Index cell, int x, int y, int z) const {
     if constexpr (Bnd) {
       if (flags[cell] != 0) return;
     }
-    const Neighbours nb = neighbours<L>(g, cell);
+    const Neighbours nb = neighbours_at<L>(g, x, y, z);
     R f[L::Q];
     load_incoming<L, T, R, S, Parity>(src, nb, cell, f);
     R drho, u[3];
@@ -226,13 +232,13 @@ struct MacroKernel {
   double F[3];
   double* rho;
   double* u;
-  LBDEM_HD void operator()(Index cell) const {
+  LBDEM_HD void operator()(Index cell, int x, int y, int z) const {
     if (flags && flags[cell] != 0) {
       rho[cell] = 0;
       u[3 * cell] = u[3 * cell + 1] = u[3 * cell + 2] = 0;
       return;
     }
-    const Neighbours nb = neighbours<L>(g, cell);
+    const Neighbours nb = neighbours_at<L>(g, x, y, z);
     double f[L::Q];
     load_incoming<L, T, double, S, Parity>(src, nb, cell, f);
     double d, j[3];
@@ -277,10 +283,10 @@ struct DiagKernel {
   GridView g;
   const std::uint8_t* flags;  // may be null
   double F[3];
-  LBDEM_HD Diag operator()(Index cell) const {
+  LBDEM_HD Diag operator()(Index cell, int x, int y, int z) const {
     Diag r;
     if (flags && flags[cell] != 0) return r;
-    const Neighbours nb = neighbours<L>(g, cell);
+    const Neighbours nb = neighbours_at<L>(g, x, y, z);
     double f[L::Q];
     load_incoming<L, T, double, S, Parity>(src, nb, cell, f);
     double d, j[3];

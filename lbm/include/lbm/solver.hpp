@@ -27,7 +27,7 @@ struct LbmSetup {
   StreamKind streaming = StreamKind::AA;
   double tau = 0.8;                   // tau+ (viscosity nu = (tau - 1/2)/3)
   double magic = 3.0 / 16.0;          // TRT Lambda
-  SubDomain domain;
+  Grid domain;                        // this rank's piece of the lattice (core/grid.hpp)
   std::array<double, 3> body_force{0, 0, 0};  // per unit volume, lattice units
   BoundaryTable boundaries;           // entries for flag values 1..count
 };
@@ -50,6 +50,7 @@ struct LbmRaw {
   void* dst = nullptr;   // populations written this step (two-lattice), == src for AA
   Index stride = 0;
   GridView grid;
+  CellBox owned;         // the cells a step updates (storage coordinates)
   const std::uint8_t* flags = nullptr;
   bool has_boundaries = false;
   long step = 0;         // steps done; AA parity = step & 1
@@ -61,11 +62,18 @@ struct LbmRaw {
 class LbmSolver {
  public:
   virtual ~LbmSolver() = default;
-  // flags: one byte per cell (0 fluid, k>0 boundary entry k); rho, u (3 per
+  // flags: one byte per storage cell (0 fluid, k>0 boundary entry k,
+  // kGhostFlag ghost); rho, u (3 per
   // cell) in lattice units: the incoming populations become f^eq(rho, u).
   virtual void initialize(const std::vector<std::uint8_t>& flags, const std::vector<double>& rho,
                           const std::vector<double>& u) = 0;
   virtual void step(long n) = 0;                     // asynchronous on the device
+  // One step in parts, so that a halo exchange can overlap it: step_box()
+  // for boxes that together hold every owned cell once (e.g. the outer slabs,
+  // then the inner box: Grid::outer / Grid::inner), then end_step(). step(1)
+  // is step_box(owned) + end_step(). Asynchronous on the device.
+  virtual void step_box(const CellBox& box) = 0;
+  virtual void end_step() = 0;
   virtual void macroscopic(std::vector<double>& rho, std::vector<double>& u) = 0;  // to host
   virtual LbmDiagnostics diagnostics() = 0;          // synchronous
   virtual std::vector<double> populations() = 0;     // incoming f (not shifted), [q*cells + cell]
