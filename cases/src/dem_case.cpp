@@ -16,6 +16,7 @@
 #include <map>
 #include <random>
 
+#include "cases/particle_output.hpp"
 #include "cases/scenes.hpp"
 #include "core/error.hpp"
 #include "core/output.hpp"
@@ -219,22 +220,8 @@ DemCase read_case(const Config& root, const RunOptions& opt) {
 
 void write_particles(io::ParticleWriter& w, const dem::DemSystem& sys, long step) {
   const HostParticles h = sys.download();
-  const Index n = h.size();
-  std::vector<double> pos(3 * n), vel(3 * n), omg(3 * n), frc(3 * n), rad(n), id(n), mass(n);
-  for (Index i = 0; i < n; ++i) {
-    for (int k = 0; k < 3; ++k) {
-      pos[3 * i + k] = h.x[i][k];
-      vel[3 * i + k] = h.v[i][k];
-      omg[3 * i + k] = h.w[i][k];
-      frc[3 * i + k] = h.f[i][k];
-    }
-    rad[i] = h.r[i];
-    id[i] = static_cast<double>(h.id[i]);
-    mass[i] = h.mass[i];
-  }
-  w.write(step, sys.time(), n, pos.data(),
-          {{"radius", 1, rad.data()}, {"velocity", 3, vel.data()}, {"angular_velocity", 3, omg.data()},
-           {"force", 3, frc.data()}, {"id", 1, id.data()}, {"mass", 1, mass.data()}});
+  const std::vector<double> frc = cases::interleave(h.f);
+  cases::write_particle_snapshot(w, step, sys.time(), h, {{"force", 3, frc.data()}});
 }
 
 std::vector<double> series_row(const dem::DemSystem& sys, long step, const std::vector<std::int64_t>& track) {

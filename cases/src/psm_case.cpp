@@ -21,6 +21,7 @@
 #include <spdlog/spdlog.h>
 
 #include "cases/fixed_sphere.hpp"
+#include "cases/particle_output.hpp"
 #include "cases/scenes.hpp"
 #include "core/error.hpp"
 #include "core/output.hpp"
@@ -343,22 +344,8 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
                          "fx0", "fy0", "fz0", "tx0", "ty0", "tz0"});
   std::vector<double> rho, u;
   auto write_output = [&](long step) {
-    const auto hp = dem.download();
-    const Index np = hp.size();
-    std::vector<double> pos(3 * np), vel(3 * np), omg(3 * np), rad(np), id(np);
-    for (Index i = 0; i < np; ++i) {
-      for (int k = 0; k < 3; ++k) {
-        pos[3 * i + k] = hp.x[i][k];
-        vel[3 * i + k] = hp.v[i][k];
-        omg[3 * i + k] = hp.w[i][k];
-      }
-      rad[i] = hp.r[i];
-      id[i] = static_cast<double>(hp.id[i]);
-    }
     const auto hf = cs.hydro_force_host();
-    pw.write(step, double(step), np, pos.data(),
-             {{"radius", 1, rad.data()}, {"velocity", 3, vel.data()}, {"angular_velocity", 3, omg.data()},
-              {"hydrodynamic_force", 3, hf.data()}, {"id", 1, id.data()}});
+    cases::write_particle_snapshot(pw, step, double(step), dem.download(), {{"hydrodynamic_force", 3, hf.data()}});
     fluid->macroscopic(rho, u);
     const auto eps = cs.solid_fraction_host();
     gw.write(step, double(step),
