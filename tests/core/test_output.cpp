@@ -236,6 +236,7 @@ TEST(Output, OverwriteRemovesOnlyManifestFiles) {
   // Temporaries a killed run left behind are ours too.
   { std::ofstream(out / "fields_00000000.h5.tmp4242") << "partial"; }
   { std::ofstream(out / "fields.xdmf.tmp17") << "partial"; }
+  { std::ofstream(out / ".lbdem_write_probe_99") << "probe"; }
   io::prepare_output_dir(out.string(), true);
   std::vector<std::string> left;
   for (const auto& e : fs::directory_iterator(out)) left.push_back(e.path().filename().string());
@@ -255,6 +256,7 @@ TEST(Output, OverwriteRefusesForeignEntriesAndDeletesNothing) {
   { std::ofstream(out / "mydata.csv") << "mine"; }
   { std::ofstream(out / "important.h5") << "mine"; }
   { std::ofstream(out / ".hidden") << "mine"; }
+  { std::ofstream(out / "mydata.csv.tmp12") << "mine"; }  // a temporary of no file of ours
   { std::ofstream(d.path / "outside.txt") << "outside"; }
   fs::create_directories(out / "sub");
   { std::ofstream(out / "sub" / "x.h5") << "mine"; }
@@ -265,7 +267,8 @@ TEST(Output, OverwriteRefusesForeignEntriesAndDeletesNothing) {
     FAIL() << "expected ConfigError";
   } catch (const ConfigError& e) {
     const std::string msg = e.what();
-    for (const char* n : {"mydata.csv", "important.h5", ".hidden", "sub", "fields.xdmf", "nothing was deleted"})
+    for (const char* n : {"mydata.csv", "mydata.csv.tmp12", "important.h5", ".hidden", "sub", "fields.xdmf",
+                          "nothing was deleted"})
       EXPECT_NE(msg.find(n), std::string::npos) << n << " not in: " << msg;
     EXPECT_EQ(msg.find("fields_00000000.h5"), std::string::npos) << msg;  // ours: not named
   }
