@@ -31,7 +31,9 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"cuda", "cpu", "auto", "host", "gpu"}));
   run->add_option("--steps", steps, "number of steps (overrides the case file)")->check(CLI::Range(1L, 1000000000000L));
   auto* output_opt = run->add_option("--output", output, "output folder (overrides output.directory)");
-  run->add_flag("--overwrite", opt.overwrite, "replace the results of an earlier run in the output folder (removes only the files its .lbdem_manifest names; refuses if the folder holds anything else)");
+  run->add_flag("--overwrite", opt.overwrite,
+                "replace an earlier run's results in the output folder (removes only the files its .lbdem_manifest "
+                "names; refuses if the folder holds anything else)");
   run->add_flag("--quiet", opt.quiet, "no progress lines");
 
   auto* check = app.add_subcommand("check", "validate a case file without running it");
