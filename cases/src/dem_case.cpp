@@ -15,11 +15,14 @@
 #include <limits>
 #include <map>
 #include <random>
+#include <sstream>
 
+#include "cases/particle_output.hpp"
 #include "cases/scenes.hpp"
 #include "core/error.hpp"
 #include "core/output.hpp"
 #include "core/progress.hpp"
+#include "core/signals.hpp"
 #include "dem/init.hpp"
 #include "dem/system.hpp"
 
@@ -219,22 +222,8 @@ DemCase read_case(const Config& root, const RunOptions& opt) {
 
 void write_particles(io::ParticleWriter& w, const dem::DemSystem& sys, long step) {
   const HostParticles h = sys.download();
-  const Index n = h.size();
-  std::vector<double> pos(3 * n), vel(3 * n), omg(3 * n), frc(3 * n), rad(n), id(n), mass(n);
-  for (Index i = 0; i < n; ++i) {
-    for (int k = 0; k < 3; ++k) {
-      pos[3 * i + k] = h.x[i][k];
-      vel[3 * i + k] = h.v[i][k];
-      omg[3 * i + k] = h.w[i][k];
-      frc[3 * i + k] = h.f[i][k];
-    }
-    rad[i] = h.r[i];
-    id[i] = static_cast<double>(h.id[i]);
-    mass[i] = h.mass[i];
-  }
-  w.write(step, sys.time(), n, pos.data(),
-          {{"radius", 1, rad.data()}, {"velocity", 3, vel.data()}, {"angular_velocity", 3, omg.data()},
-           {"force", 3, frc.data()}, {"id", 1, id.data()}, {"mass", 1, mass.data()}});
+  const std::vector<double> frc = cases::interleave(h.f);
+  cases::write_particle_snapshot(w, step, sys.time(), h, {{"force", 3, frc.data()}});
 }
 
 std::vector<double> series_row(const dem::DemSystem& sys, long step, const std::vector<std::int64_t>& track) {
@@ -283,12 +272,16 @@ int run_dem_case(const Config& root, const RunOptions& opt) {
   series.append(series_row(sys, 0, c.track));
   Progress prog("dem", c.steps, 5.0, opt.quiet);
   long step = 0;
-  while (step < c.steps) {
+  // A stop signal (core/signals.hpp) is honoured between advance() calls: the
+  // chunk lengths, and with them the neighbour-list rebuild schedule, stay
+  // those of an uninterrupted run.
+  while (step < c.steps && !stop_requested()) {
     long next = std::min(c.steps, (step / c.series_interval + 1) * c.series_interval);
     if (c.output_interval > 0) next = std::min(next, (step / c.output_interval + 1) * c.output_interval);
     sys.advance(next - step);
     step = next;
-    if (step % c.series_interval == 0 || step == c.steps) {
+    const bool last = step == c.steps || stop_requested();
+    if (step % c.series_interval == 0 || last) {
       const std::vector<double> row = series_row(sys, step, c.track);
       series.append(row);
       if (!std::isfinite(row[2]))
@@ -296,14 +289,27 @@ int run_dem_case(const Config& root, const RunOptions& opt) {
                               std::to_string(step) + " (t = " + std::to_string(sys.time()) +
                               " s): lower time.dt or check the material and the initial overlaps");
     }
-    if ((c.output_interval > 0 && step % c.output_interval == 0) || step == c.steps) write_particles(writer, sys, step);
+    if ((c.output_interval > 0 && step % c.output_interval == 0) || last) write_particles(writer, sys, step);
     if (prog.due()) {
       sys.synchronize();
       prog.report(step, sys.time(), static_cast<double>(sys.size()), "particle-steps/s");
     }
   }
+  const bool interrupted = step < c.steps;
+  const auto st = sys.stats();
+  std::ostringstream js;
+  js << "{\n  \"scene\": \"dem\",\n  \"particles\": " << sys.size() << ",\n  \"steps\": " << step
+     << ",\n  \"steps_planned\": " << c.steps << ",\n  \"time_s\": " << sys.time()
+     << ",\n  \"seconds\": " << prog.elapsed() << ",\n  \"rebuilds\": " << st.rebuilds
+     << ",\n  \"backend\": \"" << to_string(backend) << "\",\n  \"interrupted\": " << (interrupted ? "true" : "false")
+     << "\n}\n";
+  io::write_text_atomically(c.outdir + "/summary.json", js.str());
+  if (interrupted) {
+    spdlog::warn("stopped by {} at step {} of {} (t = {:.6g} s); output up to that step is in {}", stop_signal_name(),
+                 step, c.steps, sys.time(), c.outdir);
+    return kExitInterrupted;
+  }
   if (!opt.quiet) {
-    const auto st = sys.stats();
     spdlog::info("done: {} steps in {}, {} neighbour-list rebuilds (every {:.1f} steps), {:.1f} neighbours per "
                  "particle; results: {}/particles.xdmf (ParaView), {}/series.csv",
                  step, format_duration(prog.elapsed()), st.rebuilds,

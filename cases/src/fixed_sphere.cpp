@@ -8,6 +8,7 @@
 
 #include "core/buffer.hpp"
 #include "core/error.hpp"
+#include "core/signals.hpp"
 #include "imb/psm_coupling.hpp"
 
 namespace lbdem::cases {
@@ -101,11 +102,18 @@ FixedSphereResult run_fixed_sphere(const FixedSphereSpec& c, Backend b) {
   const auto t0 = std::chrono::steady_clock::now();
   double F = 0, prev = 0, prev_delta = 0, remaining_rel = 1;
   long step = 0;
-  bool converged = false;
+  bool converged = false, interrupted = false;
   while (step < c.max_steps) {
     // The solid kernel writes its per-cell forces every step; only the last
-    // step of an interval gathers them (a null force skips the gather).
-    for (long i = 0; i + 1 < check; ++i) coupling.step(p, opt, imb::ForceOut{});
+    // step of an interval gathers them (a null force skips the gather). A stop
+    // signal (core/signals.hpp) ends the loop after the step in progress.
+    long done = 0;
+    for (; done + 1 < check && !stop_requested(); ++done) coupling.step(p, opt, imb::ForceOut{});
+    if (stop_requested()) {
+      step += done;
+      interrupted = true;
+      break;
+    }
     coupling.step(p, opt, f6.data());
     step += check;
     F = f6.to_vector()[0];
@@ -130,6 +138,7 @@ FixedSphereResult run_fixed_sphere(const FixedSphereSpec& c, Backend b) {
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   r.steps = step;
   r.converged = converged;
+  r.interrupted = interrupted;
   r.remaining = remaining_rel;
   r.mlups = double(N) * double(step) / r.seconds / 1e6;
 

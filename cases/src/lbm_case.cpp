@@ -5,13 +5,14 @@
 
 #include <chrono>
 #include <cmath>
-#include <fstream>
 #include <functional>
+#include <sstream>
 
 #include "cases/scenes.hpp"
 #include "core/buffer.hpp"
 #include "core/output.hpp"
 #include "core/progress.hpp"
+#include "core/signals.hpp"
 #include "core/units.hpp"
 #include "lbm/solver.hpp"
 
@@ -399,15 +400,16 @@ int run_parsed(LbmCase& c, const RunOptions& opt) {
     write_fields(0);
     phases.add("output", secs(t));
   }
-  while (step < c.steps) {
+  // One step per solver->step() call (the same steps as one longer call): a
+  // stop signal (core/signals.hpp) ends the run after the step in progress.
+  while (step < c.steps && !stop_requested()) {
     long next = std::min(c.steps, (step / c.diag_interval + 1) * c.diag_interval);
     if (c.out_interval > 0) next = std::min(next, (step / c.out_interval + 1) * c.out_interval);
     auto t = clk::now();
-    solver->step(next - step);
+    for (; step < next && !stop_requested(); ++step) solver->step(1);
     solver->synchronize();
     phases.add("lbm", secs(t));
-    step = next;
-    if (step % c.diag_interval == 0 || step == c.steps) {
+    if (step % c.diag_interval == 0 || step == c.steps || stop_requested()) {
       t = clk::now();
       const auto d = solver->diagnostics();
       const double vmax = U.to_si_velocity(d.max_speed);
@@ -438,8 +440,9 @@ int run_parsed(LbmCase& c, const RunOptions& opt) {
     }
     if (prog.due()) prog.report(step, step * U.dt, fluid_cells / 1e6, "MLUPS");
   }
-  // Final state always written.
-  if (c.out_interval == 0 || c.steps % c.out_interval != 0) {
+  // Final state always written (also when a stop signal ended the loop early).
+  const bool interrupted = step < c.steps;
+  if (c.out_interval == 0 || step % c.out_interval != 0) {
     auto t = clk::now();
     write_fields(step);
     phases.add("output", secs(t));
@@ -449,10 +452,11 @@ int run_parsed(LbmCase& c, const RunOptions& opt) {
 
   const double lbm_s = phases.phases().count("lbm") ? phases.phases().at("lbm") : 0;
   const double mlups = lbm_s > 0 ? fluid_cells * static_cast<double>(step) / lbm_s / 1e6 : 0;
-  std::ofstream js(c.outdir + "/summary.json");
+  std::ostringstream js;
   js << "{\n  \"scene\": \"" << c.scene << "\",\n  \"lattice\": \"" << to_string(s.lattice) << "\",\n  \"collision\": \""
      << to_string(s.collision) << "\",\n  \"precision\": \"" << to_string(s.precision) << "\",\n  \"streaming\": \""
      << to_string(s.streaming) << "\",\n  \"backend\": \"" << to_string(backend) << "\",\n  \"steps\": " << step
+     << ",\n  \"steps_planned\": " << c.steps << ",\n  \"interrupted\": " << (interrupted ? "true" : "false")
      << ",\n  \"dx_m\": " << U.dx << ",\n  \"dt_s\": " << U.dt << ",\n  \"tau\": " << U.tau
      << ",\n  \"mlups\": " << mlups << ",\n  \"memory_bytes\": " << solver->memory_bytes() << ",\n  \"phases_s\": {";
   bool first = true;
@@ -467,6 +471,12 @@ int run_parsed(LbmCase& c, const RunOptions& opt) {
     first = false;
   }
   js << "}\n}\n";
+  io::write_text_atomically(c.outdir + "/summary.json", js.str());
+  if (interrupted) {
+    spdlog::warn("stopped by {} at step {} of {} (t = {:.6g} s); output up to that step is in {}", stop_signal_name(),
+                 step, c.steps, step * U.dt, c.outdir);
+    return kExitInterrupted;
+  }
   if (!opt.quiet) {
     spdlog::info("done: {} steps in {} ({:.1f} MLUPS), memory {:.1f} MiB", step, format_duration(prog.elapsed()), mlups,
                  solver->memory_bytes() / 1048576.0);

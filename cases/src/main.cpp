@@ -2,7 +2,9 @@
 //   lbdem run CASE.yaml [--backend cuda|cpu|auto] [--steps N] [--output DIR] [--overwrite] [--quiet]
 //   lbdem check CASE.yaml      validate a case file without running it
 //   lbdem info                 build, backends, devices
-// Exit codes: 0 ok, 2 invalid input, 3 diverged, 4 resources, 1 other error.
+// Exit codes: 0 ok, 2 invalid input, 3 diverged, 4 resources (memory, disk full),
+// 5 stopped by SIGINT/SIGTERM (final output written, summary.json says
+// "interrupted": true; a second signal ends the process at once), 1 other error.
 #include <omp.h>
 #include <spdlog/spdlog.h>
 
@@ -11,6 +13,7 @@
 
 #include "cases/scenes.hpp"
 #include "core/exec.hpp"
+#include "core/signals.hpp"
 
 using namespace lbdem;
 
@@ -27,8 +30,10 @@ int main(int argc, char** argv) {
   run->add_option("--backend", opt.backend, "cuda, cpu or auto (default auto)")
       ->check(CLI::IsMember({"cuda", "cpu", "auto", "host", "gpu"}));
   run->add_option("--steps", steps, "number of steps (overrides the case file)")->check(CLI::Range(1L, 1000000000000L));
-  run->add_option("--output", output, "output folder (overrides output.directory)");
-  run->add_flag("--overwrite", opt.overwrite, "allow writing into a non-empty output folder");
+  auto* output_opt = run->add_option("--output", output, "output folder (overrides output.directory)");
+  run->add_flag("--overwrite", opt.overwrite,
+                "replace an earlier run's results in the output folder (removes only the files its .lbdem_manifest "
+                "names; refuses if the folder holds anything else)");
   run->add_flag("--quiet", opt.quiet, "no progress lines");
 
   auto* check = app.add_subcommand("check", "validate a case file without running it");
@@ -59,9 +64,14 @@ int main(int argc, char** argv) {
       std::printf("\n");
       return 0;
     }
+    // An empty --output "" (an unset shell variable, say) is a mistake, not a
+    // request for the case file's folder.
+    if (output_opt->count() > 0 && output.empty())
+      throw ConfigError("--output was given an empty folder name; give a folder, or leave --output out to use the case "
+                        "file's output.directory");
     const Config cfg = Config::load_file(case_file);
     if (steps > 0) opt.steps = steps;
-    if (!output.empty()) opt.output = output;
+    if (output_opt->count() > 0) opt.output = output;
     if (*check) {
       // Parse and check everything (keys, ranges, units, memory), then stop
       // before the output folder is touched.
@@ -71,6 +81,7 @@ int main(int argc, char** argv) {
       std::printf("%s: scene '%s' ok\n", case_file.c_str(), cfg.text("scene").c_str());
       return 0;
     }
+    install_stop_handlers();
     return run_case(cfg, opt);
   } catch (const ConfigError& e) {
     std::fprintf(stderr, "error: %s\n", e.what());

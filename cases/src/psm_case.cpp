@@ -15,16 +15,18 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <fstream>
 #include <limits>
 #include <memory>
+#include <sstream>
 #include <spdlog/spdlog.h>
 
 #include "cases/fixed_sphere.hpp"
+#include "cases/particle_output.hpp"
 #include "cases/scenes.hpp"
 #include "core/error.hpp"
 #include "core/output.hpp"
 #include "core/progress.hpp"
+#include "core/signals.hpp"
 #include "dem/init.hpp"
 #include "dem/system.hpp"
 #include "imb/coupled.hpp"
@@ -133,13 +135,19 @@ int run_fixed_sphere_case(const Config& root, const RunOptions& opt) {
                  s.dim, s.diameter, s.chi, s.tau, to_string(s.collision), s.magic, imb::to_string(s.method),
                  to_string(backend));
   const auto r = cases::run_fixed_sphere(s, backend);
-  std::ofstream js(outdir + "/summary.json");
+  std::ostringstream js;
   js << "{\n  \"scene\": \"fixed_sphere\",\n  \"dim\": " << s.dim << ",\n  \"diameter\": " << s.diameter
      << ",\n  \"chi\": " << s.chi << ",\n  \"tau\": " << s.tau << ",\n  \"magic\": " << s.magic
      << ",\n  \"K\": " << r.K << ",\n  \"K_reference\": " << r.K_ref << ",\n  \"relative_error\": " << r.rel_error
      << ",\n  \"re_p\": " << r.re_p << ",\n  \"steps\": " << r.steps << ",\n  \"converged\": "
      << (r.converged ? "true" : "false") << ",\n  \"seconds\": " << r.seconds << ",\n  \"mlups\": " << r.mlups
-     << "\n}\n";
+     << ",\n  \"interrupted\": " << (r.interrupted ? "true" : "false") << "\n}\n";
+  io::write_text_atomically(outdir + "/summary.json", js.str());
+  if (r.interrupted) {
+    spdlog::warn("stopped by {} at step {} before the drag converged; K so far in {}/summary.json", stop_signal_name(),
+                 r.steps, outdir);
+    return kExitInterrupted;
+  }
   if (!opt.quiet) {
     spdlog::info("K = {:.5f} against {} {:.5f}: error {:+.3f}%, Re_p = {:.3f}, {} steps{} in {:.1f} s ({:.1f} MLUPS)",
                  r.K, s.dim == 3 ? "Sangani & Acrivos (1982)" : "Sangani & Acrivos (1982, cylinders)", r.K_ref,
@@ -343,22 +351,8 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
                          "fx0", "fy0", "fz0", "tx0", "ty0", "tz0"});
   std::vector<double> rho, u;
   auto write_output = [&](long step) {
-    const auto hp = dem.download();
-    const Index np = hp.size();
-    std::vector<double> pos(3 * np), vel(3 * np), omg(3 * np), rad(np), id(np);
-    for (Index i = 0; i < np; ++i) {
-      for (int k = 0; k < 3; ++k) {
-        pos[3 * i + k] = hp.x[i][k];
-        vel[3 * i + k] = hp.v[i][k];
-        omg[3 * i + k] = hp.w[i][k];
-      }
-      rad[i] = hp.r[i];
-      id[i] = static_cast<double>(hp.id[i]);
-    }
     const auto hf = cs.hydro_force_host();
-    pw.write(step, double(step), np, pos.data(),
-             {{"radius", 1, rad.data()}, {"velocity", 3, vel.data()}, {"angular_velocity", 3, omg.data()},
-              {"hydrodynamic_force", 3, hf.data()}, {"id", 1, id.data()}});
+    cases::write_particle_snapshot(pw, step, double(step), dem.download(), {{"hydrodynamic_force", 3, hf.data()}});
     fluid->macroscopic(rho, u);
     const auto eps = cs.solid_fraction_host();
     gw.write(step, double(step),
@@ -401,12 +395,13 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
   using clk = std::chrono::steady_clock;
   const auto t0 = clk::now();
   long step = 0;
-  while (step < c.steps) {
+  // One coupled step per advance() call (the same steps as one longer call):
+  // a stop signal (core/signals.hpp) ends the run after the step in progress.
+  while (step < c.steps && !stop_requested()) {
     long next = std::min(c.steps, (step / c.series_interval + 1) * c.series_interval);
     if (c.output_interval > 0) next = std::min(next, (step / c.output_interval + 1) * c.output_interval);
-    cs.advance(next - step);
-    step = next;
-    if (step % c.series_interval == 0 || step == c.steps) series_row(step);
+    for (; step < next && !stop_requested(); ++step) cs.advance(1);
+    if (step % c.series_interval == 0 || step == c.steps || stop_requested()) series_row(step);
     if (c.output_interval > 0 && step % c.output_interval == 0) write_output(step);
     if (prog.due()) {
       fluid->synchronize();
@@ -417,10 +412,18 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
   cs.check_overflow();
   const double secs = std::chrono::duration<double>(clk::now() - t0).count();
   if (c.output_interval == 0 || step % c.output_interval != 0) write_output(step);
-  std::ofstream js(c.outdir + "/summary.json");
+  const bool interrupted = step < c.steps;
+  std::ostringstream js;
   js << "{\n  \"scene\": \"particles\",\n  \"particles\": " << dem.size() << ",\n  \"steps\": " << step
-     << ",\n  \"seconds\": " << secs << ",\n  \"coupled_mlups\": " << double(N) * step / std::max(secs, 1e-12) / 1e6
-     << ",\n  \"backend\": \"" << to_string(backend) << "\"\n}\n";
+     << ",\n  \"steps_planned\": " << c.steps << ",\n  \"seconds\": " << secs << ",\n  \"coupled_mlups\": "
+     << double(N) * step / std::max(secs, 1e-12) / 1e6 << ",\n  \"backend\": \"" << to_string(backend)
+     << "\",\n  \"interrupted\": " << (interrupted ? "true" : "false") << "\n}\n";
+  io::write_text_atomically(c.outdir + "/summary.json", js.str());
+  if (interrupted) {
+    spdlog::warn("stopped by {} at step {} of {}; output up to that step is in {}", stop_signal_name(), step, c.steps,
+                 c.outdir);
+    return kExitInterrupted;
+  }
   if (!opt.quiet)
     spdlog::info("done: {} coupled steps in {:.1f} s ({:.1f} MLUPS coupled); results: {}/fields.xdmf, "
                  "{}/particles.xdmf (ParaView), {}/series.csv (lattice units)",

@@ -1,24 +1,31 @@
 // HDF5 + XDMF output, CSV time series, output-folder policy (core/output.hpp).
 //
-// HDF5 C API (serial 1.10+). Every HDF5 call is checked; a failure throws
-// lbdem::Error naming the file (and dataset) it concerns. Handles are owned by
-// a small RAII wrapper so an exception never leaks an open file.
+// HDF5 C API (serial 1.10+). Every HDF5 call is checked; a failure throws one
+// line naming the file (and dataset) and the system error HDF5 saw. HDF5's own
+// error printing is switched off. Handles are owned by a small RAII wrapper so
+// an exception never leaks an open file.
 //
+// Each .h5 is written under a temporary name in the same folder, closed (which
+// flushes it), then renamed: the final name only ever holds a complete file.
 // XDMF: one temporal collection per writer, rewritten after every output step
-// through a temporary file and a rename, so a reader (ParaView opening the run
-// while it goes) never sees a half-written index.
+// the same way, so a reader (ParaView opening the run while it goes) never sees
+// a half-written index.
 #include "core/output.hpp"
 
+#include <fcntl.h>
 #include <hdf5.h>
+#include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <limits>
 #include <set>
 #include <sstream>
 #include <system_error>
-#include <unistd.h>
 
 #include "core/error.hpp"
 
@@ -39,14 +46,51 @@ class H5Id {
   H5Id& operator=(const H5Id&) = delete;
   hid_t get() const { return id_; }
   bool ok() const { return id_ >= 0; }
+  // Closes now and returns the status (closing a file writes what HDF5 still caches).
+  herr_t close() {
+    const herr_t rc = id_ >= 0 ? close_(id_) : 0;
+    id_ = -1;
+    return rc;
+  }
 
  private:
   hid_t id_;
   herr_t (*close_)(hid_t);
 };
 
+// HDF5 prints its whole error stack (tens of lines) on every failure unless
+// told not to; the failure is reported as one line by h5_fail instead.
+void silence_hdf5_errors() {
+  static const bool done = [] {
+    H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+    return true;
+  }();
+  (void)done;
+}
+
+// The errno a failed HDF5 call met in the file driver: its error stack holds a
+// record "... errno = N, error message = '...'" (sec2 driver). 0 when none.
+herr_t find_errno(unsigned, const H5E_error2_t* e, void* data) {
+  auto* out = static_cast<int*>(data);
+  if (*out == 0 && e != nullptr && e->desc != nullptr) {
+    if (const char* p = std::strstr(e->desc, "errno = ")) *out = std::atoi(p + 8);
+  }
+  return 0;
+}
+
+// One line: the file, what failed, and the system error (from HDF5's stack, or
+// errno, which the writers clear before they start). A full disk or quota is a
+// ResourceError (exit code 4), anything else an lbdem::Error.
 [[noreturn]] void h5_fail(const std::string& path, const std::string& what) {
-  throw Error("HDF5: " + what + " failed for '" + path + "'");
+  const int saved = errno;
+  int err = 0;
+  H5Ewalk2(H5E_DEFAULT, H5E_WALK_DOWNWARD, find_errno, &err);
+  if (err == 0) err = saved;
+  H5Eclear2(H5E_DEFAULT);
+  std::string msg = "HDF5: " + what + " failed for '" + path + "'";
+  if (err != 0) msg += ": " + std::string(std::strerror(err)) + " (errno " + std::to_string(err) + ")";
+  if (err == ENOSPC || err == EDQUOT) throw ResourceError(msg + "; free disk space or choose another output folder");
+  throw Error(msg);
 }
 
 void h5_check(herr_t rc, const std::string& path, const std::string& what) {
@@ -108,22 +152,98 @@ void write_scalar_attr(hid_t obj, const std::string& path, const char* name, dou
   h5_check(H5Awrite(attr.get(), H5T_NATIVE_DOUBLE, &value), path, std::string("H5Awrite '") + name + "'");
 }
 
-// Writes `text` to `path` atomically: temporary file in the same folder, then rename.
-void write_atomically(const std::string& path, const std::string& text) {
-  const std::string tmp = path + ".tmp" + std::to_string(static_cast<long>(::getpid()));
-  {
-    std::ofstream out(tmp, std::ios::trunc);
-    if (!out) throw Error("cannot write '" + tmp + "' (is the output folder writable?)");
-    out << text;
-    out.flush();
-    if (!out) throw Error("writing '" + tmp + "' failed (disk full?)");
-  }
+// "<path>.tmp<pid>": the temporary a file is written under before its rename.
+std::string temp_name(const std::string& path) { return path + ".tmp" + std::to_string(static_cast<long>(::getpid())); }
+
+// A write to `path` failed with errno `err`: one line, ResourceError when the disk or quota is full.
+[[noreturn]] void io_fail(const std::string& path, const std::string& what, int err) {
+  std::string msg = "cannot write '" + path + "': " + what;
+  if (err != 0) msg += ": " + std::string(std::strerror(err)) + " (errno " + std::to_string(err) + ")";
+  if (err == ENOSPC || err == EDQUOT) throw ResourceError(msg + "; free disk space or choose another output folder");
+  throw Error(msg);
+}
+
+// Renames a complete temporary to its final name (same folder: atomic); on failure removes it.
+void rename_into_place(const std::string& tmp, const std::string& path) {
   std::error_code ec;
   fs::rename(tmp, path, ec);
   if (ec) {
+    const int err = ec.value();
     fs::remove(tmp, ec);
-    throw Error("cannot rename '" + tmp + "' to '" + path + "': " + ec.message());
+    io_fail(path, "renaming the complete temporary into place", err);
   }
+}
+
+// A plain file name (no folder part, not "." or ".."): the only names a manifest may list.
+bool plain_name(const std::string& n) {
+  return !n.empty() && n != "." && n != ".." && n.find('/') == std::string::npos && n.find('\0') == std::string::npos;
+}
+
+// Appends `name` to the manifest of `dir` before the file is created, so that
+// even a run killed while writing it has it on record. O_NOFOLLOW: a symlink
+// in place of the manifest is refused rather than written through.
+void record_in_manifest(const fs::path& dir, const std::string& name) {
+  const fs::path m = dir / kManifestName;
+  const int fd = ::open(m.c_str(), O_WRONLY | O_APPEND | O_CREAT | O_NOFOLLOW | O_CLOEXEC, 0644);
+  if (fd < 0) {
+    const int err = errno;
+    io_fail((dir / name).string(), "cannot record it in the run manifest '" + m.string() + "'", err);
+  }
+  const std::string line = name + "\n";
+  const ssize_t w = ::write(fd, line.data(), line.size());
+  const int err = errno;
+  ::close(fd);
+  if (w != static_cast<ssize_t>(line.size()))
+    io_fail((dir / name).string(), "cannot record it in the run manifest '" + m.string() + "'", w < 0 ? err : ENOSPC);
+}
+
+// Writes `text` to `path` atomically: temporary file in the same folder, then rename.
+void write_atomically(const std::string& path, const std::string& text) {
+  const std::string tmp = temp_name(path);
+  errno = 0;
+  {
+    std::ofstream out(tmp, std::ios::trunc);
+    if (!out) io_fail(path, "cannot create the temporary '" + tmp + "'", errno);
+    out << text;
+    out.flush();
+    if (!out) {
+      const int err = errno;
+      out.close();
+      std::error_code ec;
+      fs::remove(tmp, ec);
+      io_fail(path, "writing the temporary '" + tmp + "' failed", err);
+    }
+    out.close();
+    if (!out) {
+      const int err = errno;
+      std::error_code ec;
+      fs::remove(tmp, ec);
+      io_fail(path, "closing the temporary '" + tmp + "' failed", err);
+    }
+  }
+  rename_into_place(tmp, path);
+}
+
+// Creates the HDF5 file `path` under its temporary name: `fill` writes into the
+// open file, which is then closed (HDF5 writes its caches there, so a full disk
+// often shows only now) and renamed. Any failure removes the temporary.
+template <class Fill>
+void write_h5_atomically(const std::string& path, Fill&& fill) {
+  silence_hdf5_errors();
+  const std::string tmp = temp_name(path);
+  errno = 0;
+  try {
+    H5Id h5(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose);
+    if (!h5.ok()) h5_fail(path, "H5Fcreate (is the folder writable?)");
+    fill(h5.get());
+    h5_check(H5Fflush(h5.get(), H5F_SCOPE_LOCAL), path, "H5Fflush");
+    h5_check(h5.close(), path, "H5Fclose");
+  } catch (...) {
+    std::error_code ec;
+    fs::remove(tmp, ec);
+    throw;
+  }
+  rename_into_place(tmp, path);
 }
 
 const char* attribute_type(int components) {
@@ -141,6 +261,18 @@ std::string xdmf_head(const std::string& name) {
          "  <Grid Name=\"" + name + "\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
 }
 const char* xdmf_tail() { return "  </Grid>\n </Domain>\n</Xdmf>\n"; }
+
+// One <Attribute> of a grid: `dims` the data's leading dimensions (cells z y x,
+// or the particle count), a trailing component count for non-scalars.
+void xdmf_attribute(std::ostream& x, const std::string& name, int comps, const char* center, const std::string& dims,
+                    const std::string& file) {
+  x << "    <Attribute Name=\"" << name << "\" AttributeType=\"" << attribute_type(comps) << "\" Center=\"" << center
+    << "\">\n";
+  x << "     <DataItem Dimensions=\"" << dims;
+  if (comps > 1) x << ' ' << comps;
+  x << "\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" << file << ":/" << name << "</DataItem>\n";
+  x << "    </Attribute>\n";
+}
 
 
 }  // namespace
@@ -171,23 +303,21 @@ std::string GridWriter::write(long step, double time, const std::vector<GridFiel
     if (f.components < 1)
       throw Error("output field '" + f.name + "' has components = " + std::to_string(f.components) + " (must be >= 1)");
   }
-  {
-    H5Id h5(H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose);
-    if (!h5.ok()) h5_fail(path, "H5Fcreate (is the folder writable?)");
-    write_scalar_attr(h5.get(), path, "time", time);
-    write_scalar_attr(h5.get(), path, "step", static_cast<double>(step));
+  // Re-writing a step (restart) replaces its entry instead of duplicating it.
+  auto it = std::find_if(entries_.begin(), entries_.end(), [&](const Entry& x) { return x.step == step; });
+  if (it == entries_.end()) record_in_manifest(dir_, file);
+  write_h5_atomically(path, [&](hid_t h5) {
+    write_scalar_attr(h5, path, "time", time);
+    write_scalar_attr(h5, path, "step", static_cast<double>(step));
     for (const auto& f : fields) {
       std::vector<hsize_t> shape{static_cast<hsize_t>(dims_[2]), static_cast<hsize_t>(dims_[1]),
                                  static_cast<hsize_t>(dims_[0])};
       if (f.components > 1) shape.push_back(static_cast<hsize_t>(f.components));
-      write_dataset(h5.get(), path, f.name, shape, f.data, f.units);
+      write_dataset(h5, path, f.name, shape, f.data, f.units);
     }
-    h5_check(H5Fflush(h5.get(), H5F_SCOPE_LOCAL), path, "H5Fflush");
-  }
+  });
   Entry e{step, time, file, {}};
   for (const auto& f : fields) e.fields.emplace_back(f.name, f.components);
-  // Re-writing a step (restart) replaces its entry instead of duplicating it.
-  auto it = std::find_if(entries_.begin(), entries_.end(), [&](const Entry& x) { return x.step == step; });
   if (it != entries_.end()) {
     *it = e;
   } else {
@@ -198,7 +328,7 @@ std::string GridWriter::write(long step, double time, const std::vector<GridFiel
   return path;
 }
 
-void GridWriter::write_xdmf() const {
+void GridWriter::write_xdmf() {
   // XDMF orders structured dimensions slowest first (z y x). Cell data on a
   // CoRectMesh needs node dimensions = cells + 1 and Center="Cell".
   const std::string node_dims =
@@ -216,17 +346,12 @@ void GridWriter::write_xdmf() const {
     x << "     <DataItem Dimensions=\"3\" NumberType=\"Float\" Precision=\"8\" Format=\"XML\">" << num(spacing_[2])
       << " " << num(spacing_[1]) << " " << num(spacing_[0]) << "</DataItem>\n";
     x << "    </Geometry>\n";
-    for (const auto& [name, comps] : e.fields) {
-      x << "    <Attribute Name=\"" << name << "\" AttributeType=\"" << attribute_type(comps)
-        << "\" Center=\"Cell\">\n";
-      x << "     <DataItem Dimensions=\"" << cell_dims;
-      if (comps > 1) x << ' ' << comps;
-      x << "\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" << e.file << ":/" << name << "</DataItem>\n";
-      x << "    </Attribute>\n";
-    }
+    for (const auto& [name, comps] : e.fields) xdmf_attribute(x, name, comps, "Cell", cell_dims, e.file);
     x << "   </Grid>\n";
   }
   x << xdmf_tail();
+  if (!xdmf_recorded_) record_in_manifest(dir_, prefix_ + ".xdmf");
+  xdmf_recorded_ = true;
   write_atomically((fs::path(dir_) / (prefix_ + ".xdmf")).string(), x.str());
 }
 
@@ -251,23 +376,21 @@ std::string ParticleWriter::write(long step, double time, long n, const double* 
       throw Error("particle field '" + f.name + "' has components = " + std::to_string(f.components) +
                   " (must be >= 1)");
   }
-  {
-    H5Id h5(H5Fcreate(path.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose);
-    if (!h5.ok()) h5_fail(path, "H5Fcreate (is the folder writable?)");
-    write_scalar_attr(h5.get(), path, "time", time);
-    write_scalar_attr(h5.get(), path, "step", static_cast<double>(step));
+  auto it = std::find_if(entries_.begin(), entries_.end(), [&](const Entry& x) { return x.step == step; });
+  if (it == entries_.end()) record_in_manifest(dir_, file);
+  write_h5_atomically(path, [&](hid_t h5) {
+    write_scalar_attr(h5, path, "time", time);
+    write_scalar_attr(h5, path, "step", static_cast<double>(step));
     const auto nn = static_cast<hsize_t>(n);
-    write_dataset(h5.get(), path, "positions", {nn, 3}, positions, "");
+    write_dataset(h5, path, "positions", {nn, 3}, positions, "");
     for (const auto& f : fields) {
       std::vector<hsize_t> shape{nn};
       if (f.components > 1) shape.push_back(static_cast<hsize_t>(f.components));
-      write_dataset(h5.get(), path, f.name, shape, f.data, "");
+      write_dataset(h5, path, f.name, shape, f.data, "");
     }
-    h5_check(H5Fflush(h5.get(), H5F_SCOPE_LOCAL), path, "H5Fflush");
-  }
+  });
   Entry e{step, time, n, file, {}};
   for (const auto& f : fields) e.fields.emplace_back(f.name, f.components);
-  auto it = std::find_if(entries_.begin(), entries_.end(), [&](const Entry& x) { return x.step == step; });
   if (it != entries_.end())
     *it = e;
   else
@@ -276,7 +399,7 @@ std::string ParticleWriter::write(long step, double time, long n, const double* 
   return path;
 }
 
-void ParticleWriter::write_xdmf() const {
+void ParticleWriter::write_xdmf() {
   std::ostringstream x;
   x << xdmf_head(prefix_);
   for (const auto& e : entries_) {
@@ -288,32 +411,30 @@ void ParticleWriter::write_xdmf() const {
     x << "     <DataItem Dimensions=\"" << n << " 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" << e.file
       << ":/positions</DataItem>\n";
     x << "    </Geometry>\n";
-    for (const auto& [name, comps] : e.fields) {
-      x << "    <Attribute Name=\"" << name << "\" AttributeType=\"" << attribute_type(comps)
-        << "\" Center=\"Node\">\n";
-      x << "     <DataItem Dimensions=\"" << n;
-      if (comps > 1) x << ' ' << comps;
-      x << "\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" << e.file << ":/" << name << "</DataItem>\n";
-      x << "    </Attribute>\n";
-    }
+    for (const auto& [name, comps] : e.fields) xdmf_attribute(x, name, comps, "Node", n, e.file);
     x << "   </Grid>\n";
   }
   x << xdmf_tail();
+  if (!xdmf_recorded_) record_in_manifest(dir_, prefix_ + ".xdmf");
+  xdmf_recorded_ = true;
   write_atomically((fs::path(dir_) / (prefix_ + ".xdmf")).string(), x.str());
 }
 
 // ---------------------------------------------------------------------------
 // TimeSeries
 // ---------------------------------------------------------------------------
-TimeSeries::TimeSeries(const std::string& path, std::vector<std::string> columns) : ncols_(columns.size()) {
+TimeSeries::TimeSeries(const std::string& path, std::vector<std::string> columns) : path_(path), ncols_(columns.size()) {
   if (columns.empty()) throw Error("TimeSeries '" + path + "': no columns given");
+  const fs::path p(path);
+  record_in_manifest(p.has_parent_path() ? p.parent_path() : fs::path("."), p.filename().string());
+  errno = 0;
   out_.open(path, std::ios::trunc);
-  if (!out_) throw Error("cannot open time series '" + path + "' for writing");
+  if (!out_) io_fail(path, "cannot open the time series", errno);
   out_.precision(std::numeric_limits<double>::max_digits10);
   for (std::size_t i = 0; i < columns.size(); ++i) out_ << (i ? "," : "") << columns[i];
   out_ << '\n';
   out_.flush();
-  if (!out_) throw Error("writing the header of time series '" + path + "' failed");
+  if (!out_) io_fail(path, "writing the header of the time series failed", errno);
 }
 
 void TimeSeries::append(const std::vector<double>& values) {
@@ -321,16 +442,36 @@ void TimeSeries::append(const std::vector<double>& values) {
   if (values.size() != ncols_)
     throw Error("TimeSeries::append: got " + std::to_string(values.size()) + " values for " + std::to_string(ncols_) +
                 " columns");
+  errno = 0;
   for (std::size_t i = 0; i < values.size(); ++i) out_ << (i ? "," : "") << values[i];
   out_ << '\n';
   out_.flush();
-  if (!out_) throw Error("writing a time-series row failed (disk full?)");
+  if (!out_) io_fail(path_, "writing a time-series row failed", errno);
+}
+
+// ---------------------------------------------------------------------------
+// write_text_atomically, read_manifest
+// ---------------------------------------------------------------------------
+void write_text_atomically(const std::string& path, const std::string& text) {
+  const fs::path p(path);
+  record_in_manifest(p.has_parent_path() ? p.parent_path() : fs::path("."), p.filename().string());
+  write_atomically(path, text);
+}
+
+std::vector<std::string> read_manifest(const std::string& dir) {
+  std::vector<std::string> names;
+  std::ifstream in(fs::path(dir) / kManifestName);
+  std::string line;
+  while (std::getline(in, line))
+    if (!line.empty() && line[0] != '#' && plain_name(line) && line != kManifestName) names.push_back(line);
+  return names;
 }
 
 // ---------------------------------------------------------------------------
 // read_dataset
 // ---------------------------------------------------------------------------
 std::vector<double> read_dataset(const std::string& h5_path, const std::string& name) {
+  silence_hdf5_errors();
   std::error_code ec;
   if (!fs::is_regular_file(h5_path, ec)) throw Error("HDF5 file '" + h5_path + "' does not exist");
   H5Id h5(H5Fopen(h5_path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
@@ -354,6 +495,30 @@ std::vector<double> read_dataset(const std::string& h5_path, const std::string& 
 // ---------------------------------------------------------------------------
 // prepare_output_dir
 // ---------------------------------------------------------------------------
+namespace {
+
+// "<name>.tmp<digits>" with <name> in `ours`, or "<prefix><digits>": a
+// temporary of one of our files, or a write probe, left by a killed run.
+bool leftover_of(const std::string& n, const std::set<std::string>& ours, const std::string& probe_prefix) {
+  auto digits_from = [&](std::size_t k) {
+    return k < n.size() && std::all_of(n.begin() + static_cast<std::ptrdiff_t>(k), n.end(),
+                                       [](char ch) { return ch >= '0' && ch <= '9'; });
+  };
+  if (n.rfind(probe_prefix, 0) == 0 && digits_from(probe_prefix.size())) return true;
+  const auto t = n.rfind(".tmp");
+  return t != std::string::npos && t > 0 && digits_from(t + 4) && ours.count(n.substr(0, t)) > 0;
+}
+
+std::string name_list(const std::vector<std::string>& names) {
+  std::string s;
+  const std::size_t shown = std::min<std::size_t>(names.size(), 10);
+  for (std::size_t i = 0; i < shown; ++i) s += (i ? ", '" : "'") + names[i] + "'";
+  if (names.size() > shown) s += " and " + std::to_string(names.size() - shown) + " more";
+  return s;
+}
+
+}  // namespace
+
 void prepare_output_dir(const std::string& dir, bool overwrite) {
   if (dir.empty()) throw ConfigError("output folder is empty: give a folder name");
   std::error_code ec;
@@ -365,16 +530,57 @@ void prepare_output_dir(const std::string& dir, bool overwrite) {
     throw ConfigError("cannot create output folder '" + dir + "': " + (ec ? ec.message() : "not a folder") +
                       "; choose a writable output folder");
 
-  std::vector<fs::path> entries;
-  for (fs::directory_iterator it(p, ec), end; !ec && it != end; it.increment(ec)) entries.push_back(it->path());
+  // The folder's entries, not following symlinks (a symlink is listed, never entered).
+  std::vector<std::pair<std::string, fs::file_status>> entries;
+  bool have_manifest = false, manifest_ok = false;
+  for (fs::directory_iterator it(p, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    const fs::file_status st = it->symlink_status(ec);
+    if (ec) break;
+    if (name == kManifestName) {
+      have_manifest = true;
+      manifest_ok = fs::is_regular_file(st);
+      if (manifest_ok) continue;
+    }
+    entries.emplace_back(name, st);
+  }
   if (ec) throw ConfigError("cannot list output folder '" + dir + "': " + ec.message());
   if (!entries.empty() && !overwrite)
     throw ConfigError("output folder '" + dir + "' is not empty (" + std::to_string(entries.size()) +
                       " entries); pass --overwrite to replace its results, or choose another folder");
 
+  // With --overwrite: our files are the regular files the manifest names (and
+  // temporaries of them); anything else stops the run before a file is removed.
+  const std::string probe_prefix = ".lbdem_write_probe_";
+  std::vector<std::string> remove, foreign;
+  if (!entries.empty()) {
+    std::set<std::string> ours;
+    if (manifest_ok)
+      for (auto& n : read_manifest(dir)) ours.insert(n);
+    std::set<std::string> with_manifest = ours;  // the manifest's own temporaries are ours too
+    with_manifest.insert(kManifestName);
+    for (const auto& [name, st] : entries) {
+      const bool mine = fs::is_regular_file(st) && (ours.count(name) > 0 || leftover_of(name, with_manifest, probe_prefix));
+      (mine ? remove : foreign).push_back(name);
+    }
+    std::sort(foreign.begin(), foreign.end());
+    if (!foreign.empty() && !manifest_ok)
+      throw ConfigError("output folder '" + dir + "' has " +
+                        (have_manifest ? std::string("a run manifest '") + kManifestName + "' that is not a regular file"
+                                       : std::string("no run manifest '") + kManifestName + "'") +
+                        ", so --overwrite cannot tell lbdem's files from others: " + name_list(foreign) +
+                        " (files like these may be results of an older lbdem version); nothing was deleted. Remove "
+                        "them yourself or choose another output folder");
+    if (!foreign.empty())
+      throw ConfigError("output folder '" + dir + "' holds " + std::to_string(foreign.size()) +
+                        " entries that no lbdem run wrote there: " + name_list(foreign) +
+                        "; --overwrite removes only the files named in '" + kManifestName +
+                        "', so nothing was deleted. Move those entries away or choose another output folder");
+  }
+
   // Writability: create and remove a probe file (permission bits lie for root
   // and on some network file systems; trying is the only reliable test).
-  const fs::path probe = p / (".lbdem_write_probe_" + std::to_string(static_cast<long>(::getpid())));
+  const fs::path probe = p / (probe_prefix + std::to_string(static_cast<long>(::getpid())));
   {
     std::ofstream out(probe);
     bool ok = static_cast<bool>(out);
@@ -392,14 +598,16 @@ void prepare_output_dir(const std::string& dir, bool overwrite) {
   fs::remove(probe, ec);
   if (ec) throw ConfigError("cannot remove probe file in output folder '" + dir + "': " + ec.message());
 
-  if (overwrite) {
-    static const std::set<std::string> ours{".h5", ".xdmf", ".csv", ".json", ".log"};
-    for (const auto& e : entries) {
-      if (!fs::is_regular_file(e, ec)) continue;
-      if (!ours.count(e.extension().string())) continue;
-      fs::remove(e, ec);
-      if (ec) throw ConfigError("cannot remove '" + e.string() + "' in output folder '" + dir + "': " + ec.message());
-    }
+  for (const auto& name : remove) {
+    fs::remove(p / name, ec);
+    if (ec) throw ConfigError("cannot remove '" + (p / name).string() + "' in output folder '" + dir + "': " + ec.message());
+  }
+  // A fresh manifest: this run records its files as it writes them.
+  try {
+    write_atomically((p / kManifestName).string(),
+                     "# lbdem run manifest: every file lbdem wrote in this folder; --overwrite removes only these\n");
+  } catch (const Error& e) {
+    throw ConfigError(std::string("output folder '") + dir + "': " + e.what());
   }
 }
 

@@ -1,6 +1,8 @@
 // HDF5/XDMF output, CSV time series and the output-folder policy.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -170,8 +172,12 @@ TEST(Output, PrepareCreatesFolder) {
   const auto sub = d.path / "a" / "b";
   io::prepare_output_dir(sub.string(), false);
   EXPECT_TRUE(fs::is_directory(sub));
-  EXPECT_TRUE(fs::is_empty(sub));                 // probe removed
-  io::prepare_output_dir(sub.string(), false);    // empty existing folder is fine
+  // Only the (empty) run manifest: the probe is removed.
+  std::vector<std::string> names;
+  for (const auto& e : fs::directory_iterator(sub)) names.push_back(e.path().filename().string());
+  EXPECT_EQ(names, std::vector<std::string>{io::kManifestName});
+  EXPECT_TRUE(io::read_manifest(sub.string()).empty());
+  io::prepare_output_dir(sub.string(), false);    // a folder holding only a manifest counts as empty
 }
 
 TEST(Output, PrepareRefusesNonEmptyAndKeepsFiles) {
@@ -188,17 +194,120 @@ TEST(Output, PrepareRefusesNonEmptyAndKeepsFiles) {
   }
   EXPECT_EQ(slurp(d.path / "old.h5"), "keep me");
   EXPECT_EQ(slurp(d.path / "notes.txt"), "mine");
+}
 
-  // With overwrite only the engine's own file types go.
-  { std::ofstream(d.path / "run.log") << "x"; }
-  { std::ofstream(d.path / "s.csv") << "x"; }
-  fs::create_directories(d.path / "keepdir");
-  io::prepare_output_dir(d.str(), true);
-  EXPECT_FALSE(fs::exists(d.path / "old.h5"));
-  EXPECT_FALSE(fs::exists(d.path / "run.log"));
-  EXPECT_FALSE(fs::exists(d.path / "s.csv"));
-  EXPECT_EQ(slurp(d.path / "notes.txt"), "mine");
-  EXPECT_TRUE(fs::is_directory(d.path / "keepdir"));
+TEST(Output, WritersRecordEveryFileInTheManifest) {
+  TempDir d("manifest");
+  io::prepare_output_dir(d.str(), false);
+  std::vector<double> a(4, 1.0), pos(3, 0.5);
+  io::GridWriter g(d.str(), "fields", {2, 2, 1}, {0, 0, 0}, {1, 1, 1});
+  g.write(0, 0.0, {{"a", 1, a.data(), ""}});
+  g.write(5, 1.0, {{"a", 1, a.data(), ""}});
+  g.write(5, 1.0, {{"a", 1, a.data(), ""}});  // the same step again: named once
+  io::ParticleWriter p(d.str(), "particles");
+  p.write(0, 0.0, 1, pos.data(), {});
+  { io::TimeSeries ts((d.path / "series.csv").string(), {"step"}); }
+  io::write_text_atomically((d.path / "summary.json").string(), "{}\n");
+  auto m = io::read_manifest(d.str());
+  std::sort(m.begin(), m.end());
+  const std::vector<std::string> expect{"fields.xdmf",          "fields_00000000.h5", "fields_00000005.h5",
+                                        "particles.xdmf",       "particles_00000000.h5", "series.csv",
+                                        "summary.json"};
+  EXPECT_EQ(m, expect);
+  // Every file in the folder is named (the manifest aside), and no temporary is left.
+  for (const auto& e : fs::directory_iterator(d.path)) {
+    const std::string n = e.path().filename().string();
+    if (n == io::kManifestName) continue;
+    EXPECT_TRUE(std::binary_search(m.begin(), m.end(), n)) << n;
+  }
+  EXPECT_EQ(slurp(d.path / "summary.json"), "{}\n");
+}
+
+TEST(Output, OverwriteRemovesOnlyManifestFiles) {
+  TempDir d("overwrite");
+  const fs::path out = d.path / "run";
+  io::prepare_output_dir(out.string(), false);
+  std::vector<double> a(4, 1.0);
+  {
+    io::GridWriter g(out.string(), "fields", {2, 2, 1}, {0, 0, 0}, {1, 1, 1});
+    g.write(0, 0.0, {{"a", 1, a.data(), ""}});
+    io::write_text_atomically((out / "summary.json").string(), "{}");
+  }
+  // Temporaries a killed run left behind are ours too.
+  { std::ofstream(out / "fields_00000000.h5.tmp4242") << "partial"; }
+  { std::ofstream(out / "fields.xdmf.tmp17") << "partial"; }
+  { std::ofstream(out / ".lbdem_write_probe_99") << "probe"; }
+  io::prepare_output_dir(out.string(), true);
+  std::vector<std::string> left;
+  for (const auto& e : fs::directory_iterator(out)) left.push_back(e.path().filename().string());
+  EXPECT_EQ(left, std::vector<std::string>{io::kManifestName});
+  EXPECT_TRUE(io::read_manifest(out.string()).empty());  // a fresh manifest for the new run
+}
+
+TEST(Output, OverwriteRefusesForeignEntriesAndDeletesNothing) {
+  TempDir d("foreign");
+  const fs::path out = d.path / "run";
+  io::prepare_output_dir(out.string(), false);
+  std::vector<double> a(4, 1.0);
+  io::GridWriter g(out.string(), "fields", {2, 2, 1}, {0, 0, 0}, {1, 1, 1});
+  g.write(0, 0.0, {{"a", 1, a.data(), ""}});
+  // The user's own things, some with our extensions, one hidden, a symlink
+  // (named like one of our files) to a file outside, a folder.
+  { std::ofstream(out / "mydata.csv") << "mine"; }
+  { std::ofstream(out / "important.h5") << "mine"; }
+  { std::ofstream(out / ".hidden") << "mine"; }
+  { std::ofstream(out / "mydata.csv.tmp12") << "mine"; }  // a temporary of no file of ours
+  { std::ofstream(d.path / "outside.txt") << "outside"; }
+  fs::create_directories(out / "sub");
+  { std::ofstream(out / "sub" / "x.h5") << "mine"; }
+  fs::remove(out / "fields.xdmf");
+  fs::create_symlink(d.path / "outside.txt", out / "fields.xdmf");
+  try {
+    io::prepare_output_dir(out.string(), true);
+    FAIL() << "expected ConfigError";
+  } catch (const ConfigError& e) {
+    const std::string msg = e.what();
+    for (const char* n : {"mydata.csv", "mydata.csv.tmp12", "important.h5", ".hidden", "sub", "fields.xdmf",
+                          "nothing was deleted"})
+      EXPECT_NE(msg.find(n), std::string::npos) << n << " not in: " << msg;
+    EXPECT_EQ(msg.find("fields_00000000.h5"), std::string::npos) << msg;  // ours: not named
+  }
+  for (const char* n : {"mydata.csv", "important.h5", ".hidden", "fields_00000000.h5", "sub/x.h5"})
+    EXPECT_TRUE(fs::exists(out / n)) << n;
+  EXPECT_TRUE(fs::is_symlink(out / "fields.xdmf"));
+  EXPECT_EQ(slurp(d.path / "outside.txt"), "outside");
+  EXPECT_EQ(io::read_manifest(out.string()).size(), 2u);  // the manifest itself is kept as it was
+}
+
+TEST(Output, OverwriteWithoutManifestRefusesAndNamesFiles) {
+  // Files an older lbdem wrote (no manifest) look like ours but cannot be told
+  // from the user's: refused, named, nothing deleted.
+  TempDir d("nomanifest");
+  { std::ofstream(d.path / "fields_00000000.h5") << "old"; }
+  { std::ofstream(d.path / "diagnostics.csv") << "old"; }
+  try {
+    io::prepare_output_dir(d.str(), true);
+    FAIL() << "expected ConfigError";
+  } catch (const ConfigError& e) {
+    const std::string msg = e.what();
+    for (const char* n : {"fields_00000000.h5", "diagnostics.csv", "no run manifest", "nothing was deleted"})
+      EXPECT_NE(msg.find(n), std::string::npos) << n << " not in: " << msg;
+  }
+  EXPECT_EQ(slurp(d.path / "fields_00000000.h5"), "old");
+  EXPECT_EQ(slurp(d.path / "diagnostics.csv"), "old");
+  EXPECT_FALSE(fs::exists(d.path / io::kManifestName));
+}
+
+TEST(Output, ManifestNamesNeverReachOutsideTheFolder) {
+  // A manifest naming paths with folders (edited by hand, or hostile) removes nothing outside.
+  TempDir d("hostile");
+  const fs::path out = d.path / "run";
+  fs::create_directories(out);
+  { std::ofstream(d.path / "victim.txt") << "keep"; }
+  { std::ofstream(out / io::kManifestName) << "../victim.txt\n/etc/passwd\n..\n"; }
+  io::prepare_output_dir(out.string(), true);
+  EXPECT_EQ(slurp(d.path / "victim.txt"), "keep");
+  EXPECT_TRUE(io::read_manifest(out.string()).empty());
 }
 
 TEST(Output, PrepareRefusesUnwritable) {
@@ -227,4 +336,47 @@ TEST(Output, WriterThrowsWithPathOnUnwritableFolder) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("g_00000000.h5"), std::string::npos) << e.what();
   }
+}
+
+namespace {
+// A 64 KiB tmpfs: a disk that fills up. Needs the right to mount (root in a
+// container that allows it); tests using it skip cleanly otherwise.
+struct SmallDisk {
+  TempDir dir{"smalldisk"};
+  bool mounted = false;
+  SmallDisk() {
+    const std::string cmd = "mount -t tmpfs -o size=64k tmpfs '" + dir.str() + "' >/dev/null 2>&1";
+    mounted = std::system(cmd.c_str()) == 0;
+  }
+  ~SmallDisk() {
+    if (mounted) std::system(("umount '" + dir.str() + "' >/dev/null 2>&1").c_str());
+  }
+};
+}  // namespace
+
+TEST(Output, DiskFullIsOneLineAndLeavesNoTemporary) {
+  SmallDisk disk;
+  if (!disk.mounted) GTEST_SKIP() << "cannot mount a small tmpfs here";
+  const std::string dir = disk.dir.str();
+  io::prepare_output_dir(dir, false);
+  // 32 x 32 x 16 doubles = 128 KiB: more than the disk holds.
+  std::vector<double> big(32 * 32 * 16, 1.25);
+  io::GridWriter g(dir, "fields", {32, 32, 16}, {0, 0, 0}, {1, 1, 1});
+  testing::internal::CaptureStderr();
+  std::string msg;
+  try {
+    g.write(0, 0.0, {{"density", 1, big.data(), ""}});
+    ADD_FAILURE() << "expected ResourceError";
+  } catch (const ResourceError& e) {
+    msg = e.what();
+  }
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_EQ(err.find("HDF5-DIAG"), std::string::npos) << err;  // the HDF5 error stack is not printed
+  EXPECT_EQ(msg.find('\n'), std::string::npos) << msg;           // one line
+  EXPECT_NE(msg.find((fs::path(dir) / "fields_00000000.h5").string()), std::string::npos) << msg;
+  EXPECT_NE(msg.find("No space left on device"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("errno 28"), std::string::npos) << msg;
+  EXPECT_FALSE(fs::exists(fs::path(dir) / "fields_00000000.h5"));  // no truncated file under the final name
+  for (const auto& e : fs::directory_iterator(dir))
+    EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << e.path();
 }

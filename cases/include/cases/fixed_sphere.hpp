@@ -64,6 +64,7 @@ struct FixedSphereResult {
   double body_force = 0;
   long steps = 0;
   bool converged = false;
+  bool interrupted = false;  // stopped by SIGINT/SIGTERM (core/signals.hpp) after `steps` steps
   double remaining = 0;      // estimated remaining relative change of the drag when it stopped
   double seconds = 0;        // wall time of the time loop
   double mlups = 0;          // cell updates per second / 1e6

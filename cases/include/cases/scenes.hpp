@@ -14,13 +14,15 @@ struct RunOptions {
   std::string backend = "auto";     // cuda | cpu | auto
   std::optional<long> steps;        // overrides the case's step count
   std::optional<std::string> output;  // overrides output.directory
-  bool overwrite = false;           // allow writing into a non-empty output folder
+  bool overwrite = false;           // replace an earlier run's files (io::prepare_output_dir)
   bool quiet = false;               // no progress lines (tests)
   bool validate_only = false;       // parse and check everything, then return 0 before any output
 };
 
-// Each family: the scene names it knows and its runner (returns an exit code;
-// throws lbdem::Error subclasses on bad input or divergence).
+// Each family: the scene names it knows and its runner (returns an exit code:
+// 0, or kExitInterrupted (core/signals.hpp) when a stop signal ended the time
+// loop after its final output; throws lbdem::Error subclasses on bad input or
+// divergence).
 std::vector<std::string> lbm_scene_names();
 int run_lbm_case(const Config& root, const RunOptions& opt);
 std::vector<std::string> dem_scene_names();

@@ -6,6 +6,16 @@
 //   <dir>/<prefix>_<step:08d>.h5   one file per output step
 //   <dir>/<prefix>.xdmf            temporal collection of all of them (rewritten each output)
 //   <dir>/<name>.csv               scalar time series, one row per sample
+//   <dir>/.lbdem_manifest          the name of every file lbdem wrote in <dir>, one per line
+//
+// Every writer here names its file in the folder's manifest before creating
+// it, so `--overwrite` (prepare_output_dir) can remove exactly what lbdem
+// wrote and nothing of the user's. HDF5 files, the XDMF index and
+// write_text_atomically() go through a temporary name in the same folder and a
+// rename once complete: a killed run never leaves a truncated file under a
+// final name, and a failed write removes its temporary. Write failures throw
+// one line naming the file and the system error (ResourceError when the disk
+// or quota is full, lbdem::Error otherwise); the HDF5 error stack is not printed.
 #include <array>
 #include <cstdint>
 #include <fstream>
@@ -36,8 +46,9 @@ class GridWriter {
   const std::vector<std::string>& files() const { return files_; }
 
  private:
-  void write_xdmf() const;
+  void write_xdmf();
   std::string dir_, prefix_;
+  bool xdmf_recorded_ = false;  // the .xdmf name is in the manifest
   std::array<long, 3> dims_;
   std::array<double, 3> origin_, spacing_;
   struct Entry { long step; double time; std::string file; std::vector<std::pair<std::string, int>> fields; };
@@ -60,8 +71,9 @@ class ParticleWriter {
                     const std::vector<ParticleField>& fields);
 
  private:
-  void write_xdmf() const;
+  void write_xdmf();
   std::string dir_, prefix_;
+  bool xdmf_recorded_ = false;
   struct Entry { long step; double time; long n; std::string file; std::vector<std::pair<std::string, int>> fields; };
   std::vector<Entry> entries_;
 };
@@ -76,18 +88,34 @@ class TimeSeries {
   bool is_open() const { return out_.is_open(); }
 
  private:
+  std::string path_;
   std::ofstream out_;
   std::size_t ncols_ = 0;
 };
 
+// Writes `text` to `path` through a temporary file in the same folder and a
+// rename, after naming the file in the folder's manifest (summary.json, ...).
+void write_text_atomically(const std::string& path, const std::string& text);
+
+// The run manifest of an output folder: file name and the names it lists
+// (empty when there is none). Names are plain file names in that folder.
+inline constexpr const char* kManifestName = ".lbdem_manifest";
+std::vector<std::string> read_manifest(const std::string& dir);
+
 // Reads a dataset back (tests, restart tools). Returns the flat values.
 std::vector<double> read_dataset(const std::string& h5_path, const std::string& name);
 
-// Output-folder policy: creates `dir` if needed; if it already holds files and
-// overwrite is false, throws ConfigError naming the folder and --overwrite.
-// If it cannot be written, throws ConfigError naming it. Never deletes files
-// unless overwrite is true (then only files this engine writes: *.h5, *.xdmf,
-// *.csv, *.json, *.log).
+// Output-folder policy, applied before a run writes anything:
+//  - creates `dir` if needed; an empty string, a non-folder or an unwritable
+//    folder is a ConfigError naming it;
+//  - a folder holding files (the manifest aside) needs overwrite; without it,
+//    ConfigError naming the folder and --overwrite;
+//  - with overwrite, removes exactly the regular files named in the folder's
+//    manifest (and temporaries of those names left by a killed run). Anything
+//    else in the folder (the user's files, hidden files, symlinks, folders, or
+//    every file when there is no manifest, as after an older lbdem) is named in
+//    a ConfigError and nothing is deleted. Symlinks are never followed.
+// Leaves a fresh manifest in the folder.
 void prepare_output_dir(const std::string& dir, bool overwrite);
 
 }  // namespace lbdem::io

@@ -1,0 +1,33 @@
+#pragma once
+// One particle snapshot (particles.xdmf / particles_<step>.h5) from host
+// particles, shared by the scenes that move particles (dem, particles).
+#include <string>
+#include <vector>
+
+#include "core/output.hpp"
+#include "dem/particles.hpp"
+
+namespace lbdem::cases {
+
+// x, y, z of each vector, interleaved (3 n values).
+inline std::vector<double> interleave(const std::vector<Vec3d>& v) {
+  std::vector<double> out(3 * v.size());
+  for (std::size_t i = 0; i < v.size(); ++i)
+    for (int k = 0; k < 3; ++k) out[3 * i + static_cast<std::size_t>(k)] = v[i][k];
+  return out;
+}
+
+// Writes positions, radius, velocity, angular velocity, id and mass of `h`,
+// then the scene's own per-particle fields `extra` (same storage order as `h`).
+inline void write_particle_snapshot(io::ParticleWriter& w, long step, double time, const dem::HostParticles& h,
+                                    const std::vector<io::ParticleField>& extra = {}) {
+  const std::vector<double> pos = interleave(h.x), vel = interleave(h.v), omg = interleave(h.w);
+  const std::vector<double> id(h.id.begin(), h.id.end());
+  std::vector<io::ParticleField> fields{{"radius", 1, h.r.data()},  {"velocity", 3, vel.data()},
+                                        {"angular_velocity", 3, omg.data()}, {"id", 1, id.data()},
+                                        {"mass", 1, h.mass.data()}};
+  fields.insert(fields.end(), extra.begin(), extra.end());
+  w.write(step, time, h.size(), pos.data(), fields);
+}
+
+}  // namespace lbdem::cases
