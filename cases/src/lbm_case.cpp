@@ -187,7 +187,10 @@ LbmCase parse(const Config& root, const RunOptions& opt) {
   for (int a = 0; a < 3; ++a) c.pad[static_cast<std::size_t>(a)] = closed[static_cast<std::size_t>(a)] ? 1 : 0;
   std::array<long, 3> n{};
   for (int a = 0; a < 3; ++a) n[static_cast<std::size_t>(a)] = c.fluid_cells[static_cast<std::size_t>(a)] + 2 * c.pad[static_cast<std::size_t>(a)];
-  s.domain.global = s.domain.local = n;
+  s.domain = Grid::whole(n, {!closed[0], !closed[1], !closed[2]});
+  s.domain.spacing = c.units.dx;
+  // The first fluid cell's lower corner is at 0: the boundary layer lies below it.
+  for (int a = 0; a < 3; ++a) s.domain.origin[static_cast<std::size_t>(a)] = -c.pad[static_cast<std::size_t>(a)] * c.units.dx;
   for (int a = 0; a < 3; ++a) s.body_force[static_cast<std::size_t>(a)] = c.units.to_lattice_acceleration(accel[static_cast<std::size_t>(a)]);
   return c;
 }
@@ -368,9 +371,7 @@ int run_parsed(LbmCase& c, const RunOptions& opt) {
   auto solver = lbm::make_lbm_solver(s, backend);
   solver->initialize(c.flags, c.rho, c.u);
 
-  std::array<double, 3> origin{}, spacing{U.dx, U.dx, U.dx};
-  for (int a = 0; a < 3; ++a) origin[static_cast<std::size_t>(a)] = -c.pad[static_cast<std::size_t>(a)] * U.dx;
-  io::GridWriter writer(c.outdir, "fields", {n[0], n[1], n[2]}, origin, spacing);
+  io::GridWriter writer(c.outdir, "fields", s.domain);
   io::TimeSeries series(c.outdir + "/diagnostics.csv",
                         {"step", "time_s", "mass_rel_change", "momentum_x", "momentum_y", "momentum_z",
                          "max_speed_m_s", "max_mach"});

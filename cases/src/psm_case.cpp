@@ -187,7 +187,7 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
   std::array<long, 3> ext{cells[0], cells[1], dim == 3 ? cells[2] : 1};
   for (int a = 0; a < dim; ++a)
     if (!periodic[static_cast<std::size_t>(a)]) ext[static_cast<std::size_t>(a)] += 2;
-  s.domain.global = s.domain.local = ext;
+  s.domain = Grid::whole(ext, periodic);
   bool any_wall = false;
   for (int a = 0; a < dim; ++a) any_wall |= !periodic[static_cast<std::size_t>(a)];
   if (any_wall) {
@@ -343,7 +343,7 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
                  c.coupling.dem_substeps, to_string(backend), c.balance ? "on" : "off",
                  imb::to_string(c.coupling.psm.map.method), imb::to_string(cs.coupling().pipeline()), c.outdir);
   io::ParticleWriter pw(c.outdir, "particles");
-  io::GridWriter gw(c.outdir, "fields", {n[0], n[1], n[2]}, {0, 0, 0}, {1, 1, 1});
+  io::GridWriter gw(c.outdir, "fields", c.setup.domain);
   io::TimeSeries series(c.outdir + "/series.csv",
                         {"step", "fluid_mass_rel_change", "fluid_momentum_x", "fluid_momentum_y", "fluid_momentum_z",
                          "max_mach", "particle_momentum_x", "particle_momentum_y", "particle_momentum_z",

@@ -293,6 +293,19 @@ GridWriter::GridWriter(std::string dir, std::string prefix, std::array<long, 3> 
   if (prefix_.empty()) throw ConfigError("GridWriter: empty file prefix");
 }
 
+namespace {
+const Grid& whole_grid_for_output(const Grid& g) {
+  if (!g.whole_grid())
+    throw ConfigError("GridWriter: the grid " + g.describe() +
+                      " is one rank's piece; field output of a decomposed grid goes through the halo module's writer");
+  return g;
+}
+}  // namespace
+
+GridWriter::GridWriter(std::string dir, std::string prefix, const Grid& grid)
+    : GridWriter(std::move(dir), std::move(prefix), whole_grid_for_output(grid).global, grid.origin,
+                 {grid.spacing, grid.spacing, grid.spacing}) {}
+
 std::string GridWriter::write(long step, double time, const std::vector<GridField>& fields) {
   const std::string file = prefix_ + "_" + step_tag(step) + ".h5";
   const std::string path = (fs::path(dir_) / file).string();

@@ -81,7 +81,7 @@ std::array<double, 3> balancing_body_force(const dem::HostParticles& p, int dim,
 }
 
 CoupledSolver::CoupledSolver(lbm::LbmSolver& fluid, dem::DemSystem& dem, const CoupledParams& params)
-    : fluid_(fluid), dem_(dem), p_(params) {
+    : fluid_(fluid), dem_(dem), p_(params), loop_(dem, *this, params.dem_substeps) {
   if (p_.dem_substeps < 1)
     throw ConfigError("coupling.dem_substeps = " + std::to_string(p_.dem_substeps) + ": must be >= 1");
   if (dem_.backend() != fluid_.backend())
@@ -120,10 +120,9 @@ PsmParticles CoupledSolver::particle_view() {
 
 void CoupledSolver::map() { psm_->map(particle_view(), p_.psm, false); }
 
-// The coupled time step.
-void CoupledSolver::step() {
-  // 1. Fluid step with the solid term; hydrodynamic force + buoyancy -> DEM coupling input.
-  const dem::ParticleView v = dem_.view();
+// The fluid side of the coupled step (the step itself: dem/coupled_loop.hpp).
+// 1. Fluid step with the solid term; hydrodynamic force + buoyancy -> DEM coupling input.
+void CoupledSolver::fluid_step(const dem::ParticleView& v) {
   ForceOut out;
   out.force = &v.ext_force->x;
   out.torque = &v.ext_torque->x;
@@ -131,12 +130,14 @@ void CoupledSolver::step() {
   if (p_.buoyancy)
     for (int a = 0; a < 3; ++a) out.per_volume[static_cast<std::size_t>(a)] = -p_.fluid_density * p_.gravity[static_cast<std::size_t>(a)];
   psm_->step(particle_view(), p_.psm, out);  // no particles: the plain LBM kernel
-  // 2. N DEM sub-steps with the hydrodynamic force held (contacts, walls, gravity).
-  dem_.advance(p_.dem_substeps);
-  // 3. Remap the particles (possibly reordered by a neighbour-list rebuild) to cells.
-  map();
-  ++steps_;
-  if (p_.overflow_check_every > 0 && steps_ % p_.overflow_check_every == 0) check_overflow();
+}
+
+// 3. Remap the particles (possibly reordered by a neighbour-list rebuild) to cells.
+void CoupledSolver::particles_moved(const dem::ParticleView&) { map(); }
+
+// 4. The slot-overflow check every overflow_check_every steps.
+void CoupledSolver::after_step(long steps_done) {
+  if (p_.overflow_check_every > 0 && steps_done % p_.overflow_check_every == 0) check_overflow();
 }
 
 void CoupledSolver::advance(long n) {
@@ -149,7 +150,7 @@ void CoupledSolver::check_overflow() {
   // Name particles by global id (storage indices change at DEM rebuilds).
   const dem::HostParticles hp = dem_.download();
   std::ostringstream m;
-  m << "PSM cell slots overflowed at coupled step " << steps_ << ": ";
+  m << "PSM cell slots overflowed at coupled step " << loop_.steps() << ": ";
   if (r.overflow) {
     m << r.message << " Particle ids (storage index -> id):";
     for (int pi : r.particles)

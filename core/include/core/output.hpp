@@ -22,6 +22,8 @@
 #include <string>
 #include <vector>
 
+#include "core/grid.hpp"
+
 namespace lbdem::io {
 
 // A cell-centred field on a structured grid: nx*ny*nz values (x fastest) times
@@ -40,6 +42,10 @@ class GridWriter {
   // a spacing (i.e. the domain corner), spacing: cell size, all in metres.
   GridWriter(std::string dir, std::string prefix, std::array<long, 3> dims, std::array<double, 3> origin,
              std::array<double, 3> spacing);
+  // The grid's global extent, origin and spacing (core/grid.hpp). Fields are
+  // handed in over the grid's storage cells; this writer takes a whole grid
+  // (one rank); a piece of a decomposed grid is refused with a ConfigError.
+  GridWriter(std::string dir, std::string prefix, const Grid& grid);
   // Writes one step; fields are written as float64 datasets of shape
   // (nz, ny, nx[, components]). Returns the .h5 path.
   std::string write(long step, double time, const std::vector<GridField>& fields);

@@ -1,6 +1,7 @@
 #pragma once
-// The resolved coupled time step (PSM fluid <-> DEM particles), written out in
-// one place (CoupledSolver::step in imb/src/coupled.cpp):
+// The resolved coupled time step (PSM fluid <-> DEM particles). Its order is
+// the shared coupled loop (dem/coupled_loop.hpp); this mode's fluid side
+// (CoupledSolver's FluidCoupling members in imb/src/coupled.cpp) is:
 //
 //   1. fluid: one LBM step with the solid term of every mapped particle
 //      (imb/psm.hpp); the hydrodynamic force and torque of each particle, plus
@@ -8,7 +9,8 @@
 //      (ext_force / ext_torque), in the particles' current storage order;
 //   2. particles: N DEM sub-steps (contacts, walls, gravity) with that force
 //      held constant;
-//   3. remap: particles -> cells at their new positions for the next step.
+//   3. remap: particles -> cells at their new positions for the next step;
+//   4. every overflow_check_every steps: the cell-slot overflow check.
 //
 // Units: everything in lattice units (dx = dt_fluid = 1, fluid density 1); the
 // DEM runs with dt = 1/N. Scenes convert SI input once (core/units.hpp).
@@ -25,6 +27,7 @@
 #include <memory>
 #include <vector>
 
+#include "dem/coupled_loop.hpp"
 #include "dem/particles.hpp"
 #include "dem/system.hpp"
 #include "imb/psm_coupling.hpp"
@@ -61,14 +64,14 @@ double psm_weight_sum(double r, int dim, double tau, PsmWeight weight);
 // V - sum_p S_B(r_p): the volume over which the fluid receives a body force.
 double psm_fluid_weight(const dem::HostParticles& p, int dim, double total_volume, double tau, PsmWeight weight);
 
-class CoupledSolver {
+class CoupledSolver : private dem::FluidCoupling {
  public:
   CoupledSolver(lbm::LbmSolver& fluid, dem::DemSystem& dem, const CoupledParams& params);
   ~CoupledSolver();
 
-  void step();            // one coupled step (see the header comment)
-  void advance(long n);   // n coupled steps
-  long steps() const { return steps_; }
+  void step() { loop_.step(); }  // one coupled step (see the header comment)
+  void advance(long n);          // n coupled steps
+  long steps() const { return loop_.steps(); }
 
   // Hydrodynamic force and torque of the last fluid step (buoyancy included),
   // per particle in the DEM's current storage order (host copies; not for the time loop).
@@ -91,6 +94,10 @@ class CoupledSolver {
   PsmParticles particle_view();
 
  private:
+  // The fluid side of the coupled loop (dem/coupled_loop.hpp).
+  void fluid_step(const dem::ParticleView& v) override;
+  void particles_moved(const dem::ParticleView& v) override;
+  void after_step(long steps_done) override;
   void map();
 
   lbm::LbmSolver& fluid_;
@@ -98,7 +105,7 @@ class CoupledSolver {
   CoupledParams p_;
   std::unique_ptr<PsmCoupling> psm_;
   int dim_;
-  long steps_ = 0;
+  dem::CoupledLoop loop_;
 };
 
 }  // namespace lbdem::imb
