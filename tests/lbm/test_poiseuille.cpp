@@ -1,5 +1,5 @@
 // Poiseuille flow with half-way bounce-back walls and Guo forcing.
-// Reference (../shared/REFERENCES.md, derived): with the wall half a cell
+// Reference (derived for TRT with half-way bounce-back, Ginzburg & d'Humieres 2003): with the wall half a cell
 // outside the first/last fluid node and y measured from the wall,
 //   u(y) = F y (H - y) / (2 nu) + F (16 Lambda - 3) / (24 nu),
 // Lambda = (tau+ - 1/2)(tau- - 1/2) (TRT), (tau - 1/2)^2 (BGK).

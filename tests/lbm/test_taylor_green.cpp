@@ -1,4 +1,4 @@
-// Taylor-Green vortex (../shared/REFERENCES.md): 2D periodic, k = 2 pi / N,
+// Taylor-Green vortex (Taylor & Green 1937): 2D periodic, k = 2 pi / N,
 //   u = -U0 cos kx sin ky e^{-2 nu k^2 t}, v = U0 sin kx cos ky e^{-2 nu k^2 t},
 //   p = -rho U0^2/4 (cos 2kx + cos 2ky) e^{-4 nu k^2 t}.
 // Cell centres at x = i + 1/2. Relative L2 velocity error at t = 1/(2 nu k^2).

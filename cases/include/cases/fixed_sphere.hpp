@@ -14,7 +14,7 @@
 
 namespace lbdem::cases {
 
-// Sangani & Acrivos (1982) Eq. 60 (../shared/REFERENCES.md): the drag
+// Sangani & Acrivos (1982, Int. J. Multiphase Flow 8, 193), Eq. 60: the drag
 // coefficient K = F / (6 pi mu a U) of a simple cubic array, chi = d/L <= 0.75.
 double sangani_acrivos_K(double chi);
 // Square array of cylinders, Sangani & Acrivos (1982, Int. J. Multiphase Flow
