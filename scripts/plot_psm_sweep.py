@@ -53,7 +53,7 @@ def main():
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(14, 5.6))
     ds = sorted(PAPER)
     a1.plot(ds, [PAPER[d] for d in ds], "k-o", lw=2, label="first paper, Table 1 (Re_p = 0.2, vs Fluent)")
-    a1.plot(ds, [PAPER[d] / 2 for d in ds], "k--", lw=1, label="issue bar: half the paper")
+    a1.plot(ds, [PAPER[d] / 2 for d in ds], "k--", lw=1, label="bar: half the paper")
     cycle = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     best_time = {}  # d -> wall time of the first group's run (for the paper marks)
     for gi, (key, rs) in enumerate(sorted(groups.items())):

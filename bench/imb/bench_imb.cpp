@@ -178,7 +178,6 @@ int main(int argc, char** argv) {
     std::vector<Backend> bs{Backend::Host};
     if (gpu) bs.push_back(Backend::Cuda);
     for (Backend b : bs) {
-      // On the GPU, replicate the band to fill the device (≥ 4M cells).
       // Replicate the band to fill the machine: ≥ 4M cells on the GPU, ≥ 64k (quick: 8k) on the host.
       const Index target = b == Backend::Cuda ? 4'000'000 : (quick ? 8'000 : 64'000);
       const int rep = std::max<int>(1, static_cast<int>((target + n - 1) / n));
