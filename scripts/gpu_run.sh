@@ -10,6 +10,7 @@
 #     profile               Nsight Compute per-kernel time and DRAM bytes of 3 coupled suspension steps
 #   BENCHES selects benchmarks (default: lbm dem imb psm-susp psm-sweep). psm-sweep alone needs two
 #   device calls of 10 min: SWEEP_PARTS="small", then SWEEP_PARTS="large" (scripts/psm_sweep_gpu.sh).
+#   LBDEM_COMMIT names the commit in every JSON (default: git rev-parse here; set it where the tree has no .git).
 set -uo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
 export OUT="${OUT:-$here/out}"
