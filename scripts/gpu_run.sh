@@ -8,6 +8,7 @@
 #                           commit from `git archive`) in DIR/build-bench and runs the same benchmarks;
 #                           JSON as $OUT/baseline_<bench>.json (commit: $BASELINE_COMMIT, else "baseline")
 #     profile               Nsight Compute per-kernel time and DRAM bytes of 3 coupled suspension steps
+#     pack                  everything in $OUT into $OUT/out.tgz (for a runner that returns few files)
 #   BENCHES selects benchmarks (default: lbm dem imb psm-susp psm-sweep). psm-sweep alone needs two
 #   device calls of 10 min: SWEEP_PARTS="small", then SWEEP_PARTS="large" (scripts/psm_sweep_gpu.sh).
 #   LBDEM_COMMIT names the commit in every JSON (default: git rev-parse here; set it where the tree has no .git).
@@ -79,6 +80,7 @@ while [ $# -gt 0 ]; do
           --pipeline fused > "$OUT/ncu_suspension_$prec.log" 2>&1
         echo "ncu $prec exit $?"
       done ;;
+    pack) tar czf /tmp/gpu_run_out.tgz -C "$OUT" . && rm -rf "${OUT:?}"/* && mv /tmp/gpu_run_out.tgz "$OUT/out.tgz" ;;
     *) echo "unknown step $s"; exit 2 ;;
   esac
 done
