@@ -4,7 +4,7 @@
 usage: scripts/plot_psm_sweep.py OUT.png SWEEP.json [SWEEP.json ...]
 
 Left: |drag error| against d/l for every configuration, with the first paper's
-Table 1 errors (Re_p = 0.2, against Fluent) and the issue's bar (half of them).
+Table 1 errors (Re_p = 0.2, against Fluent) and the bar (half of them).
 Right: |error| against the wall time to the detected steady state, with the
 paper's error at each d/l drawn beside our points as a short horizontal mark at
 the time of our accurate run at that d/l (the paper gives no times).
@@ -22,7 +22,7 @@ import matplotlib.pyplot as plt
 
 PAPER = {4: 15.99, 6: 6.953, 8: 4.352, 10: 2.868, 16: 2.101, 20: 1.367, 30: 0.6503, 50: 0.3335}
 # Fields that name a configuration besides method / precision / collision
-# (older JSON files lack some: defaults as the bench had them then).
+# (a file written without one of them: its default).
 EXTRA = [("weight", "nt"), ("variant", "nebb"), ("tau", None), ("magic", None), ("offset", 0), ("re_target", None)]
 
 
@@ -53,7 +53,7 @@ def main():
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(14, 5.6))
     ds = sorted(PAPER)
     a1.plot(ds, [PAPER[d] for d in ds], "k-o", lw=2, label="first paper, Table 1 (Re_p = 0.2, vs Fluent)")
-    a1.plot(ds, [PAPER[d] / 2 for d in ds], "k--", lw=1, label="issue bar: half the paper")
+    a1.plot(ds, [PAPER[d] / 2 for d in ds], "k--", lw=1, label="bar: half the paper")
     cycle = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     best_time = {}  # d -> wall time of the first group's run (for the paper marks)
     for gi, (key, rs) in enumerate(sorted(groups.items())):

@@ -1,31 +1,30 @@
 #!/usr/bin/env bash
-# Fixed-sphere PSM drag sweep on the GPU (issue 4: the first paper's Table 1
-# test against Sangani & Acrivos, chi = d/L = 0.5), in two parts sized for one
-# device call (<= 10 min wall) each:
+# Fixed-sphere PSM drag sweep on the GPU: the first paper's Table 1 test against Sangani & Acrivos
+# (1982), chi = d/L = 0.5, in parts sized for one device call (10 min) each.
 #
-#   scripts/psm_sweep_gpu.sh BIN OUTDIR PART...      PART: small | large | scan | lambda | plot (one of small/large per call)
+#   scripts/psm_sweep_gpu.sh BIN OUTDIR PART...      PART: small | large | scan | lambda | merge | plot
 #
 #   BIN     the CUDA build's lbdem_bench_psm
 #   OUTDIR  receives psm_sweep_<part>_<k>.{json,md,log}; each JSON is rewritten after every run,
 #           so a part cut off by its time limit keeps the rows it finished
 #   env     PSM_SWEEP_LIMIT (s per part, default 470), PSM_SWEEP_BACKEND (default cuda)
 #
-# small (estimate ~3.5 min on an H200, limit 470 s): d/l 4-16 and 20, every fraction method x
-#       fp64/fp32 x TRT/BGK at the accurate setting; the Lambda and sphere-position checks at d/l
-#       4-20; d/l 30: every fraction method x fp64/fp32, TRT; BGK and the Lambda check (exact fp64).
-# large (estimate ~5.5 min, limit 470 s): d/l 50 (1e6 cells, ~1.2e6 steps), the reduced matrix in
-#       order of importance: exact fp64 TRT (the headline row), exact fp64 TRT at Lambda 1e-2 (the
-#       small-d/l vs large-d/l trade-off, NOTES), table fp32 TRT (the paper's fractions), exact fp32 TRT.
-# plot: scripts/plot_psm_sweep.py on every JSON under OUTDIR (needs python3-matplotlib).
+# small   d/l 4-20: every fraction method x fp64/fp32 x TRT/BGK; Lambda and sphere-position checks;
+#         d/l 30: every method x fp64/fp32 (TRT), BGK, Lambda checks.
+# large   d/l 50 (1e6 cells), in order of importance: exact fp64 TRT, the same at Lambda 1e-2,
+#         table fp32 TRT, exact fp32 TRT.
+# scan    drag against the solid operator, Lambda and tau at d/l 4-30 (exact fp64 TRT).
+# lambda  the resolution-dependent Lambda: d/l 50 at 3e-2, 2e-2 at d/l 16-30.
+# merge   every OUTDIR/psm_sweep_*.json into OUTDIR/psm_fixed_sphere_sweep.json (rows with their source).
+# plot    scripts/plot_psm_sweep.py on every OUTDIR/psm_sweep_*.json (needs python3-matplotlib).
 #
-# Accurate setting (bench/imb/NOTES.md, "Fixed-sphere drag: host study"): tau = 0.52, TRT Lambda =
-# 1e-4, Noble-Torczynski B, NEBB, sphere centre on a cell centre (offset 0.5), Re_p = 0.2, fluid
-# started from the Stokes estimate, steady when the estimated remaining relative change of the drag
-# is < 1e-5. Steps to steady state ~ 9 T, T = 0.094 L^2 / nu (the slow mean-flow mode, measured on
-# the host; nu = 1/150): d/l 20 2.1e5 (measured), 30 ~4.6e5, 50 ~1.2e6. Time per step assumed:
-# ~10-15 us up to 40^3 cells (launch-bound), ~30 us at 60^3, ~90 us (fp64) / ~50 us (fp32) at 100^3.
+# Accurate setting (bench/imb/NOTES.md, "Fixed-sphere drag"): tau = 0.52, TRT Lambda = 1e-4,
+# Noble-Torczynski B, NEBB, sphere centre on a cell centre (offset 0.5), Re_p = 0.2, fluid started
+# from the Stokes estimate, steady when the estimated remaining relative change of the drag is < 1e-5.
+# The per-run caps below follow the steps to steady state (~9 T, T = 0.094 L^2 / nu) and the time per
+# step at each grid size (bench/imb/NOTES.md).
 set -uo pipefail
-if [ $# -lt 3 ]; then sed -n 2,27p "$0"; exit 2; fi
+if [ $# -lt 3 ]; then sed -n 2,25p "$0"; exit 2; fi
 bin="$1"
 out="$2"
 shift 2
@@ -58,28 +57,28 @@ for p in "${parts[@]}"; do
   t0=$SECONDS
   case "$p" in
     small)
-      # Full matrix, d/l 4-16: 60 runs, ~45 s.
+      # Full matrix, d/l 4-16.
       run psm_sweep_small_1 200 --d 4,6,8,10,16 --magic "$MAGIC" --offset "$OFFSET" \
         --methods exact,table,linear --precisions fp64,fp32 --collisions trt,bgk
-      # Full matrix, d/l 20 (40^3, 2.1e5 steps): 12 runs, ~40 s.
+      # Full matrix, d/l 20 (40^3).
       run psm_sweep_small_2 150 --d 20 --magic "$MAGIC" --offset "$OFFSET" \
         --methods exact,table,linear --precisions fp64,fp32 --collisions trt,bgk
-      # Lambda (1e-3: the earlier default; 1e-2) and the sphere on a cell corner, exact fp64 TRT: ~20 s.
+      # Lambda 1e-3 and 1e-2, and the sphere on a cell corner, exact fp64 TRT.
       run psm_sweep_small_3 60 --d 4,6,8,10,16,20 --magic 1e-3,1e-2 --offset "$OFFSET" --methods exact \
         --precisions fp64 --collisions trt
       run psm_sweep_small_4 40 --d 4,6,8,10,16,20 --magic "$MAGIC" --offset 0 --methods exact \
         --precisions fp64 --collisions trt
-      # d/l 30 (60^3, ~4.6e5 steps, ~10-15 s each): every method x fp64/fp32, TRT: ~75 s.
+      # d/l 30 (60^3): every method x fp64/fp32, TRT.
       run psm_sweep_small_5 150 --d 30 --magic "$MAGIC" --offset "$OFFSET" \
         --methods exact,table,linear --precisions fp64,fp32 --collisions trt
-      # d/l 30: BGK (exact fp64), and Lambda 1e-3 / 1e-2 (exact fp64 TRT): ~45 s.
+      # d/l 30: BGK (exact fp64), and Lambda 1e-3 / 1e-2 (exact fp64 TRT).
       run psm_sweep_small_6 60 --d 30 --magic "$MAGIC" --offset "$OFFSET" --methods exact --precisions fp64 \
         --collisions bgk
       run psm_sweep_small_7 60 --d 30 --magic 1e-3,1e-2 --offset "$OFFSET" --methods exact --precisions fp64 \
         --collisions trt
       ;;
     large)
-      # d/l 50 (100^3 = 1e6 cells, ~1.2e6 steps): ~110 s per fp64 run, ~60 s per fp32 run.
+      # d/l 50 (100^3 = 1e6 cells).
       run psm_sweep_large_1 200 --d 50 --magic "$MAGIC" --offset "$OFFSET" --methods exact --precisions fp64 \
         --collisions trt
       run psm_sweep_large_2 170 --d 50 --magic 1e-2 --offset "$OFFSET" --methods exact --precisions fp64 \
@@ -92,7 +91,7 @@ for p in "${parts[@]}"; do
     scan)
       # Drag against the solid operator and Lambda/tau at d/l 4-30 (exact fp64 TRT, sphere on a cell
       # centre): is there one setting whose O(1/d) error term is small enough for d/l 30 and 50 while
-      # d/l 4 keeps its bar? (~3 min)
+      # d/l 4 keeps its bar?
       run psm_sweep_scan_1 120 --d 4,6,8,10,16,20,30 --variants super --magic 1e-4,1e-3,1e-2 --offset "$OFFSET" \
         --methods exact --precisions fp64 --collisions trt
       run psm_sweep_scan_2 60 --d 4,6,8,10,16,20,30 --magic 3e-2 --offset "$OFFSET" --methods exact \
@@ -101,12 +100,23 @@ for p in "${parts[@]}"; do
         --methods exact --precisions fp64 --collisions trt
       ;;
     lambda)
-      # Resolution-dependent Lambda (the scan: 3e-2 meets the bars from d/l 16 up, 1e-4 up to d/l 20):
-      # d/l 50 at 3e-2 (~120 s), and 2e-2 at d/l 16-30 (sensitivity, ~15 s). Exact fp64 TRT.
+      # Resolution-dependent Lambda: d/l 50 at 3e-2, and 2e-2 at d/l 16-30 (sensitivity). Exact fp64 TRT.
       run psm_sweep_lambda_1 200 --d 50 --magic 3e-2 --offset "$OFFSET" --methods exact --precisions fp64 \
         --collisions trt
       run psm_sweep_lambda_2 60 --d 16,20,30 --magic 2e-2 --offset "$OFFSET" --methods exact --precisions fp64 \
         --collisions trt
+      ;;
+    merge)
+      /usr/bin/python3 - "$out" <<'PY' && echo "merge: $out/psm_fixed_sphere_sweep.json" || echo "merge: failed"
+import glob, json, os, sys
+out = sys.argv[1]
+head, rows = None, []
+for f in sorted(glob.glob(os.path.join(out, "psm_sweep_*.json"))):
+    j = json.load(open(f))
+    head = head or {k: v for k, v in j.items() if k != "rows"}
+    rows += [dict(r, source=os.path.basename(f)) for r in j.get("rows", [])]
+json.dump(dict(head or {}, rows=rows), open(os.path.join(out, "psm_fixed_sphere_sweep.json"), "w"), indent=1)
+PY
       ;;
     plot)
       shopt -s nullglob
@@ -116,6 +126,6 @@ for p in "${parts[@]}"; do
           echo "plot: $out/psm_sweep.png" || echo "plot: failed (python3-matplotlib missing?)"
       fi
       ;;
-    *) echo "psm_sweep_gpu: unknown part $p (small, large, plot)"; exit 2 ;;
+    *) echo "psm_sweep_gpu: unknown part $p (small, large, scan, lambda, merge, plot)"; exit 2 ;;
   esac
 done

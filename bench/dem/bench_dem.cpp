@@ -17,7 +17,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <cstring>
 #include <fstream>
 #include <functional>
 #include <random>
@@ -25,6 +24,7 @@
 #include <string>
 #include <vector>
 
+#include "bench_support.hpp"
 #include "core/buffer.hpp"
 #include "core/error.hpp"
 #include "dem/contact.hpp"
@@ -35,10 +35,6 @@ using namespace lbdem;
 using namespace lbdem::dem;
 
 namespace {
-
-#ifndef LBDEM_GIT_COMMIT
-#define LBDEM_GIT_COMMIT "unknown"
-#endif
 
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
@@ -77,39 +73,13 @@ double median_time(Backend b, int reps, const std::function<void()>& f) {
   return median(t);
 }
 
-// Copy bandwidth [B/s], bytes read + written: cudaMemcpy D2D on the GPU; a
-// parallel memcpy with the current OpenMP thread count on the host.
-double copy_bandwidth(Backend b, std::size_t bytes) {
-  Buffer<unsigned char> src(b, static_cast<Index>(bytes)), dst(b, static_cast<Index>(bytes));
-  src.fill_zero();
-  dst.fill_zero();
-  std::function<void()> f;
-#if defined(LBDEM_HAVE_CUDA)
-  if (b == Backend::Cuda)
-    f = [&] { LBDEM_CUDA_CHECK(cudaMemcpyAsync(dst.data(), src.data(), bytes, cudaMemcpyDeviceToDevice)); };
-#endif
-  if (b == Backend::Host)
-    f = [&] {
-      const int nt = omp_get_max_threads();
-#pragma omp parallel num_threads(nt)
-      {
-        const int t = omp_get_thread_num();
-        const std::size_t chunk = (bytes + nt - 1) / nt;
-        const std::size_t a = std::min(bytes, t * chunk), e = std::min(bytes, a + chunk);
-        std::memcpy(dst.data() + a, src.data() + a, e - a);
-      }
-    };
-  f();  // warm-up
-  return 2.0 * static_cast<double>(bytes) / median_time(b, 10, f);
-}
-
 struct Setup {
   DemParams params;
   HostParticles particles;
 };
 
 // Dense random packing: d = 1 mm glass-like spheres, solid fraction 0.5,
-// periodic cube; speeds ~ 1e-3 d per step (rebuild every ~10-30 steps).
+// periodic cube; random speeds of ~1e-3 d per step.
 Setup make_setup(long n, unsigned seed) {
   const double r = 0.5e-3, phi = 0.5;
   const double L = std::cbrt(n * 4.0 / 3.0 * kPi * r * r * r / phi);
@@ -229,24 +199,6 @@ std::vector<long> parse_sizes(const std::string& s) {
   return v;
 }
 
-std::string device_name(Backend b) {
-#if defined(LBDEM_HAVE_CUDA)
-  if (b == Backend::Cuda) {
-    int dev = 0;
-    cudaDeviceProp prop{};
-    LBDEM_CUDA_CHECK(cudaGetDevice(&dev));
-    LBDEM_CUDA_CHECK(cudaGetDeviceProperties(&prop, dev));
-    return prop.name;
-  }
-#endif
-  (void)b;
-  std::ifstream cpu("/proc/cpuinfo");
-  std::string line;
-  while (std::getline(cpu, line))
-    if (line.rfind("model name", 0) == 0) return line.substr(line.find(':') + 2);
-  return "host";
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -298,9 +250,9 @@ int main(int argc, char** argv) {
   try {
     for (const Be& be : bes) {
       if (be.b == Backend::Host) omp_set_num_threads(be.threads);
-      const double cbw = copy_bandwidth(be.b, quick ? (std::size_t{1} << 27) : (std::size_t{1} << 30));
+      const double cbw = bench::copy_bandwidth(be.b, quick ? (std::size_t{1} << 27) : (std::size_t{1} << 30));
       copy_bws.push_back({be.name, cbw});
-      if (be.b == Backend::Cuda) gpu_name = device_name(be.b);
+      if (be.b == Backend::Cuda) gpu_name = bench::device_name(be.b);
       std::fprintf(stderr, "[%s] copy bandwidth %.1f GB/s\n", be.name.c_str(), cbw * 1e-9);
       for (long n : (be.b == Backend::Cuda ? sizes : host_sizes)) {
         const Setup st = make_setup(n, 17);
@@ -320,7 +272,8 @@ int main(int argc, char** argv) {
   }
 
   // Markdown table.
-  std::printf("\nDEM throughput (commit %s; CPU: %s%s%s)\n\n", LBDEM_GIT_COMMIT, device_name(Backend::Host).c_str(),
+  const std::string cpu_name = bench::device_name(Backend::Host);
+  std::printf("\nDEM throughput (commit %s; CPU: %s%s%s)\n\n", bench::git_commit().c_str(), cpu_name.c_str(),
               gpu_name.empty() ? "" : "; GPU: ", gpu_name.c_str());
   for (auto& [k, v] : copy_bws) std::printf("copy bandwidth %-7s %8.1f GB/s\n", k.c_str(), v * 1e-9);
   std::printf("\n| backend | N | friction | path | particle-steps/s | step [ms] | force [ms] | integrate [ms] | "
@@ -343,12 +296,10 @@ int main(int argc, char** argv) {
 
   std::ofstream js(out);
   if (!js) { std::fprintf(stderr, "cannot write %s\n", out.c_str()); return 1; }
-  js << "{\n  \"benchmark\": \"lbdem_bench_dem\",\n  \"commit\": \"" << LBDEM_GIT_COMMIT << "\",\n  \"cpu\": \""
-     << device_name(Backend::Host) << "\",\n  \"gpu\": \"" << gpu_name << "\",\n  \"host_threads_all\": " << all
-     << ",\n  \"quick\": " << (quick ? "true" : "false") << ",\n  \"copy_bandwidth_Bps\": {";
-  for (std::size_t i = 0; i < copy_bws.size(); ++i)
-    js << (i ? ", " : "") << "\"" << copy_bws[i].first << "\": " << copy_bws[i].second;
-  js << "},\n  \"results\": [\n";
+  js << "{\n" << bench::json_header("lbdem_bench_dem", gpu_name.empty() ? cpu_name : gpu_name, copy_bws)
+     << ",\n  \"cpu\": \"" << bench::json_escape(cpu_name) << "\",\n  \"gpu\": \"" << bench::json_escape(gpu_name)
+     << "\",\n  \"host_threads_all\": " << all << ",\n  \"quick\": " << (quick ? "true" : "false")
+     << ",\n  \"results\": [\n";
   for (std::size_t i = 0; i < results.size(); ++i) {
     const Result& r = results[i];
     js << "    {\"backend\": \"" << r.backend << "\", \"threads\": " << r.threads << ", \"n\": " << r.n

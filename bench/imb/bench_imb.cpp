@@ -1,4 +1,4 @@
-// lbdem_bench_imb --out FILE.json [--quick] [--commit SHA]
+// lbdem_bench_imb --out FILE.json [--quick]
 //
 // Speed against error of the three solid-fraction methods (imb/solid_fraction.hpp):
 //  * error vs the exact method over the interface band (max, RMS per cell) and
@@ -21,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "bench_support.hpp"
 #include "core/buffer.hpp"
 #include "core/exec.hpp"
 #include "imb/cell_slots.hpp"
@@ -110,26 +111,19 @@ std::vector<double> band_cells(int dim, double R, int centres, unsigned seed, st
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string out_path, commit = "unknown";
+  std::string out_path;
   bool quick = false;
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--out") && i + 1 < argc) out_path = argv[++i];
     else if (!std::strcmp(argv[i], "--quick")) quick = true;
-    else if (!std::strcmp(argv[i], "--commit") && i + 1 < argc) commit = argv[++i];
     else {
-      std::fprintf(stderr, "usage: %s --out FILE.json [--quick] [--commit SHA]\n", argv[0]);
+      std::fprintf(stderr, "usage: %s --out FILE.json [--quick]\n", argv[0]);
       return 2;
     }
   }
   const bool gpu = cuda_compiled() && cuda_unavailable_reason().empty();
-  std::string device = "host only";
-#if defined(LBDEM_HAVE_CUDA)
-  if (gpu) {
-    cudaDeviceProp prop{};
-    LBDEM_CUDA_CHECK(cudaGetDeviceProperties(&prop, 0));
-    device = prop.name;
-  }
-#endif
+  const std::string device = bench::device_name(gpu ? Backend::Cuda : Backend::Host);
+  const std::string commit = bench::git_commit();
   std::printf("lbdem_bench_imb: GPU %s; commit %s\n", gpu ? "usable" : ("not used: " + cuda_unavailable_reason()).c_str(),
               commit.c_str());
   const FractionTable t3 = build_fraction_table(3), t2 = build_fraction_table(2);
@@ -184,7 +178,6 @@ int main(int argc, char** argv) {
     std::vector<Backend> bs{Backend::Host};
     if (gpu) bs.push_back(Backend::Cuda);
     for (Backend b : bs) {
-      // On the GPU, replicate the band to fill the device (≥ 4M cells).
       // Replicate the band to fill the machine: ≥ 4M cells on the GPU, ≥ 64k (quick: 8k) on the host.
       const Index target = b == Backend::Cuda ? 4'000'000 : (quick ? 8'000 : 64'000);
       const int rep = std::max<int>(1, static_cast<int>((target + n - 1) / n));
@@ -278,8 +271,7 @@ int main(int argc, char** argv) {
       return 1;
     }
     o.precision(6);
-    o << "{\n  \"bench\": \"imb_solid_fraction\",\n  \"device\": \"" << device << "\",\n  \"commit\": \"" << commit
-      << "\",\n  \"gpu\": " << (gpu ? "true" : "false") << ",\n  \"quick\": "
+    o << "{\n" << bench::json_header("lbdem_bench_imb", device, {}) << ",\n  \"gpu\": " << (gpu ? "true" : "false") << ",\n  \"quick\": "
       << (quick ? "true" : "false") << ",\n  \"box\": " << L << ",\n  \"table\": {\"nodes_3d\": ["
       << t3.geometry.nt << ", " << t3.geometry.nu << ", " << t3.geometry.nv << "], \"nodes_2d\": [" << t2.geometry.nt
       << ", " << t2.geometry.nu << "], \"bytes_3d\": " << t3.values.size() * 4 << ", \"fit_radii\": [" << t3.r_fit_a

@@ -6,7 +6,7 @@
 //                   [--start estimate|rest] [--check N] [--max-steps N] [--backend host|cuda] [--dim 3] [-v]
 //   lbdem_bench_psm suspension [--out FILE.json] [--n 256] [--phi 0.128] [--d 10] [--steps 200]
 //                   [--substeps N (default: fewest accepted)] [--tau 0.6] [--precision fp32|fp64] [--fraction exact|table|linear]
-//                   [--pipeline auto|fused|mapped] [--fused-order loads|fractions]
+//                   [--pipeline auto|fused|mapped] [--backend host|cuda]
 //
 // sweep: fixed sphere in a simple cubic array (the first paper's Table 1
 // test) for every combination; per row the drag coefficient K against
@@ -21,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "bench_support.hpp"
 #include "cases/fixed_sphere.hpp"
 #include "core/error.hpp"
 #include "core/exec.hpp"
@@ -36,14 +37,6 @@
 using namespace lbdem;
 
 namespace {
-
-// The device a JSON was measured on (CUDA device 0's name and size, or "host").
-std::string device_of(Backend b) {
-  if (b != Backend::Cuda) return "host";
-  const auto devs = cuda_device_descriptions();
-  return devs.empty() ? "cuda (no description)" : devs.front();
-}
-
 
 std::vector<std::string> split(const std::string& s) {
   std::vector<std::string> out;
@@ -81,15 +74,13 @@ std::string jnum(double v) {
 // Rows are appended to --out after each run (the file is rewritten whole, so
 // a run cut off by a time limit keeps the rows it finished).
 //
-// Defaults (bench/imb/NOTES.md, "Fixed-sphere drag: host study"): tau 0.52,
-// TRT Lambda 1e-4, NEBB, Noble-Torczynski B, exact fractions, fp64; sphere
-// centre on a cell centre (offset 0.5: the first paper does not say where its
-// sphere sits; at d/l = 4 the corner gives 4 % less K, from d/l 8 on the two
-// differ by < 0.1 %); Re_p = 0.2, the paper's: the reference (Sangani &
-// Acrivos) is Stokes flow, but the inertial change of K at Re_p = 0.2 is
-// +3.5e-5 relative (measured, d/l = 8 and 10, against Re_p = 0.01), 50x below
-// the smallest bar; start from the Stokes estimate; tolerance 1e-5 on the
-// estimated remaining relative change of the drag.
+// Defaults (bench/imb/NOTES.md, "Fixed-sphere drag"): tau 0.52, TRT Lambda
+// 1e-4, NEBB, Noble-Torczynski B, exact fractions, fp64; sphere centre on a
+// cell centre (offset 0.5: the first paper does not say where its sphere
+// sits); Re_p = 0.2, the paper's (the reference, Sangani & Acrivos, is Stokes
+// flow; the inertial change of K at this Re_p is far below the bars, NOTES);
+// start from the Stokes estimate; tolerance 1e-5 on the estimated remaining
+// relative change of the drag.
 int sweep(int argc, char** argv) {
   std::string out, ds = "4,6,8,10,16,20,30,50", taus = "0.52", methods = "exact", precs = "fp64", colls = "trt",
                    variants = "nebb", weights = "nt", backend = "auto", magics = "1e-4", offsets = "0.5", res = "0.2",
@@ -127,8 +118,8 @@ int sweep(int argc, char** argv) {
   std::vector<imb::FractionTable> tables;
   tables.reserve(1);
   std::ostringstream head;
-  head << "{\n  \"backend\": \"" << (b == Backend::Cuda ? "cuda" : "host") << "\",\n  \"device\": \""
-       << device_of(b) << "\",\n  \"chi\": " << chi
+  head << "{\n" << bench::json_header("lbdem_bench_psm sweep", bench::device_name(b), {}) << ",\n  \"backend\": \""
+       << (b == Backend::Cuda ? "cuda" : "host") << "\",\n  \"chi\": " << chi
        << ",\n  \"tolerance\": " << tol << ",\n  \"start\": \"" << start
        << "\",\n  \"reference\": \"Sangani & Acrivos (1982) Eq. 60, Stokes flow\""
        << ",\n  \"paper\": \"first paper Table 1, Re_p = 0.2, against Fluent at the same Re_p\",\n  \"rows\": [\n";
@@ -153,7 +144,7 @@ int sweep(int argc, char** argv) {
                       s.re_p = std::stod(rs);
                       s.tau = std::stod(ts);
                       // "auto": the resolution-dependent setting that meets every Table 1 bar
-                      // (bench/results/psm_drag_by_resolution_*): Lambda 1e-4 below d/l 16, 3e-2 from 16.
+                      // (bench/results/psm_drag_by_resolution_h200.json): Lambda 1e-4 below d/l 16, 3e-2 from 16.
                       s.magic = ms == "auto" ? (s.diameter < 16.0 ? 1e-4 : 3e-2) : std::stod(ms);
                       s.offset = std::stod(os);
                       // fp32 round-off floors the drag's step-to-step change near 1e-6.
@@ -204,28 +195,10 @@ int sweep(int argc, char** argv) {
 
 double wall() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
 
-// Copy bandwidth (bytes read + written per second), median of repeats.
-double copy_bandwidth(Backend b, std::size_t bytes) {
-  Buffer<char> a(b, static_cast<Index>(bytes)), c(b, static_cast<Index>(bytes));
-  backend_memset(b, a.data(), 1, bytes);
-  backend_memset(b, c.data(), 2, bytes);
-  Exec ex(b);
-  std::vector<double> t;
-  for (int r = 0; r < 12; ++r) {
-    ex.synchronize();
-    const double t0 = wall();
-    backend_copy(b, c.data(), a.data(), bytes);
-    ex.synchronize();
-    if (r >= 2) t.push_back(wall() - t0);
-  }
-  std::sort(t.begin(), t.end());
-  return 2.0 * double(bytes) / t[t.size() / 2];
-}
-
 // Coupled PSM-DEM step of a periodic suspension against the fluid-only step on
 // the same grid (first paper Table 2: solid fraction 0.128, d/l = 10).
 int suspension(int argc, char** argv) {
-  std::string out, backend = "auto", prec = "fp32", fraction = "exact", pipeline = "auto", fused_order = "loads";
+  std::string out, backend = "auto", prec = "fp32", fraction = "exact", pipeline = "auto";
   long n = 256, steps = 200;
   double phi = 0.128, d = 10, tau = 0.6;
   int substeps = 0;  // 0: the fewest that check_coupled_setup accepts (t_c / 50 per sub-step)
@@ -242,7 +215,6 @@ int suspension(int argc, char** argv) {
     else if (k == "--precision") prec = next();
     else if (k == "--fraction") fraction = next();
     else if (k == "--pipeline") pipeline = next();
-    else if (k == "--fused-order") fused_order = next();
     else if (k == "--backend") backend = next();
     else throw ConfigError("unknown option " + k);
   }
@@ -265,7 +237,7 @@ int suspension(int argc, char** argv) {
   s.body_force = imb::balancing_body_force(hp, 3, g, 1.0, double(n) * n * n, s.tau);
   const auto N = static_cast<std::size_t>(n * n * n);
   const double cells = double(N);
-  const double bw = b == Backend::Cuda ? copy_bandwidth(b, std::size_t(2) << 30) : copy_bandwidth(b, std::size_t(1) << 28);
+  const double bw = bench::copy_bandwidth(b, b == Backend::Cuda ? std::size_t(2) << 30 : std::size_t(1) << 28);
 
   // Fluid only.
   double fluid_mlups = 0, bytes_cell = 0;
@@ -314,9 +286,6 @@ int suspension(int argc, char** argv) {
     throw ConfigError("--pipeline " + pipeline + ": must be auto, fused or mapped");
   cp.psm.pipeline = pipeline == "fused" ? imb::PsmPipeline::Fused
                     : pipeline == "mapped" ? imb::PsmPipeline::Mapped : imb::PsmPipeline::Auto;
-  if (fused_order != "loads" && fused_order != "fractions")
-    throw ConfigError("--fused-order " + fused_order + ": must be loads or fractions");
-  cp.psm.fused_loads_first = fused_order == "loads";
   imb::CoupledSolver cs(*fl, dem, cp);
   const std::string used = imb::to_string(cs.coupling().pipeline());
   cs.advance(10);
@@ -351,12 +320,11 @@ int suspension(int argc, char** argv) {
               1e3 * t_map, 1e3 * t_psm, 1e3 * t_fluid, 1e3 * t_dem);
   if (!out.empty()) {
     std::ofstream js(out);
-    js << "{\n  \"backend\": \"" << (b == Backend::Cuda ? "cuda" : "host") << "\",\n  \"device\": \""
-       << device_of(b) << "\",\n  \"n\": " << n
+    js << "{\n" << bench::json_header("lbdem_bench_psm suspension", bench::device_name(b), {{to_string(b), bw}})
+       << ",\n  \"backend\": \"" << (b == Backend::Cuda ? "cuda" : "host") << "\",\n  \"n\": " << n
        << ",\n  \"particles\": " << hp.size() << ",\n  \"d\": " << d << ",\n  \"phi\": " << phi
-       << ",\n  \"precision\": \"" << prec << "\",\n  \"fraction\": \"" << fraction << "\",\n  \"pipeline\": \"" << used << "\",\n  \"fused_order\": \"" << fused_order
-       << "\",\n  \"substeps\": " << substeps << ",\n  \"steps\": " << steps
-       << ",\n  \"copy_bandwidth_Bps\": " << bw << ",\n  \"fluid_mlups\": " << fluid_mlups
+       << ",\n  \"precision\": \"" << prec << "\",\n  \"fraction\": \"" << fraction << "\",\n  \"pipeline\": \"" << used << "\",\n  \"substeps\": " << substeps << ",\n  \"steps\": " << steps
+       << ",\n  \"fluid_mlups\": " << fluid_mlups
        << ",\n  \"fluid_fraction_of_copy\": " << frac_fluid << ",\n  \"coupled_mlups\": " << coupled_mlups
        << ",\n  \"coupled_over_fluid\": " << coupled_mlups / fluid_mlups << ",\n  \"dem_seconds_per_step\": "
        << t_dem << ",\n  \"map_seconds\": " << t_map << ",\n  \"psm_step_seconds\": " << t_psm

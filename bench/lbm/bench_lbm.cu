@@ -13,12 +13,12 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <cstring>
 #include <fstream>
 #include <sstream>
 #include <string>
 #include <vector>
 
+#include "bench_support.hpp"
 #include "core/buffer.hpp"
 #include "lbm/solver.hpp"
 
@@ -32,45 +32,6 @@ constexpr double kPi = 3.14159265358979323846;
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   return v[v.size() / 2];
-}
-
-// Device-to-device copy bandwidth, bytes read + written per second.
-double copy_bandwidth(Backend b, std::size_t bytes) {
-  Buffer<char> a(b, static_cast<Index>(bytes)), c(b, static_cast<Index>(bytes));
-  backend_memset(b, a.data(), 1, bytes);
-  backend_memset(b, c.data(), 2, bytes);
-  std::vector<double> t;
-  if (b == Backend::Cuda) {
-#if defined(LBDEM_HAVE_CUDA)
-    cudaEvent_t e0, e1;
-    LBDEM_CUDA_CHECK(cudaEventCreate(&e0));
-    LBDEM_CUDA_CHECK(cudaEventCreate(&e1));
-    for (int r = 0; r < 23; ++r) {
-      LBDEM_CUDA_CHECK(cudaEventRecord(e0));
-      LBDEM_CUDA_CHECK(cudaMemcpyAsync(c.data(), a.data(), bytes, cudaMemcpyDeviceToDevice));
-      LBDEM_CUDA_CHECK(cudaEventRecord(e1));
-      LBDEM_CUDA_CHECK(cudaEventSynchronize(e1));
-      float ms = 0;
-      LBDEM_CUDA_CHECK(cudaEventElapsedTime(&ms, e0, e1));
-      if (r >= 3) t.push_back(ms * 1e-3);
-    }
-    cudaEventDestroy(e0);
-    cudaEventDestroy(e1);
-#endif
-  } else {
-    for (int r = 0; r < 8; ++r) {
-      auto t0 = std::chrono::steady_clock::now();
-      const Index n = static_cast<Index>(bytes);
-#pragma omp parallel
-      {
-        const int nt = omp_get_num_threads(), id = omp_get_thread_num();
-        const Index lo = n * id / nt, hi = n * (id + 1) / nt;
-        std::memcpy(c.data() + lo, a.data() + lo, static_cast<std::size_t>(hi - lo));
-      }
-      if (r >= 2) t.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-    }
-  }
-  return 2.0 * static_cast<double>(bytes) / median(t);
 }
 
 struct Result {
@@ -201,8 +162,8 @@ int main(int argc, char** argv) {
   if (quick) { s3 = {64}; s2 = {256}; h3 = {32}; h2 = {128}; }
   std::vector<Result> res;
   std::vector<std::pair<std::string, double>> bw;
-  std::string device = "cpu";
   const bool gpu = !host_only && cuda_unavailable_reason().empty();
+  const std::string device = bench::device_name(gpu ? Backend::Cuda : Backend::Host);
   auto sweep = [&](Backend b, const std::vector<long>& n3, const std::vector<long>& n2, double copy) {
     for (LatticeKind lk : {LatticeKind::D3Q19, LatticeKind::D2Q9})
       for (Precision p : {Precision::FP32, Precision::FP64})
@@ -230,26 +191,19 @@ int main(int argc, char** argv) {
           }
   };
   if (gpu) {
-#if defined(LBDEM_HAVE_CUDA)
-    cudaDeviceProp prop{};
-    LBDEM_CUDA_CHECK(cudaGetDeviceProperties(&prop, 0));
-    device = prop.name;
-#endif
-    const double c = copy_bandwidth(Backend::Cuda, std::size_t(4) << 30);
+    const double c = bench::copy_bandwidth(Backend::Cuda, std::size_t(4) << 30);
     bw.push_back({"cuda", c});
     std::printf("device %s: copy bandwidth %.1f GB/s (read + write)\n", device.c_str(), c / 1e9);
     sweep(Backend::Cuda, s3, s2, c);
   }
-  const double hc = copy_bandwidth(Backend::Host, std::size_t(1) << 30);
+  const double hc = bench::copy_bandwidth(Backend::Host, std::size_t(1) << 30);
   bw.push_back({"cpu", hc});
   std::printf("host (%d threads): copy bandwidth %.1f GB/s (read + write)\n", omp_get_max_threads(), hc / 1e9);
   sweep(Backend::Host, h3, h2, hc);
 
   std::ofstream js(out);
-  js << "{\n  \"device\": \"" << device << "\",\n  \"host_threads\": " << omp_get_max_threads()
-     << ",\n  \"copy_bandwidth_GBs\": {";
-  for (std::size_t i = 0; i < bw.size(); ++i) js << (i ? ", " : "") << "\"" << bw[i].first << "\": " << bw[i].second / 1e9;
-  js << "},\n  \"runs\": [\n";
+  js << "{\n" << bench::json_header("lbdem_bench_lbm", device, bw) << ",\n  \"host_threads\": " << omp_get_max_threads()
+     << ",\n  \"quick\": " << (quick ? "true" : "false") << ",\n  \"runs\": [\n";
   for (std::size_t i = 0; i < res.size(); ++i) {
     const auto& r = res[i];
     js << "    {\"backend\": \"" << r.backend << "\", \"lattice\": \"" << r.lattice << "\", \"precision\": \"" << r.precision
