@@ -69,9 +69,8 @@ LBDEM_HD LBDEM_FORCEINLINE Vec3d contact_force(const ContactLaw& law, const Vec3
   // spring and the dashpot exactly over the part of the window in contact
   // (plus the part of the previous window that step missed when
   // 1/2 < s = tau/dt < 1) removes the O(dt) impulse error of switching the
-  // force on and off between steps (derived here; it brings the restitution
-  // error of a binary collision at t_c/50 from ~1e-2 to ~1e-3 of the approach
-  // speed, and is symmetric in time, so release is treated the same way).
+  // force on and off between steps (derived here; it is symmetric in time, so
+  // release is treated the same way).
   const double avn = fabs(vn) * dt;
   double fn;  // magnitude along -n
   if (delta < avn) {

@@ -34,7 +34,7 @@ struct RandomPackingSpec {
 // Random non-overlapping spheres at a given solid fraction: random subset of
 // the sites of a face-centred-cubic lattice just dense enough, each particle
 // displaced at random by up to half the free gap (never overlapping), then
-// optional Monte Carlo sweeps. O(N); a million particles take about a second.
+// optional Monte Carlo sweeps. O(N).
 // Throws ConfigError when the lattice cannot hold the radii at that fraction.
 HostParticles random_packing(const RandomPackingSpec& spec);
 

@@ -1,35 +1,7 @@
 #pragma once
 // The DEM engine: particles resident on one backend, neighbour lists, contact
-// forces, walls, velocity-Verlet integration.
-//
-// One step (advance): kick v by dt/2 and drift x by dt (and predict the
-// velocity the contact forces see) -> if some particle moved more than
-// skin/2 since the last build, rebuild (sort by cell, reorder the particle
-// arrays, rebuild the Verlet list, carry tangential histories by partner id)
-// -> forces -> kick v by dt/2. Consecutive half kicks are fused into one
-// kernel; velocities are synchronised at the end of every advance() call.
-//
-// Rebuild decisions without a blocking read per step (the default,
-// RebuildCheck::Lookahead): the host decides before each step, from a report
-// of the largest displacement since the build, speed and acceleration that
-// the device reduced a few steps earlier (or at the end of the previous
-// advance() call) and copied asynchronously, rebuilding when that
-// displacement plus a safe bound on the motion since the report could exceed
-// skin/2. Every step the device also checks the real displacements; one above
-// skin/2 at a step that did not rebuild (the bound failed) is reported as a
-// DivergenceError when the host reads that report, never passed over. The
-// schedule of reports depends only on the state and the advance() call
-// lengths, so both backends and repeated runs take the same decisions.
-//
-// Host round trips in the time loop: no blocking read per step. Reports are
-// copied into page-locked memory and read one report later: at the start of
-// the next advance() call (the host waits only until the device has finished
-// the previous call's DEM steps, not for work queued after them) and, inside
-// long calls, every k steps with k steps of lag (k = 1..8, shorter for fast
-// particles whose lists need rebuilding within a few dozen steps). A rebuild
-// still reads 8 bytes (list overflow) and waits for the device. The first
-// advance() call reads one report synchronously. No allocation in the loop
-// once the first steps have sized the scratch space.
+// forces, walls, velocity-Verlet integration. dem/README.md describes the time
+// step, the rebuild decisions (RebuildCheck) and the two force paths.
 #include <array>
 #include <cstdint>
 #include <memory>
@@ -62,7 +34,7 @@ struct Material {
   double tangential_damping_ratio = 0.5;          // eta_t / eta_n
 };
 
-// How the host decides neighbour-list rebuilds (see the header comment).
+// How the host decides neighbour-list rebuilds (dem/README.md, "Rebuild decisions").
 enum class RebuildCheck {
   Lookahead,  // ahead of time from device reports read with a lag: no blocking read per step (default)
   EveryStep,  // exactly when a displacement exceeds skin/2: one blocking 16-byte read per step (reference)
@@ -114,7 +86,7 @@ class DemSystem {
   DemSystem& operator=(const DemSystem&) = delete;
 
   // Advances `steps` velocity-Verlet steps. Throws DivergenceError when the
-  // neighbour list was found stale (see the header comment); after that
+  // neighbour list was found stale (dem/README.md, "Rebuild decisions"); after that
   // every advance() throws until rebuild() is called.
   void advance(long steps);
   // Recomputes forces at the current state (with the current list).

@@ -1,0 +1,198 @@
+#pragma once
+// Contact-force kernel bodies: per-particle loads and walls, the
+// particle-parallel path, and the three stages of the pair path. Include only
+// from kernel translation units (*.cu).
+#include "atomics.hpp"
+#include "state.hpp"
+
+namespace lbdem::dem {
+
+// ------------------------------------------------------------------- forces
+// Body force, gravity, coupling input and walls on particle i.
+template <bool Friction>
+LBDEM_HD LBDEM_FORCEINLINE void particle_forces(const State& s, Index i, const Real4& p, const Real4& v,
+                                                const Real4& w, Vec3d& F, Vec3d& T) {
+  const double m = 1.0 / v.w;
+  F = s.body + s.gravity * m;
+  T = Vec3d{};
+  if (s.extf) {
+    F += xyz(s.extf[i]);
+    T += xyz(s.extt[i]);
+  }
+  for (int k = 0; k < s.walls.count; ++k) {
+    const Wall& wl = s.walls.w[k];
+    const double h = dot(xyz(p) - wl.point, wl.normal);
+    const double delta = p.w - h;
+    Vec3d* xi = Friction ? &s.whist[k * s.n + i] : nullptr;
+    if (delta > 0.0) {
+      const Vec3d nv = -wl.normal;  // towards the wall
+      Vec3d vrel = xyz(v);
+      Vec3d hist{}, ft{};
+      if constexpr (Friction) {
+        vrel += cross(xyz(w) * p.w, nv);
+        hist = *xi;
+      }
+      F += contact_force<Friction>(s.pw, nv, delta, m, vrel, hist, s.dt, ft);
+      if constexpr (Friction) {
+        T += cross(nv * p.w, ft);
+        *xi = hist;
+      }
+    } else if constexpr (Friction) {
+      if (xi->x != 0.0 || xi->y != 0.0 || xi->z != 0.0) *xi = Vec3d{};
+    }
+  }
+}
+
+// Particle-parallel: particle i sums all its contacts over its full list.
+// Deterministic: fixed summation order, no atomics.
+template <bool Friction>
+struct ForceParticle {
+  State s;
+  LBDEM_HD void operator()(Index i) const {
+    const Real4 p = s.pos[i];
+    const Real4 v = s.vpr[i];
+    Real4 w{0, 0, 0, 0};
+    if constexpr (Friction) w = s.wpr[i];
+    Vec3d F, T;
+    particle_forces<Friction>(s, i, p, v, w, F, T);
+    const int cnt = s.ncount[i];
+    for (int q = 0; q < cnt; ++q) {
+      const Index slot = q * s.n + i;
+      const int j = s.nbr[slot];
+      const Real4 pj = s.pos[j];
+      const Vec3d d = s.box.min_image(xyz(pj) - xyz(p));
+      const double rs = p.w + pj.w;
+      const double d2 = dot(d, d);
+      if (d2 < rs * rs) {
+        const double dist = sqrt(d2);
+        const Vec3d nv = d * (1.0 / dist);
+        const Real4 vj = s.vpr[j];
+        const double meff = 1.0 / (v.w + vj.w);
+        Vec3d vrel = xyz(v) - xyz(vj);
+        Vec3d hist{}, ft{};
+        if constexpr (Friction) {
+          const Real4 wj = s.wpr[j];
+          vrel += cross(xyz(w) * p.w + xyz(wj) * pj.w, nv);
+          hist = s.hist[slot];
+        }
+        F += contact_force<Friction>(s.pp, nv, rs - dist, meff, vrel, hist, s.dt, ft);
+        if constexpr (Friction) {
+          T += cross(nv * p.w, ft);
+          s.hist[slot] = hist;
+        }
+      } else if constexpr (Friction) {
+        const Vec3d h = s.hist[slot];
+        if (h.x != 0.0 || h.y != 0.0 || h.z != 0.0) s.hist[slot] = Vec3d{};
+      }
+    }
+    s.frc[i] = Real4{F.x, F.y, F.z, 0.0};
+    if constexpr (Friction) s.trq[i] = Real4{T.x, T.y, T.z, 0.0};
+  }
+};
+
+// Pair path, stage 1: per-particle forces (body, walls) and the number of
+// overlapping partners j > i (resets the history of non-touching ones).
+template <bool Friction>
+struct PairInit {
+  State s;
+  int* ccount;
+  LBDEM_HD void operator()(Index i) const {
+    const Real4 p = s.pos[i];
+    const Real4 v = s.vpr[i];
+    Real4 w{0, 0, 0, 0};
+    if constexpr (Friction) w = s.wpr[i];
+    Vec3d F, T;
+    particle_forces<Friction>(s, i, p, v, w, F, T);
+    s.frc[i] = Real4{F.x, F.y, F.z, 0.0};
+    if constexpr (Friction) s.trq[i] = Real4{T.x, T.y, T.z, 0.0};
+    int c = 0;
+    const int cnt = s.ncount[i];
+    for (int q = 0; q < cnt; ++q) {
+      const Index slot = q * s.n + i;
+      const int j = s.nbr[slot];
+      if (j < i) continue;
+      const Real4 pj = s.pos[j];
+      const Vec3d d = s.box.min_image(xyz(pj) - xyz(p));
+      const double rs = p.w + pj.w;
+      if (dot(d, d) < rs * rs) ++c;
+      else if constexpr (Friction) {
+        const Vec3d h = s.hist[slot];
+        if (h.x != 0.0 || h.y != 0.0 || h.z != 0.0) s.hist[slot] = Vec3d{};
+      }
+    }
+    ccount[i] = c;
+  }
+};
+
+// Stage 2 (after the exclusive scan): write the compacted pairs. pairs[k].j
+// holds the list slot q (the partner is nbr[q * n + i]) so the history is found.
+struct PairFill {
+  State s;
+  const int* coffs;
+  PairIJ* pairs;
+  LBDEM_HD void operator()(Index i) const {
+    int k = coffs[i];
+    const Real4 p = s.pos[i];
+    const int cnt = s.ncount[i];
+    for (int q = 0; q < cnt; ++q) {
+      const int j = s.nbr[q * s.n + i];
+      if (j < i) continue;
+      const Real4 pj = s.pos[j];
+      const Vec3d d = s.box.min_image(xyz(pj) - xyz(p));
+      const double rs = p.w + pj.w;
+      if (dot(d, d) < rs * rs) pairs[k++] = PairIJ{static_cast<int>(i), q};
+    }
+  }
+};
+
+// Stage 3: one pair per thread (grid-stride over the device-held total), the
+// force added to both particles with atomics.
+template <bool Friction>
+struct PairForce {
+  State s;
+  const PairIJ* pairs;
+  const int* total;
+  Index workers;
+  LBDEM_HD void operator()(Index w0) const {
+    const Index np = *total;
+    for (Index k = w0; k < np; k += workers) {
+      const PairIJ pr = pairs[k];
+      const Index i = pr.i;
+      const Index slot = static_cast<Index>(pr.j) * s.n + i;
+      const int j = s.nbr[slot];
+      const Real4 p = s.pos[i], pj = s.pos[j];
+      const Real4 v = s.vpr[i], vj = s.vpr[j];
+      const Vec3d d = s.box.min_image(xyz(pj) - xyz(p));
+      const double rs = p.w + pj.w;
+      const double dist = sqrt(dot(d, d));
+      const Vec3d nv = d * (1.0 / dist);
+      const double meff = 1.0 / (v.w + vj.w);
+      Vec3d vrel = xyz(v) - xyz(vj);
+      Vec3d hist{}, ft{};
+      if constexpr (Friction) {
+        vrel += cross(xyz(s.wpr[i]) * p.w + xyz(s.wpr[j]) * pj.w, nv);
+        hist = s.hist[slot];
+      }
+      const Vec3d f = contact_force<Friction>(s.pp, nv, rs - dist, meff, vrel, hist, s.dt, ft);
+      detail::atomic_add(&s.frc[i].x, f.x);
+      detail::atomic_add(&s.frc[i].y, f.y);
+      detail::atomic_add(&s.frc[i].z, f.z);
+      detail::atomic_add(&s.frc[j].x, -f.x);
+      detail::atomic_add(&s.frc[j].y, -f.y);
+      detail::atomic_add(&s.frc[j].z, -f.z);
+      if constexpr (Friction) {
+        s.hist[slot] = hist;
+        const Vec3d ti = cross(nv * p.w, ft);
+        const Vec3d tj = cross(nv * pj.w, ft);
+        detail::atomic_add(&s.trq[i].x, ti.x);
+        detail::atomic_add(&s.trq[i].y, ti.y);
+        detail::atomic_add(&s.trq[i].z, ti.z);
+        detail::atomic_add(&s.trq[j].x, tj.x);
+        detail::atomic_add(&s.trq[j].y, tj.y);
+        detail::atomic_add(&s.trq[j].z, tj.z);
+      }
+    }
+  }
+};
+
+}  // namespace lbdem::dem

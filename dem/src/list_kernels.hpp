@@ -1,0 +1,146 @@
+#pragma once
+// Cell-list and Verlet-list kernel bodies (NeighbourList): cell keys, cell
+// ranges, the list build with its tangential-history hand-over. Include only
+// from kernel translation units (*.cu).
+#include <cstdint>
+
+#include "atomics.hpp"
+#include "cell_grid.hpp"
+#include "state.hpp"
+
+namespace lbdem::dem {
+
+// ------------------------------------------------------------------- cell list
+struct CellKey {
+  const Real4* pos;
+  CellGrid g;
+  std::uint32_t* key;
+  int* idx;
+  LBDEM_HD void operator()(Index i) const {
+    key[i] = g.cell(pos[i]);
+    idx[i] = static_cast<int>(i);
+  }
+};
+
+// Empties the cells occupied at the previous build (keys still sorted from
+// it): O(N) instead of O(cells), which matters for big, sparse boxes.
+struct ClearCells {
+  const std::uint32_t* old_key;
+  int *start, *end;
+  LBDEM_HD void operator()(Index i) const {
+    const std::uint32_t c = old_key[i];
+    start[c] = 0;
+    end[c] = 0;
+  }
+};
+
+// Sorted keys -> [start, end) of each occupied cell.
+struct CellRange {
+  const std::uint32_t* key;
+  int *start, *end;
+  Index n;
+  LBDEM_HD void operator()(Index i) const {
+    const std::uint32_t k = key[i];
+    if (i == 0 || key[i - 1] != k) start[k] = static_cast<int>(i);
+    if (i == n - 1 || key[i + 1] != k) end[k] = static_cast<int>(i + 1);
+  }
+};
+
+// Verlet list: every j with |x_j - x_i| < r_i + r_j + skin, scanning the 27
+// (fewer on thin periodic axes) surrounding cells. With friction, each slot's
+// history is looked up by partner global id in the previous list: in i's own
+// old row, else in the partner's old row (negated, the pair path keeps only
+// the i<j copy).
+template <bool Friction>
+struct BuildList {
+  State s;
+  CellGrid g;
+  const int *cstart, *cend;
+  // Previous list (friction): indexed by the old order.
+  const int* perm;
+  const int *nbr_prev, *ncount_prev;
+  const Vec3d* hist_prev;
+  const std::int64_t* gid_prev;
+  int have_prev;
+  int prev_full;  // 1: both copies valid (particle path); 0: only partner old index > own
+
+  LBDEM_HD Vec3d lookup(Index i, Index j) const {
+    const Index oi = perm[i], oj = perm[j];
+    const std::int64_t gi = s.gid[i], gj = s.gid[j];
+    const int ci = ncount_prev[oi];
+    for (int q = 0; q < ci; ++q) {
+      const int o = nbr_prev[q * s.n + oi];
+      if ((prev_full || o > oi) && gid_prev[o] == gj) return hist_prev[q * s.n + oi];
+    }
+    const int cj = ncount_prev[oj];
+    for (int q = 0; q < cj; ++q) {
+      const int o = nbr_prev[q * s.n + oj];
+      if ((prev_full || o > oj) && gid_prev[o] == gi) return -hist_prev[q * s.n + oj];
+    }
+    return Vec3d{};
+  }
+
+  LBDEM_HD void operator()(Index i) const {
+    // Members into locals: the list stores are ints and would otherwise force
+    // reloads of every int member (aliasing) in the inner loop.
+    const Real4 pi = s.pos[i];
+    const Vec3d xi = xyz(pi);
+    const Real4* pos = s.pos;
+    int* nbr = s.nbr;
+    const Index n = s.n;
+    const int cap = s.cap;
+    const double skin = s.skin;
+    const Box box = s.box;
+    const int nc0 = g.nc[0], nc1 = g.nc[1], nc2 = g.nc[2];
+    const int c[3] = {g.coord(pi.x, 0), g.coord(pi.y, 1), g.coord(pi.z, 2)};
+    int lo[3], hi[3];
+    for (int k = 0; k < 3; ++k) {
+      if (g.periodic[k] && g.nc[k] < 3) { lo[k] = 0; hi[k] = g.nc[k] - 1; }
+      else { lo[k] = -1; hi[k] = 1; }
+    }
+    // Neighbour cell coordinate: wrapped on periodic axes (one compare: the
+    // offset is at most one cell), -1 when outside a closed axis.
+    auto wrap = [](int x, int nc, int per) {
+      if (x < 0) return per ? x + nc : -1;
+      if (x >= nc) return per ? x - nc : -1;
+      return x;
+    };
+    int cnt = 0;
+    for (int dz = lo[2]; dz <= hi[2]; ++dz) {
+      const int cz = wrap(c[2] + dz, nc2, g.periodic[2]);
+      if (cz < 0) continue;
+      for (int dy = lo[1]; dy <= hi[1]; ++dy) {
+        const int cy = wrap(c[1] + dy, nc1, g.periodic[1]);
+        if (cy < 0) continue;
+        const int row = nc0 * (cy + nc1 * cz);
+        for (int dx = lo[0]; dx <= hi[0]; ++dx) {
+          const int cx = wrap(c[0] + dx, nc0, g.periodic[0]);
+          if (cx < 0) continue;
+          const int cell = cx + row;
+          const int e = cend[cell];
+          for (int j = cstart[cell]; j < e; ++j) {
+            if (j == i) continue;
+            const Real4 pj = pos[j];
+            const Vec3d d = box.min_image(xyz(pj) - xi);
+            const double rc = pi.w + pj.w + skin;
+            if (dot(d, d) < rc * rc) {
+              if (cnt < cap) {
+                nbr[cnt * n + i] = j;
+                if constexpr (Friction) s.hist[cnt * n + i] = have_prev ? lookup(i, j) : Vec3d{};
+              }
+              ++cnt;
+            }
+          }
+        }
+      }
+    }
+    s.ncount[i] = cnt < cap ? cnt : cap;
+    if (cnt > cap) {
+      detail::atomic_set(&s.flags[0], 1);
+      detail::atomic_max(&s.flags[1], cnt);
+    }
+    s.x0[i] = pi;
+  }
+};
+
+}  // namespace lbdem::dem

@@ -1,0 +1,73 @@
+#pragma once
+// Neighbour search of a DemSystem: the cell list (particles sorted by cell),
+// the Verlet list built from it with the tangential histories carried over by
+// partner id, and the buffers of the pair path's count -> scan -> fill.
+#include <cstdint>
+#include <vector>
+
+#include "core/buffer.hpp"
+#include "core/exec.hpp"
+#include "dem/geometry.hpp"
+#include "cell_grid.hpp"
+#include "state.hpp"
+
+namespace lbdem {
+struct Scratch;  // core/algorithms.hpp
+}
+
+namespace lbdem::dem {
+
+class ParticleStore;
+
+class NeighbourList {
+ public:
+  // The cell grid for particles of radii r in the box: cells at least the
+  // largest cutoff 2 r_max + skin wide, their count bounded for big sparse
+  // boxes. Sets the skin (0: 0.2 r_min). Throws ConfigError for a radius <= 0
+  // or a periodic length below twice the cutoff.
+  void set_geometry(const Box& box, const std::vector<double>& r, double skin_param);
+  // Allocates the cell list and the counters for n particles; `history`:
+  // tangential histories carried across builds; `pair_path`: keep the
+  // compacted pair array of the pair path. `capacity`: list slots per particle.
+  void allocate(Backend be, Index n, bool history, bool pair_path, int capacity);
+  // Sorts the particles by cell, reorders the store into cell order, and
+  // builds the Verlet list, growing the capacity on overflow (the one
+  // blocking read of a build). `physics`: the set-up constants of the kernel
+  // view (the particle and list arrays are bound here, after the reorder).
+  void rebuild(const Exec& ex, ParticleStore& store, const State& physics, Scratch& scratch);
+  // Lowers the capacity to what the last build needed (x1.5 + 8, rounded to
+  // 8) if that is smaller, releasing the list storage: returns true when it
+  // did (the caller rebuilds).
+  bool fit_capacity(const Exec& ex, Scratch& scratch);
+  // The list arrays of the kernel view.
+  void bind(State& s) const;
+
+  CellGrid grid{};
+  double skin = 0;  // Verlet skin [m]: the list holds pairs closer than r_i + r_j + skin
+  int cap = 0;      // list slots per particle
+  Index n = 0;
+  bool history = false, pair_path = false;
+
+  // Verlet list, column-major: slot s of particle i at [s * n + i].
+  Buffer<int> nbr, ncount;
+  Buffer<Vec3d> hist;  // tangential history per slot (friction)
+  // Pair path: contacts per particle -> exclusive scan -> compacted pairs.
+  Buffer<int> ccount, coffs;
+  Buffer<PairIJ> pairs;
+
+ private:
+  void allocate_lists(Backend be);
+  // Cell list.
+  Buffer<std::uint32_t> key, key_sorted;
+  Buffer<int> idx, perm;  // perm[new] = old index of the last build
+  Buffer<int> cell_start, cell_end;
+  bool have_cells = false;  // key_sorted holds the previous build's keys
+  // The previous list (friction), for the history hand-over.
+  Buffer<int> nbr_prev, ncount_prev;
+  Buffer<Vec3d> hist_prev;
+  bool have_prev = false;
+  // flags[0] list overflow, [1] largest neighbour count seen (read at each build).
+  Buffer<int> flags;
+};
+
+}  // namespace lbdem::dem
