@@ -227,7 +227,7 @@ int main(int argc, char** argv) {
       bz.copy_from_host(zs);
       br.copy_from_host(rs);
       SphereView v{bx.data(), by.data(), bz.data(), br.data(), np};
-      CellSlots slots(b, GridShape{L, L, L, {true, true, true}}, 12);
+      CellSlots slots(b, Grid::whole({L, L, L}), 12);
       Exec ex(b);
       // Variants: 0-2 the three methods (defaults), 3 table in global memory, 4 exact without the deferred pass.
       const char* names[5] = {"exact", "table", "linear", "table(global)", "exact(direct)"};

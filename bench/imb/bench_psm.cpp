@@ -267,7 +267,6 @@ int suspension(int argc, char** argv) {
   dp.skin = 0.1 * d;
   imb::CoupledParams cp;
   cp.gravity = g;
-  cp.periodic = {true, true, true};
   if (substeps <= 0) substeps = imb::coupled_scales(s, dp, hp, cp).min_substeps;
   dp.dt = 1.0 / substeps;
   cp.dem_substeps = substeps;

@@ -72,7 +72,7 @@ FixedSphereResult run_fixed_sphere(const FixedSphereSpec& c, Backend b) {
   p.x = d; p.y = d + 1; p.z = d3 ? d + 2 : nullptr; p.r = d + 3;
   p.vx = d + 4; p.vy = d + 5; p.vz = d + 6; p.wx = d + 7; p.wy = d + 8; p.wz = d + 9;
   p.n = 1;
-  imb::PsmCoupling coupling(*solver, c.slots, {true, true, true});
+  imb::PsmCoupling coupling(*solver, c.slots);
   imb::PsmOptions opt;
   opt.variant = c.variant;
   opt.weight = c.weight;

@@ -195,7 +195,6 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
     s.boundaries.kind[0] = lbm::BoundaryKind::Wall;
     s.boundaries.rho[0] = 1.0;
   }
-  c.coupling.periodic = periodic;
   const Config f = root.section("fluid");
   read_fluid_common(f, s);
   c.max_mach = f.number_in("max_mach", 0.3, 0.01, 0.5, "largest lattice Mach number |u| sqrt(3) before the run stops");
@@ -325,7 +324,7 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
         const long q[3] = {x, y, z};
         bool wall = false;
         for (int a = 0; a < 3; ++a)
-          if (!c.coupling.periodic[static_cast<std::size_t>(a)] && (q[a] == 0 || q[a] == n[a] - 1)) wall = true;
+          if (!c.setup.domain.periodic[static_cast<std::size_t>(a)] && (q[a] == 0 || q[a] == n[a] - 1)) wall = true;
         if (wall) flags[static_cast<std::size_t>(x + n[0] * (y + n[1] * z))] = 1;
       }
   fluid->initialize(flags, std::vector<double>(N, 1.0), std::vector<double>(3 * N, 0.0));

@@ -41,7 +41,7 @@ GridView Grid::view() const {
     const auto k = static_cast<std::size_t>(a);
     v.shift[a] = static_cast<double>(offset[k] - ghost_on(a));
     v.global[a] = static_cast<int>(global[k]);
-    v.periodic[a] = periodic[k];
+    v.periodic[a] = periodic[k] && !split[k];
   }
   return v;
 }

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <sstream>
+#include <stdexcept>
 
 #include "core/algorithms.hpp"
 #include "core/error.hpp"
@@ -83,8 +84,9 @@ struct MapKernel {
   SphereView p;
   CellSlotsView s;
   Fraction<Dim, M> frac;
-  Index nx, ny, nz;
-  bool per_x, per_y, per_z;
+  Index nx, ny, nz;         // storage cells per axis
+  bool per_x, per_y, per_z;  // axes that wrap onto themselves in storage
+  double sx, sy, sz;         // global lattice frame -> storage coordinates: subtract (GridView::shift)
   int B;             // box edge in cells
   Index box;         // B^Dim
   int* flags;        // [0] surplus events, [1] radius errors, [2] offending particle, [3] deferred count
@@ -123,7 +125,7 @@ struct MapKernel {
     const std::uint32_t l32 = static_cast<std::uint32_t>(t - pi * box), B32 = static_cast<std::uint32_t>(B);
     const Index po = static_cast<Index>(pi) * p.stride;
     const double R = p.r[po];
-    const double cx = p.x[po], cy = p.y[po], cz = Dim == 3 ? p.z[po] : 0.5;
+    const double cx = p.x[po] - sx, cy = p.y[po] - sy, cz = Dim == 3 ? p.z[po] - sz : 0.5;
     const Index i0 = static_cast<Index>(floor(cx - R)), j0 = static_cast<Index>(floor(cy - R));
     const Index k0 = Dim == 3 ? static_cast<Index>(floor(cz - R)) : 0;
     if (check_radius && l32 == 0) {  // one thread per particle checks that its box fits
@@ -347,7 +349,7 @@ using mapk::ZeroInts;
 
 template <int Dim, FractionMethod M>
 struct LaunchMap {
-  static void run(const Exec& ex, const SphereView& p, const CellSlotsView& s, const GridShape& g, const MapOptions& o,
+  static void run(const Exec& ex, const SphereView& p, const CellSlotsView& s, const GridView& g, const MapOptions& o,
                   int B, int* flags, Index* log_cell, int* log_particle, int log_cap, const float* global_table,
                   Index* queue, Index queue_cap, int* pair) {
     MapKernel<Dim, M> k{};
@@ -361,6 +363,9 @@ struct LaunchMap {
     k.per_x = g.periodic[0];
     k.per_y = g.periodic[1];
     k.per_z = g.periodic[2];
+    k.sx = g.shift[0];
+    k.sy = g.shift[1];
+    k.sz = g.shift[2];
     k.B = B;
     k.box = Dim == 3 ? static_cast<Index>(B) * B * B : static_cast<Index>(B) * B;
     k.flags = flags;
@@ -390,14 +395,17 @@ struct LaunchEval {
 
 }  // namespace
 
-CellSlots::CellSlots(Backend b, GridShape grid, int K, int overflow_log)
+CellSlots::CellSlots(Backend b, const Grid& grid, int K, int overflow_log)
     : backend_(b), grid_(grid), K_(K), log_cap_(overflow_log), scratch_(std::make_shared<Scratch>()) {
-  if (grid_.nx < 1 || grid_.ny < 1 || grid_.nz < 1)
-    throw ConfigError("CellSlots: grid " + std::to_string(grid_.nx) + "x" + std::to_string(grid_.ny) + "x" +
-                      std::to_string(grid_.nz) + " must have at least one cell per axis");
+  try {
+    grid_.validate();
+  } catch (const std::invalid_argument& e) {
+    throw ConfigError(std::string("CellSlots: ") + e.what());
+  }
+  gv_ = grid_.view();
   if (K_ < 1 || K_ > 64) throw ConfigError("CellSlots: K (slots per cell) = " + std::to_string(K_) + " must be in 1..64");
   if (log_cap_ < 1) log_cap_ = 1;
-  const Index n = grid_.cells();
+  const Index n = gv_.n;
   count_ = Buffer<int>(b, n);
   particle_ = Buffer<int>(b, n * K_);
   eps_ = Buffer<double>(b, n * K_);
@@ -440,9 +448,9 @@ void CellSlots::map(const Exec& ex, const SphereView& particles, const MapOption
   }
   max_radius_ = std::max(rmax, 0.0);
   const int B = static_cast<int>(std::floor(2.0 * std::max(rmax, 0.0))) + 2;
-  const Index ns[3] = {grid_.nx, grid_.ny, grid_.nz};
+  const Index ns[3] = {gv_.nx, gv_.ny, gv_.nz};
   for (int a = 0; a < dim; ++a)
-    if (grid_.periodic[a] && B > ns[a])
+    if (gv_.periodic[a] && B > ns[a])
       throw ConfigError("CellSlots::map: particle radius " + std::to_string(rmax) + " spans " + std::to_string(B) +
                         " cells, more than the " + std::to_string(ns[a]) + " cells of periodic axis " +
                         std::string(1, "xyz"[a]) + " (a particle would meet its own image)");
@@ -451,7 +459,7 @@ void CellSlots::map(const Exec& ex, const SphereView& particles, const MapOption
   // name (about a fifth of the grid in a dense suspension), the whole grid the
   // first time.
   if (paired_ > 0) for_each(ex, paired_, ClearPaired{count_.data(), pair_.data()});
-  else for_each(ex, grid_.cells(), ZeroInts{count_.data()});
+  else for_each(ex, gv_.n, ZeroInts{count_.data()});
   paired_ = 0;
   // [0..2] are overflow counters (kept across maps on request); [3] is this
   // map's deferred-queue length and always starts from zero.
@@ -470,7 +478,7 @@ void CellSlots::map(const Exec& ex, const SphereView& particles, const MapOption
     queue_cap = particles.n * static_cast<Index>(std::ceil(shell));
     queue_.reserve_discard(backend_, queue_cap);  // grows only: no allocation in a steady time loop
   }
-  Dispatch<LaunchMap>::run(dim, opt.method, ex, particles, view(), grid_, opt, B, flags_.data(), log_cell_.data(),
+  Dispatch<LaunchMap>::run(dim, opt.method, ex, particles, view(), gv_, opt, B, flags_.data(), log_cell_.data(),
                            log_particle_.data(), log_cap_, global_table, queue_.data(), queue_cap, pair_.data());
   paired_ = particles.n * pair_box_;
   if (opt.sort_slots && K_ > 1) {
@@ -492,13 +500,13 @@ OverflowReport CellSlots::overflow() const {
   if (r.overflow) {
     const mapk::LoggedOverflow lo = mapk::read_overflow_log(log_cell_, log_particle_, flags[0], log_cap_);
     r.cell = lo.key;
-    r.ijk = {r.cell % grid_.nx, (r.cell / grid_.nx) % grid_.ny, r.cell / (grid_.nx * grid_.ny)};
+    r.ijk = {r.cell % gv_.nx, (r.cell / gv_.nx) % gv_.ny, r.cell / (static_cast<Index>(gv_.nx) * gv_.ny)};
     int cnt = 0;
     count_.copy_to_host(&cnt, 1, r.cell);
     r.count = cnt;
     for (int k = 0; k < K_; ++k) {
       int pk = -1;
-      particle_.copy_to_host(&pk, 1, static_cast<Index>(k) * grid_.cells() + r.cell);
+      particle_.copy_to_host(&pk, 1, static_cast<Index>(k) * gv_.n + r.cell);
       r.particles.push_back(pk);
     }
     r.particles.insert(r.particles.end(), lo.particles.begin(), lo.particles.end());
@@ -522,7 +530,7 @@ void CellSlots::throw_if_overflow() const {
 std::vector<double> CellSlots::total_eps_host() const {
   const auto cnt = counts_host();
   const auto eps = eps_host();
-  const Index n = grid_.cells();
+  const Index n = gv_.n;
   std::vector<double> out(static_cast<std::size_t>(n), 0.0);
   for (Index c = 0; c < n; ++c) {
     const int m = std::min(cnt[static_cast<std::size_t>(c)], K_);

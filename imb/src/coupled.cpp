@@ -90,7 +90,7 @@ CoupledSolver::CoupledSolver(lbm::LbmSolver& fluid, dem::DemSystem& dem, const C
   if (!dem_.view().ext_force)
     throw ConfigError("coupling: the DEM system was created without external forcing (DemParams.external_forcing)");
   dim_ = fluid_.setup().lattice == lbm::LatticeKind::D2Q9 ? 2 : 3;
-  psm_ = std::make_unique<PsmCoupling>(fluid_, p_.slots, p_.periodic);
+  psm_ = std::make_unique<PsmCoupling>(fluid_, p_.slots);
   p_.psm.map.keep_overflow = true;
   map();
   check_overflow();

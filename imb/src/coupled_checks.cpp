@@ -127,12 +127,12 @@ CoupledScales check_coupled_setup(const lbm::LbmSetup& fluid, const dem::DemPara
   }
   for (int a = 0; a < dim; ++a) {
     const auto k = static_cast<std::size_t>(a);
-    if (cp.periodic[k] != dem.periodic[k])
-      throw ConfigError(std::string("coupling.periodic[") + axis(a) + "] = " + (cp.periodic[k] ? "true" : "false") +
+    if (fluid.domain.periodic[k] != dem.periodic[k])
+      throw ConfigError(std::string("domain.periodic[") + axis(a) + "] = " + (fluid.domain.periodic[k] ? "true" : "false") +
                         " but dem.periodic[" + axis(a) + "] = " + (dem.periodic[k] ? "true" : "false") +
                         ": the fluid's particle images and the DEM's must wrap on the same axes; set both to " +
                         (dem.periodic[k] ? "true" : "false"));
-    if (!cp.periodic[k]) continue;
+    if (!fluid.domain.periodic[k]) continue;
     const double n = static_cast<double>(fluid.domain.global[k]);
     if (std::abs(dem.lo[k]) > 1e-9 || std::abs(dem.hi[k] - n) > 1e-9)
       throw ConfigError(std::string("dem.lo[") + axis(a) + "], dem.hi[" + axis(a) + "] = " + num(dem.lo[k]) + ", " +
@@ -220,7 +220,7 @@ CoupledScales check_coupled_setup(const lbm::LbmSetup& fluid, const dem::DemPara
 
   // 4. Net force in a fully periodic domain.
   bool fully_periodic = fluid.boundaries.count == 0;
-  for (int a = 0; a < dim; ++a) fully_periodic = fully_periodic && cp.periodic[static_cast<std::size_t>(a)];
+  for (int a = 0; a < dim; ++a) fully_periodic = fully_periodic && fluid.domain.periodic[static_cast<std::size_t>(a)];
   if (fully_periodic) {
     double total = 1;
     for (int a = 0; a < dim; ++a) total *= static_cast<double>(fluid.domain.global[static_cast<std::size_t>(a)]);

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 #include <sstream>
 
 #include "core/algorithms.hpp"
@@ -79,9 +80,11 @@ struct TileBuild {
       atomic_add(&flags[2], 1);
       flags[3] = static_cast<int>(pi);
     }
-    const int tx = axis_tile(lx, p.x[o], R, tv.nx, tv.t.tx, tv.periodic[0]);
-    const int ty = axis_tile(ly, p.y[o], R, tv.ny, tv.t.ty, tv.periodic[1]);
-    const int tz = dim == 3 ? axis_tile(lz, p.z[o], R, tv.nz, tv.t.tz, tv.periodic[2]) : (lz == 0 ? 0 : -1);
+    // Centres in storage coordinates (GridView::shift: the global frame's offset).
+    const int tx = axis_tile(lx, p.x[o] - tv.g.shift[0], R, tv.g.nx, tv.t.tx, tv.g.periodic[0]);
+    const int ty = axis_tile(ly, p.y[o] - tv.g.shift[1], R, tv.g.ny, tv.t.ty, tv.g.periodic[1]);
+    const int tz = dim == 3 ? axis_tile(lz, p.z[o] - tv.g.shift[2], R, tv.g.nz, tv.t.tz, tv.g.periodic[2])
+                            : (lz == 0 ? 0 : -1);
     if (tx < 0 || ty < 0 || tz < 0) {
       zero_entry(t);
       return;
@@ -125,7 +128,7 @@ int ceil_div(Index a, int b) { return static_cast<int>((a + b - 1) / b); }
 
 }  // namespace
 
-TileMap::TileMap(Backend b, GridShape grid, int K, int capacity, int overflow_log)
+TileMap::TileMap(Backend b, const Grid& grid, int K, int capacity, int overflow_log)
     : backend_(b), grid_(grid), shape_(TileShape::for_dim(grid.dim())), K_(K), capacity_(capacity),
       log_cap_(std::max(overflow_log, 1)), scratch_(std::make_shared<Scratch>()) {
   if (K_ < 1 || K_ > kFusedMaxSlots)
@@ -134,11 +137,15 @@ TileMap::TileMap(Backend b, GridShape grid, int K, int capacity, int overflow_lo
   if (capacity_ < 1 || capacity_ > kFusedMaxCapacity)
     throw ConfigError("psm.tile_capacity = " + std::to_string(capacity_) + ": must be in 1.." +
                       std::to_string(kFusedMaxCapacity));
-  if (grid_.cells() > static_cast<Index>(INT32_MAX))
-    throw ConfigError("TileMap: " + std::to_string(grid_.cells()) + " cells exceed 2^31 per rank");
-  ntx_ = ceil_div(grid_.nx, shape_.tx);
-  nty_ = ceil_div(grid_.ny, shape_.ty);
-  ntz_ = ceil_div(grid_.nz, shape_.tz);
+  try {
+    grid_.validate();
+  } catch (const std::invalid_argument& e) {
+    throw ConfigError(std::string("TileMap: ") + e.what());
+  }
+  gv_ = grid_.view();
+  ntx_ = ceil_div(gv_.nx, shape_.tx);
+  nty_ = ceil_div(gv_.ny, shape_.ty);
+  ntz_ = ceil_div(gv_.nz, shape_.tz);
   const Index tiles = static_cast<Index>(ntx_) * nty_ * ntz_;
   count_ = Buffer<int>(b, tiles);
   particle_ = Buffer<int>(b, tiles * capacity_);
@@ -158,14 +165,11 @@ TileMap::TileMap(Backend b, GridShape grid, int K, int capacity, int overflow_lo
 
 TileView TileMap::view() const {
   TileView v;
-  v.nx = static_cast<int>(grid_.nx);
-  v.ny = static_cast<int>(grid_.ny);
-  v.nz = static_cast<int>(grid_.nz);
+  v.g = gv_;
   v.t = shape_;
   v.ntx = ntx_;
   v.nty = nty_;
   v.ntz = ntz_;
-  for (int a = 0; a < 3; ++a) v.periodic[a] = grid_.periodic[static_cast<std::size_t>(a)];
   v.capacity = capacity_;
   v.max_tiles = max_tiles_;
   v.count = count_.data();
@@ -192,10 +196,10 @@ void TileMap::build(const Exec& ex, const SphereView& p, double max_radius) {
   if (!(rmax > 0.0) && p.n > 0) rmax = mapk::largest_radius(ex, p, *scratch_);
   rmax = std::max(rmax, 0.0);
   const int B = static_cast<int>(std::floor(2.0 * rmax)) + 2;
-  const Index ns[3] = {grid_.nx, grid_.ny, grid_.nz};
+  const Index ns[3] = {gv_.nx, gv_.ny, gv_.nz};
   const int ts[3] = {shape_.tx, shape_.ty, shape_.tz};
   for (int a = 0; a < dim; ++a) {
-    if (grid_.periodic[static_cast<std::size_t>(a)] && B > ns[a])
+    if (gv_.periodic[a] && B > ns[a])
       throw ConfigError("PSM tiles: particle radius " + std::to_string(rmax) + " spans " + std::to_string(B) +
                         " cells, more than the " + std::to_string(ns[a]) + " cells of periodic axis " +
                         std::string(1, "xyz"[a]) + " (a particle would meet its own image)");
@@ -249,7 +253,7 @@ OverflowReport TileMap::overflow() const {
   if (flags[0] > 0) {
     mapk::LoggedOverflow lo = mapk::read_overflow_log(log_cell_, log_particle_, flags[0], log_cap_);
     r.cell = lo.key;
-    r.ijk = {r.cell % grid_.nx, (r.cell / grid_.nx) % grid_.ny, r.cell / (grid_.nx * grid_.ny)};
+    r.ijk = {r.cell % gv_.nx, (r.cell / gv_.nx) % gv_.ny, r.cell / (static_cast<Index>(gv_.nx) * gv_.ny)};
     r.particles = std::move(lo.particles);
     std::sort(r.particles.begin(), r.particles.end());
     r.count = K_ + static_cast<int>(r.particles.size());
@@ -265,7 +269,7 @@ OverflowReport TileMap::overflow() const {
     const Index t = lo.key;
     const Index tx = t % ntx_, ty = (t / ntx_) % nty_, tz = t / (static_cast<Index>(ntx_) * nty_);
     if (r.cell < 0) {
-      r.cell = tx * shape_.tx + grid_.nx * (ty * shape_.ty + grid_.ny * tz * shape_.tz);
+      r.cell = tx * shape_.tx + static_cast<Index>(gv_.nx) * (ty * shape_.ty + static_cast<Index>(gv_.ny) * tz * shape_.tz);
       r.ijk = {tx * shape_.tx, ty * shape_.ty, tz * shape_.tz};
       r.particles = std::move(lo.particles);
       std::sort(r.particles.begin(), r.particles.end());

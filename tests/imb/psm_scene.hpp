@@ -44,7 +44,7 @@ class PsmScene {
     if (setup.lattice == lbm::LatticeKind::D2Q9) view_.z = nullptr;
     view_.n = n_;
     for (const auto& s : ps) opt_.map.max_radius = std::max(opt_.map.max_radius, s.r);
-    coupling_ = std::make_unique<imb::PsmCoupling>(*solver_, K, std::array<bool, 3>{true, true, true});
+    coupling_ = std::make_unique<imb::PsmCoupling>(*solver_, K);
     set_particles(ps);
   }
 

@@ -55,7 +55,7 @@ class CellSlotsTest : public ::testing::TestWithParam<Backend> {
 };
 
 TEST_P(CellSlotsTest, SumOfFractionsEqualsParticleVolume3D) {
-  GridShape g{48, 40, 44, {true, true, true}};
+  Grid g = Grid::whole({48, 40, 44}, {true, true, true});
   std::vector<double> xs{10.3, 30.71, 20.2}, ys{9.9, 25.13, 30.5}, zs{11.4, 30.02, 12.0}, rs{5.0, 7.3, 3.0};
   Particles p(GetParam(), xs, ys, zs, rs);
   double V = 0.0;
@@ -75,7 +75,7 @@ TEST_P(CellSlotsTest, SumOfFractionsEqualsParticleVolume3D) {
 }
 
 TEST_P(CellSlotsTest, SumOfFractionsEqualsParticleArea2D) {
-  GridShape g{64, 50, 1, {true, false, true}};
+  Grid g = Grid::whole({64, 50, 1}, {true, false, true});
   std::vector<double> xs{10.3, 40.71}, ys{12.9, 25.13}, zs{0, 0}, rs{8.0, 12.6};
   Particles p(GetParam(), xs, ys, zs, rs);
   const double A = M_PI * (64.0 + 12.6 * 12.6);
@@ -97,7 +97,7 @@ TEST_P(CellSlotsTest, SumOfFractionsEqualsParticleArea2D) {
 TEST_P(CellSlotsTest, DeferredExactMatchesDirect) {
   std::mt19937_64 rng(9);
   std::uniform_real_distribution<double> U(0.0, 1.0);
-  GridShape g{40, 40, 40, {true, true, true}};
+  Grid g = Grid::whole({40, 40, 40}, {true, true, true});
   std::vector<double> xs, ys, zs, rs;
   for (int i = 0; i < 30; ++i) {
     xs.push_back(40 * U(rng));
@@ -127,7 +127,7 @@ TEST_P(CellSlotsTest, DeferredExactMatchesDirect) {
 
 TEST_P(CellSlotsTest, ReportsOverflowWithCellAndParticles) {
   // Three small balls inside cell (5, 6, 7) only, K = 2; a fourth elsewhere.
-  GridShape g{16, 16, 16, {true, true, true}};
+  Grid g = Grid::whole({16, 16, 16}, {true, true, true});
   std::vector<double> xs{5.45, 5.55, 5.5, 12.0}, ys{6.5, 6.45, 6.55, 12.0}, zs{7.5, 7.5, 7.45, 12.0},
       rs{0.4, 0.4, 0.4, 2.0};
   Particles p(GetParam(), xs, ys, zs, rs);
@@ -157,7 +157,7 @@ TEST_P(CellSlotsTest, ReportsOverflowWithCellAndParticles) {
 }
 
 TEST_P(CellSlotsTest, ReportsRadiusAboveMaxRadius) {
-  GridShape g{32, 32, 32, {true, true, true}};
+  Grid g = Grid::whole({32, 32, 32}, {true, true, true});
   Particles p(GetParam(), {10.0, 20.0}, {10.0, 20.0}, {10.0, 20.0}, {3.0, 6.0});
   CellSlots s(GetParam(), g, 2);
   MapOptions o;
@@ -173,7 +173,7 @@ TEST_P(CellSlotsTest, PeriodicWrapGivesSameFractions) {
   // The same ball inside the box and straddling every periodic face (corner):
   // the solid-fraction fields are equal up to the integer shift.
   const Index n = 24;
-  GridShape g{n, n, n, {true, true, true}};
+  Grid g = Grid::whole({n, n, n}, {true, true, true});
   const double R = 5.3, fx = 0.37, fy = 0.81, fz = 0.12;
   Particles inside(GetParam(), {12 + fx}, {12 + fy}, {12 + fz}, {R});
   Particles corner(GetParam(), {0 + fx}, {n - 1 + fy}, {-2 + fz}, {R});  // shifts (−12, +11, −14)
@@ -201,7 +201,7 @@ TEST_P(CellSlotsTest, PeriodicWrapGivesSameFractions) {
 }
 
 TEST_P(CellSlotsTest, NonPeriodicAxisClips) {
-  GridShape g{20, 20, 20, {true, true, false}};
+  Grid g = Grid::whole({20, 20, 20}, {true, true, false});
   Particles p(GetParam(), {10.0}, {10.0}, {0.0}, {4.0});  // half below z = 0
   CellSlots s(GetParam(), g, 1);
   s.map(ex, p.view(), MapOptions{});
@@ -209,7 +209,7 @@ TEST_P(CellSlotsTest, NonPeriodicAxisClips) {
 }
 
 TEST_P(CellSlotsTest, RefusesParticleLargerThanPeriodicBox) {
-  GridShape g{8, 8, 8, {true, true, true}};
+  Grid g = Grid::whole({8, 8, 8}, {true, true, true});
   Particles p(GetParam(), {4.0}, {4.0}, {4.0}, {4.0});
   CellSlots s(GetParam(), g, 1);
   EXPECT_THROW(s.map(ex, p.view(), MapOptions{}), ConfigError);
@@ -224,7 +224,7 @@ TEST(CellSlotsCrossBackend, HostMatchesCuda) {
   std::mt19937_64 rng(7);
   std::uniform_real_distribution<double> U(0.0, 1.0);
   const Index n = 64;
-  GridShape g{n, n, n, {true, true, true}};
+  Grid g = Grid::whole({n, n, n}, {true, true, true});
   std::vector<double> xs, ys, zs, rs;
   for (int i = 0; i < 60; ++i) {
     xs.push_back(n * U(rng));

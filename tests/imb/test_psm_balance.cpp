@@ -65,7 +65,6 @@ Drift run(bool weighted, long steps) {
   dp.dt = 1.0;
   imb::CoupledParams cp;
   cp.gravity = g;
-  cp.periodic = {true, true, true};
   cp.dem_substeps = 1;
   cp.psm.map.method = imb::FractionMethod::Exact;
   cp.psm.map.max_radius = r;

@@ -106,7 +106,6 @@ Scene periodic_scene(std::array<long, 3> n, double tau, lbm::CollisionKind coll 
   s.dem.periodic = {true, true, true};
   s.dem.external_forcing = true;
   s.dem.dt = 1.0;
-  s.coupling.periodic = {true, true, true};
   s.coupling.psm.map.method = imb::FractionMethod::Table;
   s.coupling.psm.map.table = &table3d();
   return s;
@@ -487,7 +486,7 @@ Scene wall_scene() {
   const std::array<long, 3> n{24, 20, 24};
   Scene s = periodic_scene(n, 3 * kNuPaper + 0.5);
   s.dem.periodic = {true, false, true};
-  s.coupling.periodic = {true, false, true};
+  s.fluid.domain.periodic = {true, false, true};
   paper_material(s);
   s.dem.friction = true;
   s.dem.material.wall_friction = 0.3;

@@ -35,7 +35,9 @@ struct GridView {
   Index nxy = 1, n = 1;
   double shift[3] = {0, 0, 0};  // global lattice coordinate = storage coordinate + shift
   int global[3] = {1, 1, 1};     // cells of the global grid per axis (the period of a periodic axis)
-  bool periodic[3] = {true, true, true};  // of the global grid (particle images wrap there)
+  // The axis wraps onto itself in storage: periodic and owned whole by this
+  // rank. On a split axis images come through the ghost layers instead.
+  bool periodic[3] = {true, true, true};
 
   LBDEM_HD void coords(Index cell, int& x, int& y, int& z) const {
     const auto c = static_cast<unsigned>(cell);

@@ -35,6 +35,7 @@
 #include <vector>
 
 #include "core/buffer.hpp"
+#include "core/grid.hpp"
 #include "core/exec.hpp"
 #include "imb/fraction_table.hpp"
 #include "imb/particle_view.hpp"
@@ -46,12 +47,6 @@ struct Scratch;  // core/algorithms.hpp
 
 namespace lbdem::imb {
 
-struct GridShape {
-  Index nx = 1, ny = 1, nz = 1;
-  std::array<bool, 3> periodic{true, true, true};
-  int dim() const { return nz == 1 ? 2 : 3; }
-  Index cells() const { return nx * ny * nz; }
-};
 
 // Slots seen by kernels (structure of arrays: slot k of cell c at k*ncells + c,
 // so a warp of consecutive cells reads consecutive words). Only slots
@@ -127,7 +122,9 @@ struct OverflowReport {
 class CellSlots {
  public:
   // K: slots per cell (case parameter, >= 1). overflow_log: surplus pairs kept for the report.
-  CellSlots(Backend b, GridShape grid, int K, int overflow_log = 1024);
+  // Slots for every storage cell of `grid` (core/grid.hpp); particle centres
+  // are in the grid's global lattice frame.
+  CellSlots(Backend b, const Grid& grid, int K, int overflow_log = 1024);
 
   // Clears and refills the slots from the particles (asynchronous on the device).
   void map(const Exec& ex, const SphereView& particles, const MapOptions& opt);
@@ -140,10 +137,10 @@ class CellSlots {
   void clear_overflow(const Exec& ex);
 
   CellSlotsView view() const {
-    return {count_.data(), particle_.data(), eps_.data(), grid_.cells(), K_, vel_.data()};
+    return {count_.data(), particle_.data(), eps_.data(), gv_.n, K_, vel_.data()};
   }
   PairView pairs() const { return {pair_.data(), pair_box_, pair_B_}; }
-  const GridShape& grid() const { return grid_; }
+  const Grid& grid() const { return grid_; }
   int K() const { return K_; }
   // Largest particle radius of the last map (given or reduced): sizes the force gather.
   double max_radius() const { return max_radius_; }
@@ -158,7 +155,8 @@ class CellSlots {
 
  private:
   Backend backend_;
-  GridShape grid_;
+  Grid grid_;
+  GridView gv_;  // storage extents, wrap flags and the global-frame shift
   int K_;
   int log_cap_;
   Buffer<int> count_, particle_;

@@ -41,7 +41,6 @@ struct CoupledParams {
   double fluid_density = 1.0;                 // lattice units
   bool buoyancy = true;                       // add -rho_f V_p g to each particle
   int slots = 4;                              // K: overlap slots per cell
-  std::array<bool, 3> periodic{false, false, false};
   PsmOptions psm;
   long overflow_check_every = 100;            // steps between slot-overflow reads
 };

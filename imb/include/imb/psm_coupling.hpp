@@ -55,8 +55,9 @@ const char* to_string(PsmPipeline p);
 
 class PsmCoupling {
  public:
-  // K: overlap slots per cell. periodic: which axes wrap particle images.
-  PsmCoupling(lbm::LbmSolver& solver, int K, std::array<bool, 3> periodic);
+  // K: overlap slots per cell. The solver's Grid (LbmSetup::domain) says which
+  // axes wrap particle images and where the global frame sits in storage.
+  PsmCoupling(lbm::LbmSolver& solver, int K);
   ~PsmCoupling();
 
   // Maps the particles (lattice units, on the solver's backend) to cells.
@@ -90,7 +91,7 @@ class PsmCoupling {
   lbm::LbmSolver& solver_;
   std::array<bool, 3> periodic_;
   int K_;
-  GridShape shape_;
+  Grid grid_;
   std::unique_ptr<CellSlots> slots_;
   Buffer<double> slot_forces_;
   std::unique_ptr<TileMap> tiles_;

@@ -154,12 +154,13 @@ struct PsmFusedKernel : PsmLatticeFields<T> {
     const Index o = static_cast<Index>(c.p) * p.stride;
     int org[3];
     tile_origin(tile, org);
-    // Centres brought into [0, n) on periodic axes (particles may be given
-    // unwrapped, any number of periods away), so that one minimum-image
-    // correction in rel() finds the image that overlaps a cell.
-    c.o[0] = R(wrap_centre(p.x[o], g.nx, tv.periodic[0]) - org[0]);
-    c.o[1] = R(wrap_centre(p.y[o], g.ny, tv.periodic[1]) - org[1]);
-    c.o[2] = Dim == 3 ? R(wrap_centre(p.z[o], g.nz, tv.periodic[2]) - org[2]) : R(0.5);
+    // Centres in storage coordinates (GridView::shift), brought into [0, n) on
+    // axes that wrap (particles may be given unwrapped, any number of periods
+    // away), so that one minimum-image correction in rel() finds the image
+    // that overlaps a cell.
+    c.o[0] = R(wrap_centre(p.x[o] - g.shift[0], g.nx, g.periodic[0]) - org[0]);
+    c.o[1] = R(wrap_centre(p.y[o] - g.shift[1], g.ny, g.periodic[1]) - org[1]);
+    c.o[2] = Dim == 3 ? R(wrap_centre(p.z[o] - g.shift[2], g.nz, g.periodic[2]) - org[2]) : R(0.5);
     const double rad = p.r[o];
     c.r = R(rad);
     c.aux = R(frac.prepare(rad));
@@ -194,9 +195,9 @@ struct PsmFusedKernel : PsmLatticeFields<T> {
     return d > h ? d - R(n) : (d < -h ? d + R(n) : d);
   }
   LBDEM_HD void rel(int lx, int ly, int lz, const FusedCand<R>& c, R (&r)[3]) const {
-    r[0] = min_image_r(R(lx) + R(0.5) - c.o[0], g.nx, tv.periodic[0]);
-    r[1] = min_image_r(R(ly) + R(0.5) - c.o[1], g.ny, tv.periodic[1]);
-    r[2] = Dim == 3 ? min_image_r(R(lz) + R(0.5) - c.o[2], g.nz, tv.periodic[2]) : R(0);
+    r[0] = min_image_r(R(lx) + R(0.5) - c.o[0], g.nx, g.periodic[0]);
+    r[1] = min_image_r(R(ly) + R(0.5) - c.o[1], g.ny, g.periodic[1]);
+    r[2] = Dim == 3 ? min_image_r(R(lz) + R(0.5) - c.o[2], g.nz, g.periodic[2]) : R(0);
   }
 
   // Solid velocity at the cell centre, v + w x r (first paper Eq. 2).

@@ -56,10 +56,9 @@ struct TileShape {
 
 // What the fused kernel and finish() read (trivially copyable).
 struct TileView {
-  int nx = 1, ny = 1, nz = 1;     // grid (cells)
+  GridView g;                     // the lattice's storage (core/grid.hpp): extents, wrap, shift
   TileShape t;
   int ntx = 1, nty = 1, ntz = 1;  // tiles per axis
-  bool periodic[3] = {true, true, true};
   int capacity = 0;
   int max_tiles = 0;              // entries per particle (tiles its box can touch)
   const int* count = nullptr;     // per tile: candidates that wanted in (> capacity: overflow)
@@ -80,7 +79,9 @@ struct ForceOut;  // imb/psm_coupling.hpp
 class TileMap {
  public:
   // capacity: candidates per tile (<= kFusedMaxCapacity); K: slots per cell (<= kFusedMaxSlots).
-  TileMap(Backend b, GridShape grid, int K, int capacity = 64, int overflow_log = 1024);
+  // Tiles over the storage cells of `grid` (core/grid.hpp); particle centres
+  // are in the grid's global lattice frame.
+  TileMap(Backend b, const Grid& grid, int K, int capacity = 64, int overflow_log = 1024);
 
   // Rebuilds the candidate lists from the particles (asynchronous on the device).
   // max_radius <= 0 computes it (a synchronous reduction).
@@ -91,7 +92,7 @@ class TileMap {
   TileView view() const;
   int K() const { return K_; }
   int capacity() const { return capacity_; }
-  const GridShape& grid() const { return grid_; }
+  const Grid& grid() const { return grid_; }
   Backend backend() const { return backend_; }
 
   // Synchronises and reads the overflow counters: K slots of a cell (found by
@@ -101,7 +102,8 @@ class TileMap {
 
  private:
   Backend backend_;
-  GridShape grid_;
+  Grid grid_;
+  GridView gv_;
   TileShape shape_;
   int K_, capacity_, log_cap_;
   int ntx_ = 1, nty_ = 1, ntz_ = 1;
