@@ -27,6 +27,7 @@
 #include "core/output.hpp"
 #include "core/progress.hpp"
 #include "core/signals.hpp"
+#include "dem/grid_box.hpp"
 #include "dem/init.hpp"
 #include "dem/system.hpp"
 #include "imb/coupled.hpp"
@@ -245,12 +246,9 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
     }
   }
   pc.finish();
-  // DEM in lattice units: box, walls where the fluid has walls, contact law.
+  // DEM in lattice units: the fluid grid's box, walls where the fluid has walls, contact law.
   auto& p = c.dem;
-  p.lo = {0, 0, 0};
-  p.hi = {double(ext[0]), double(ext[1]), double(ext[2])};
-  p.periodic = periodic;
-  if (dim == 2) p.periodic[2] = true;
+  dem::set_box_from_grid(p, s.domain);
   for (int a = 0; a < dim; ++a) {
     if (periodic[static_cast<std::size_t>(a)]) continue;
     Vec3d n{}, q{};
