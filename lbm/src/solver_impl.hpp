@@ -7,6 +7,7 @@
 
 #include "core/algorithms.hpp"
 #include "core/buffer.hpp"
+#include "lbm/dispatch.hpp"
 #include "lbm/solver.hpp"
 
 namespace lbdem::lbm {
@@ -65,13 +66,10 @@ class SolverImpl final : public LbmSolver {
 
   void step(long n) override {
     for (long i = 0; i < n; ++i) {
-      if (s_.streaming == StreamKind::AA) {
-        if ((t_ & 1) == 0) dispatch<StreamKind::AA, 0>();
-        else dispatch<StreamKind::AA, 1>();
-      } else {
-        dispatch<StreamKind::TwoLattice, 0>();
-        f0_.swap(f1_);
-      }
+      dispatch_step(s_.streaming, t_, has_bnd_, force_, [&](auto S, auto P, auto B, auto F) {
+        run<decltype(S)::value, decltype(P)::value, decltype(B)::value, decltype(F)::value>();
+      });
+      if (s_.streaming == StreamKind::TwoLattice) f0_.swap(f1_);
       ++t_;
     }
   }
@@ -153,20 +151,10 @@ class SolverImpl final : public LbmSolver {
   }
 
  private:
-  template <StreamKind S_>
-  struct SK { static constexpr StreamKind value = S_; };
-  template <int P_>
-  struct PK { static constexpr int value = P_; };
-
-  // Calls fn(SK<scheme>, PK<parity of the next step>).
+  // Calls fn(scheme, parity of the next step) as integral constants (lbm/dispatch.hpp).
   template <class Fn>
   void with_parity(Fn&& fn) {
-    if (s_.streaming == StreamKind::AA) {
-      if ((t_ & 1) == 0) fn(SK<StreamKind::AA>{}, PK<0>{});
-      else fn(SK<StreamKind::AA>{}, PK<1>{});
-    } else {
-      fn(SK<StreamKind::TwoLattice>{}, PK<0>{});
-    }
+    dispatch_parity(s_.streaming, t_, fn);
   }
 
   PopView<T> src_view() const { return PopView<T>{f0_.data(), stride_}; }
@@ -174,17 +162,6 @@ class SolverImpl final : public LbmSolver {
   void ensure_macro_buffers() {
     if (rho_d_.size() != g_.n) rho_d_ = Buffer<double>(ex_.backend(), g_.n);
     if (u_d_.size() != 3 * g_.n) u_d_ = Buffer<double>(ex_.backend(), 3 * g_.n);
-  }
-
-  template <StreamKind S, int P>
-  void dispatch() {
-    if (has_bnd_) {
-      if (force_) run<S, P, true, true>();
-      else run<S, P, true, false>();
-    } else {
-      if (force_) run<S, P, false, true>();
-      else run<S, P, false, false>();
-    }
   }
 
   template <StreamKind S, int P, bool B, bool F>

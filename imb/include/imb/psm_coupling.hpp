@@ -43,9 +43,6 @@ struct PsmOptions {
   MapOptions map;  // fraction method, max radius, table
   PsmPipeline pipeline = PsmPipeline::Auto;
   int tile_capacity = 64;  // fused: candidate particles per tile (overflow is reported)
-  // Fused kernel on the device: population loads before the fraction work
-  // (true) or after it (false); see psm_fused_impl.hpp. Same results.
-  bool fused_loads_first = true;
 };
 
 // The pipeline a step with these options and K slots per cell runs; throws
