@@ -50,8 +50,8 @@ struct FusedCand {
 // The solid state of one cell: up to kFusedMaxSlots slots (ε_k, candidate
 // rank). The ranks are packed 8 bits each into one register; the ε_k live
 // outside the registers (shared memory on the device, eps[k * stride]): the
-// kernel holds 19 populations and the moments at once and spilled with them
-// in registers.
+// kernel holds 19 populations and the moments at once, and the ε_k in
+// registers as well would spill.
 template <class R>
 struct FusedSolid {
   int m = 0;
