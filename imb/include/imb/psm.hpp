@@ -147,17 +147,28 @@ struct PsmSolidUpdate {
     for (int a = 0; a < 6; ++a) M2[a] = M2_[a];
   }
 
-  LBDEM_HD LBDEM_FORCEINLINE void rest(R& f0, const lbm::TrtTerms<R>& t, const lbm::CellMoments<R>& m) const {
+  template <class Src>
+  LBDEM_HD LBDEM_FORCEINLINE void rest(R& f0, const lbm::TrtTerms<R>& t, const lbm::CellMoments<R>& m,
+                                       const Src& src) const {
     const R seq0 = t.w * (B * m.d - m.rho * trM2);  // sum_k B_k f^eq_0(V_k)
     const R solid = V == PsmVariant::NEBB ? seq0 - B * t.eqp : seq0 - B * (t.eqp + t.dp);
     R r = f0 - fw * t.dp;
-    if constexpr (Force) r += fw * t.Sp;
+    if constexpr (Force) {
+      R Sp, Sm;
+      src(Sp, Sm);
+      r += fw * Sp;
+    }
     f0 = r + solid;
   }
 
-  LBDEM_HD LBDEM_FORCEINLINE void pair(int q, R& fq, R& fqb, const lbm::TrtTerms<R>& t,
-                                       const lbm::CellMoments<R>& m) const {
-    const R eq_q = t.eqp + t.eqm, eq_qb = t.eqp - t.eqm;
+  template <class Src>
+  LBDEM_HD LBDEM_FORCEINLINE void pair(int q, R& fq, R& fqb, const lbm::TrtTerms<R>& t, const lbm::CellMoments<R>& m,
+                                       const Src& src) const {
+    R Sp = 0, Sm = 0;
+    if constexpr (Force) src(Sp, Sm);
+    // f^eq_q and f^eq_qb as w (even +- 3 rho c.u): the same as eqp +- eqm up to
+    // round-off, and in this form the PSM kernels need fewer registers.
+    const R eq_q = t.w * (t.even + R(3) * m.rho * t.cu), eq_qb = t.w * (t.even - R(3) * m.rho * t.cu);
     // sum_k B_k f^eq(V_k) for q and qb.
     const R cM1 = lbm::cdot<L>(q, M1);
     const R cM2c = cM2<L>(q, M2);
@@ -174,8 +185,8 @@ struct PsmSolidUpdate {
     R a = fq - fw * (t.dp + t.dm);
     R b = fqb - fw * (t.dp - t.dm);
     if constexpr (Force) {
-      a += fw * (t.Sp + t.Sm);
-      b += fw * (t.Sp - t.Sm);
+      a += fw * (Sp + Sm);
+      b += fw * (Sp - Sm);
     }
     fq = a + solid_q;
     fqb = b + solid_qb;
@@ -190,7 +201,7 @@ template <class L, class R, bool Force, PsmVariant V>
 LBDEM_HD LBDEM_FORCEINLINE void psm_collide(const lbm::Collider<L, R, Force>& coll, R (&f)[L::Q], R B,
                                             const R (&M1)[3], const R (&M2)[6], R& rho, R (&u)[3]) {
   lbm::CellMoments<R> m;
-  coll.collide(f, m, PsmSolidUpdate<L, R, Force, V>(B, M1, M2));
+  coll.template collide<true>(f, m, PsmSolidUpdate<L, R, Force, V>(B, M1, M2));
   rho = m.rho;
   for (int a = 0; a < 3; ++a) u[a] = m.u[a];
 }
@@ -296,7 +307,7 @@ struct PsmStepKernel : PsmLatticeFields<T> {
     R rho, u[3];
     psm_collide<L, R, Force, V>(coll, f, B, M1, M2, rho, u);
     lbm::store_outgoing<L, T, R, S, Parity, Bnd>(dst, nb, cell, f, flags, bt, u);
-    // 3. Force on each particle (closed form above; torque: in the gather),
+    // 3. Force on each particle (psm_particle_force; torque: in the gather),
     // after the populations are stored (slot data re-read from cache).
     for (int k = 0; k < m; ++k) {
       R Bk, vs[3], Fk[3];

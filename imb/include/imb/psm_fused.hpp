@@ -259,13 +259,12 @@ struct PsmFusedKernel : PsmLatticeFields<T> {
   // arithmetic with fewer instructions. rho and u feed the force (step 4).
   LBDEM_HD LBDEM_FORCEINLINE void collide_store(Index cell, const lbm::Neighbours& nb, R (&f)[L::Q],
                                                 const FusedSolid<R>& s, bool plain, R& rho, R (&u)[3]) const {
-    const lbm::Collider<L, R, Force> coll = Lat::template collider<L, Force>();
     if (plain) {
       R drho;
-      coll(f, drho, u);
+      Lat::template collider<L, Force>()(f, drho, u);
       rho = R(1) + drho;
     } else {
-      psm_collide<L, R, Force, V>(coll, f, s.B, s.M1, s.M2, rho, u);
+      psm_collide<L, R, Force, V>(Lat::template collider<L, Force>(), f, s.B, s.M1, s.M2, rho, u);
     }
     lbm::store_outgoing<L, T, R, S, Parity, Bnd>(dst, nb, cell, f, flags, bt, u);
   }

@@ -25,13 +25,18 @@ enum class CollisionKind { BGK, TRT };
 
 // The TRT terms of one direction pair (q, qbar = q + 1) of one cell, as the
 // collision hands them to its update (for the rest population q = 0: the
-// symmetric terms only, eqm = dm = Sm = 0).
+// symmetric terms only, cu = eqm = dm = 0). The Guo source comes from a
+// callable src(Sp, Sm) (its symmetric and antisymmetric parts, Sm = 0 at
+// q = 0) that an update calls only with a body force, where it adds it: each
+// update then forms its terms in its own order, and the plain collision's
+// arithmetic stays what it is instruction for instruction.
 template <class R>
 struct TrtTerms {
   R w;         // weight w_q
+  R cu;        // c_q . u
+  R even;      // eqp / w = d + rho (4.5 (c_q . u)^2 - 1.5 u^2)
   R eqp, eqm;  // even and odd parts of f^eq: f^eq_q = eqp + eqm, f^eq_qbar = eqp - eqm
   R dp, dm;    // relaxations omega+ (f+_q - eqp), omega- (f-_q - eqm), f+- = (f_q +- f_qbar) / 2
-  R Sp, Sm;    // Guo source, symmetric and antisymmetric parts (set only with Force)
 };
 
 // Density deviation d = sum f, rho = 1 + d and velocity u = (sum c f + F/2) / rho of one cell.
@@ -40,23 +45,60 @@ struct CellMoments {
   R d, rho, u[3];
 };
 
+// c_q . (x, y, z), in one of two forms of the same value. Explicit: every
+// component multiplied by its (constant) c, zeros included: IEEE rules keep
+// 0 * x, so this is the plain collision's arithmetic, bit for bit. Folded: only
+// the non-zero components, added or subtracted (no multiplications once the
+// direction loop is unrolled): fewer instructions and registers, for the PSM
+// collision, where the solid term competes for them. The two differ at most
+// in the sign of a zero.
+template <class L, bool Folded, class R>
+LBDEM_HD LBDEM_FORCEINLINE R c_dot(int q, R x, R y, R z) {
+  if constexpr (!Folded) {
+    return R(L::c(q, 0)) * x + R(L::c(q, 1)) * y + R(L::c(q, 2)) * z;
+  } else {
+    const R v[3] = {x, y, z};
+    R s = 0;
+    bool any = false;
+    LBDEM_UNROLL
+    for (int a = 0; a < 3; ++a) {
+      if (L::c(q, a) == 0) continue;
+      const R t = L::c(q, a) > 0 ? v[a] : -v[a];
+      s = any ? s + t : t;
+      any = true;
+    }
+    return s;
+  }
+}
+
 template <class L, class R, bool Force>
 struct Collider {
   R omega_p = 1, omega_m = 1;  // 1/tau+, 1/tau-
   R F[3] = {0, 0, 0};          // body force per unit volume, lattice units
 
   // The fluid update: f*_q = f_q - dp - dm + Sp + Sm, f*_qbar = f_qbar - dp + dm + Sp - Sm.
+  // rest(f_0, terms, moments, src) and pair(q, f_q, f_qbar, terms, moments, src)
+  // are what collide() asks of an update.
   struct FluidUpdate {
-    LBDEM_HD LBDEM_FORCEINLINE void rest(R& f0, const TrtTerms<R>& t, const CellMoments<R>&) const {
+    template <class Src>
+    LBDEM_HD LBDEM_FORCEINLINE void rest(R& f0, const TrtTerms<R>& t, const CellMoments<R>&, const Src& src) const {
       f0 = f0 - t.dp;
-      if constexpr (Force) f0 += t.Sp;
+      if constexpr (Force) {
+        R Sp, Sm;
+        src(Sp, Sm);
+        f0 += Sp;
+      }
     }
-    LBDEM_HD LBDEM_FORCEINLINE void pair(int, R& fq, R& fqb, const TrtTerms<R>& t, const CellMoments<R>&) const {
+    template <class Src>
+    LBDEM_HD LBDEM_FORCEINLINE void pair(int, R& fq, R& fqb, const TrtTerms<R>& t, const CellMoments<R>&,
+                                         const Src& src) const {
       R a = fq - t.dp - t.dm;
       R b = fqb - t.dp + t.dm;
       if constexpr (Force) {
-        a += t.Sp + t.Sm;
-        b += t.Sp - t.Sm;
+        R Sp, Sm;
+        src(Sp, Sm);
+        a += Sp + Sm;
+        b += Sp - Sm;
       }
       fq = a;
       fqb = b;
@@ -67,8 +109,9 @@ struct Collider {
   // equilibrium, relaxation and source terms, which `up` turns into the
   // post-collision populations (FluidUpdate above; the PSM collision of
   // imb/psm.hpp scales them by 1 - B and adds its solid term). f: shifted
-  // populations in, post-collision out; m: the cell's moments.
-  template <class Update>
+  // populations in, post-collision out; m: the cell's moments. Folded: the
+  // form of the c_q . u and c_q . F products (c_dot).
+  template <bool Folded, class Update>
   LBDEM_HD LBDEM_FORCEINLINE void collide(R (&f)[L::Q], CellMoments<R>& m, const Update& up) const {
     R d = 0, jx = 0, jy = 0, jz = 0;
     LBDEM_UNROLL
@@ -102,14 +145,17 @@ struct Collider {
     {
       TrtTerms<R> t;
       t.w = R(L::w(0));
-      t.eqp = t.w * (d - rho * usq15);
+      t.cu = 0;
+      t.even = d - rho * usq15;
+      t.eqp = t.w * t.even;
       t.eqm = 0;
       t.dp = omega_p * (f[0] - t.eqp);
       t.dm = 0;
-      t.Sp = 0;
-      t.Sm = 0;
-      if constexpr (Force) t.Sp = sp * t.w * (R(-3) * uF);
-      up.rest(f[0], t, m);
+      const R w = t.w;
+      up.rest(f[0], t, m, [&](R& Sp, R& Sm) {
+        Sp = sp * w * (R(-3) * uF);
+        Sm = 0;
+      });
     }
     LBDEM_UNROLL
     for (int q = 1; q < L::Q; q += 2) {
@@ -117,28 +163,27 @@ struct Collider {
       TrtTerms<R> t;
       t.w = R(L::w(q));
       const R w = t.w;
-      const R cu = R(L::c(q, 0)) * ux + R(L::c(q, 1)) * uy + R(L::c(q, 2)) * uz;
-      t.eqp = w * (d + rho * (R(4.5) * cu * cu - usq15));
+      const R cu = c_dot<L, Folded>(q, ux, uy, uz);
+      t.cu = cu;
+      t.even = d + rho * (R(4.5) * cu * cu - usq15);
+      t.eqp = w * t.even;
       t.eqm = w * rho * R(3) * cu;
       const R fp = R(0.5) * (f[q] + f[qb]);
       const R fm = R(0.5) * (f[q] - f[qb]);
       t.dp = omega_p * (fp - t.eqp);
       t.dm = omega_m * (fm - t.eqm);
-      t.Sp = 0;
-      t.Sm = 0;
-      if constexpr (Force) {
-        const R cF = R(L::c(q, 0)) * F[0] + R(L::c(q, 1)) * F[1] + R(L::c(q, 2)) * F[2];
-        t.Sp = sp * w * (R(9) * cu * cF - R(3) * uF);
-        t.Sm = sm * w * R(3) * cF;
-      }
-      up.pair(q, f[q], f[qb], t, m);
+      up.pair(q, f[q], f[qb], t, m, [&](R& Sp, R& Sm) {
+        const R cF = c_dot<L, Folded>(q, F[0], F[1], F[2]);
+        Sp = sp * w * (R(9) * cu * cF - R(3) * uF);
+        Sm = sm * w * R(3) * cF;
+      });
     }
   }
 
   // The fluid collision. Returns the density deviation and velocity (with the F/2 shift).
   LBDEM_HD LBDEM_FORCEINLINE void operator()(R (&f)[L::Q], R& drho, R (&u)[3]) const {
     CellMoments<R> m;
-    collide(f, m, FluidUpdate{});
+    collide<false>(f, m, FluidUpdate{});
     drho = m.d;
     u[0] = m.u[0];
     u[1] = m.u[1];
