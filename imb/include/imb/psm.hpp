@@ -138,18 +138,22 @@ LBDEM_HD LBDEM_FORCEINLINE R cM2(int q, const R (&M2)[6]) {
 // with B the total weight and M1, M2 the solid moments above.
 template <class L, class R, bool Force, PsmVariant V>
 struct PsmSolidUpdate {
-  R B, fw, trM2;  // fw = 1 - B, trM2 = 1.5 tr M2
+  R B;
   R M1[3], M2[6];
 
-  LBDEM_HD LBDEM_FORCEINLINE PsmSolidUpdate(R B_, const R (&M1_)[3], const R (&M2_)[6])
-      : B(B_), fw(R(1) - B_), trM2(R(1.5) * (M2_[0] + M2_[1] + M2_[2])) {
+  LBDEM_HD LBDEM_FORCEINLINE PsmSolidUpdate(R B_, const R (&M1_)[3], const R (&M2_)[6]) : B(B_) {
     for (int a = 0; a < 3; ++a) M1[a] = M1_[a];
     for (int a = 0; a < 6; ++a) M2[a] = M2_[a];
   }
+  // 1 - B and 1.5 tr M2, formed where they are used (after the moments, not
+  // before them: the kernels then hold fewer values across the moment sums).
+  LBDEM_HD LBDEM_FORCEINLINE R fluid_weight() const { return R(1) - B; }
+  LBDEM_HD LBDEM_FORCEINLINE R trace15() const { return R(1.5) * (M2[0] + M2[1] + M2[2]); }
 
   template <class Src>
   LBDEM_HD LBDEM_FORCEINLINE void rest(R& f0, const lbm::TrtTerms<R>& t, const lbm::CellMoments<R>& m,
                                        const Src& src) const {
+    const R fw = fluid_weight(), trM2 = trace15();
     const R seq0 = t.w * (B * m.d - m.rho * trM2);  // sum_k B_k f^eq_0(V_k)
     const R solid = V == PsmVariant::NEBB ? seq0 - B * t.eqp : seq0 - B * (t.eqp + t.dp);
     R r = f0 - fw * t.dp;
@@ -172,6 +176,7 @@ struct PsmSolidUpdate {
     // sum_k B_k f^eq(V_k) for q and qb.
     const R cM1 = lbm::cdot<L>(q, M1);
     const R cM2c = cM2<L>(q, M2);
+    const R fw = fluid_weight(), trM2 = trace15();
     const R seven = B * m.d + m.rho * (R(4.5) * cM2c - trM2);
     const R seq_q = t.w * (seven + R(3) * m.rho * cM1), seq_qb = t.w * (seven - R(3) * m.rho * cM1);
     R solid_q, solid_qb;
