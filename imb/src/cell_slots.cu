@@ -34,9 +34,7 @@ struct ConstTableAccess {
   LBDEM_HD void pair(int i, float& e0, float& e1) const {
 #if defined(__CUDA_ARCH__)
     if (global) {
-      const float2 v = __ldg(reinterpret_cast<const float2*>(global) + i);
-      e0 = v.x;
-      e1 = v.y;
+      PointerTableAccess{global}.pair(i, e0, e1);
     } else {
       e0 = c_fraction_table[2 * i];
       e1 = c_fraction_table[2 * i + 1];

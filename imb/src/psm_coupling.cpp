@@ -13,9 +13,9 @@ void psm_fused_d3q19_f32(const Exec&, const FusedArgs&);
 void psm_fused_d3q19_f64(const Exec&, const FusedArgs&);
 
 void psm_fluid_step(const Exec& ex, const lbm::LbmSetup& s, const lbm::LbmRaw& raw, const CellSlotsView& slots,
-                    const SlotForceView& sf, const PsmOptions& opt, const std::array<bool, 3>& periodic) {
-  if (s.lattice == lbm::LatticeKind::D2Q9) psm_step_d2q9(ex, s, raw, slots, sf, opt, periodic);
-  else psm_step_d3q19(ex, s, raw, slots, sf, opt, periodic);
+                    const SlotForceView& sf, const PsmOptions& opt) {
+  if (s.lattice == lbm::LatticeKind::D2Q9) psm_step_d2q9(ex, s, raw, slots, sf, opt);
+  else psm_step_d3q19(ex, s, raw, slots, sf, opt);
 }
 
 const char* to_string(PsmPipeline p) {
@@ -43,7 +43,7 @@ PsmPipeline resolve_pipeline(const PsmOptions& o, int K) {
 }
 
 PsmCoupling::PsmCoupling(lbm::LbmSolver& solver, int K)
-    : solver_(solver), periodic_(solver.setup().domain.periodic), K_(K), grid_(solver.setup().domain),
+    : solver_(solver), K_(K), grid_(solver.setup().domain),
       ex_(solver.backend()) {
   if (K < 1) throw ConfigError("PSM slots per cell K = " + std::to_string(K) + ": must be >= 1");
 }
@@ -120,7 +120,7 @@ void PsmCoupling::step(const PsmParticles& p, const PsmOptions& opt, const Force
   if (slot_forces_.size() == 0)
     slot_forces_ = Buffer<double>(solver_.backend(), SlotForceView::kComponents * static_cast<Index>(K_) * raw.grid.n);
   const SlotForceView sf{slot_forces_.data(), raw.grid.n, K_};
-  psm_fluid_step(ex_, solver_.setup(), raw, cs.view(), sf, opt, periodic_);
+  psm_fluid_step(ex_, solver_.setup(), raw, cs.view(), sf, opt);
   solver_.commit_external_step();
   if (!out.force) return;  // forces not wanted this step (e.g. a fixed particle between checks)
   psm_gather(ex_, cs.view(), sf, cs.pairs(), p, dim, out);

@@ -6,10 +6,9 @@
 namespace lbdem::imb {
 
 void psm_step_d2q9(const Exec& ex, const lbm::LbmSetup& s, const lbm::LbmRaw& raw, const CellSlotsView& slots,
-                   const SlotForceView& sf, const PsmOptions& opt,
-                   const std::array<bool, 3>& periodic) {
-  if (s.precision == lbm::Precision::FP32) psm_step_typed<lbm::D2Q9, float>(ex, s, raw, slots, sf, opt, periodic);
-  else psm_step_typed<lbm::D2Q9, double>(ex, s, raw, slots, sf, opt, periodic);
+                   const SlotForceView& sf, const PsmOptions& opt) {
+  if (s.precision == lbm::Precision::FP32) psm_step_typed<lbm::D2Q9, float>(ex, s, raw, slots, sf, opt);
+  else psm_step_typed<lbm::D2Q9, double>(ex, s, raw, slots, sf, opt);
 }
 
 void psm_gather(const Exec& ex, const CellSlotsView& slots, const SlotForceView& sf, const PairView& pairs,

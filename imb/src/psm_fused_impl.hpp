@@ -5,29 +5,9 @@
 #include "core/exec.hpp"
 #include "imb/psm_coupling.hpp"
 #include "imb/psm_fused.hpp"
+#include "lbm/dispatch.hpp"
 
 namespace lbdem::imb {
-
-// Table entries from a plain pointer (the device's global-memory copy, read
-// through the read-only cache, or the host copy): node i's (e0, e1) in one
-// 8-byte read on the device (the copy is cudaMalloc'd, so 8-byte aligned).
-struct LdgTableAccess {
-  const float* p = nullptr;
-  LBDEM_HD void pair(int i, float& e0, float& e1) const {
-#if defined(__CUDA_ARCH__)
-    const float2 v = __ldg(reinterpret_cast<const float2*>(p) + i);
-    e0 = v.x;
-    e1 = v.y;
-#else
-    e0 = p[2 * i];
-    e1 = p[2 * i + 1];
-#endif
-  }
-};
-
-#ifndef LBDEM_FUSED_DIAG
-#define LBDEM_FUSED_DIAG 0  // benchmark attribution only, wrong forces: 1 no force stage, 2 also no overlap
-#endif
 
 #if defined(__CUDACC__)
 // The six force and torque sums of a warp by a tree that exchanges halves:
@@ -55,10 +35,8 @@ __device__ LBDEM_FORCEINLINE R warp_sum6_exchange(const R (&v)[6], int lane) {
   return c;
 }
 
-// LoadsFirst: issue the population loads before the candidate reads and the
-// fractions (their latency overlaps that work, but the populations then hold
-// 19 registers through the fraction arithmetic), or after the fractions.
-template <int MinBlocks, bool LoadsFirst, class Kern>
+// One block per tile, one thread per cell (imb/psm_fused.hpp, steps 1 to 4).
+template <int MinBlocks, class Kern>
 __global__ void __launch_bounds__(Kern::kCells, MinBlocks) psm_fused_kernel(Kern k) {
   using R = typename Kern::R;
   __shared__ FusedCand<R> cand[kFusedMaxCapacity];
@@ -73,12 +51,11 @@ __global__ void __launch_bounds__(Kern::kCells, MinBlocks) psm_fused_kernel(Kern
   bool fluid = k.coords(tile, tid, x, y, z);
   const Index cell = fluid ? k.g.index(x, y, z) : 0;
   if constexpr (Kern::kBnd) fluid = fluid && k.flags[cell] == 0;
-  // 1. Populations first (their latency hides the candidate reads), then the tile's candidates.
+  // 1. Populations first (their latency hides the candidate reads and the
+  // fraction arithmetic), then the tile's candidates.
   lbm::Neighbours nb;
   R f[Kern::kQ];
-  if constexpr (LoadsFirst) {
-    if (fluid) k.load(x, y, z, cell, nb, f);
-  }
+  if (fluid) k.load(x, y, z, cell, nb, f);
   // The tile's list entries are read beside its count, not after it (entries
   // past the count are defined but unused): the chain the block's barrier
   // waits for is then count|list -> particle, not count -> list -> particle.
@@ -104,17 +81,12 @@ __global__ void __launch_bounds__(Kern::kCells, MinBlocks) psm_fused_kernel(Kern
   s.stride = Kern::kCells;
   int lx, ly, lz;  // offsets in the tile: the per-cell arithmetic is relative to its first cell
   Kern::local(tid, lx, ly, lz);
-#if LBDEM_FUSED_DIAG != 2
   if (fluid && nc > 0) k.overlap(lx, ly, lz, cell, cand, nc, s);
-#endif
-  if constexpr (!LoadsFirst) {
-    if (fluid) k.load(x, y, z, cell, nb, f);
-  }
   // 3. Collide and store; a warp without a solid lane takes the plain collision.
   const bool plain = !__any_sync(0xffffffffu, s.m > 0);
   R rho = R(1), u[3] = {R(0), R(0), R(0)};
   if (fluid) k.collide_store(cell, nb, f, s, plain, rho, u);
-  if (nc == 0 || LBDEM_FUSED_DIAG != 0) return;  // block-uniform
+  if (nc == 0) return;  // block-uniform
   // 4. Force and torque per candidate: exchange tree per warp (warp_sum6_exchange), warps in order.
   for (int c0 = 0; c0 < nc; c0 += Kern::kForceChunk) {
     const int cn = nc - c0 < Kern::kForceChunk ? nc - c0 : Kern::kForceChunk;
@@ -150,23 +122,20 @@ __global__ void __launch_bounds__(Kern::kCells, MinBlocks) psm_fused_kernel(Kern
 #endif
 
 template <class Kern>
-void launch_fused(const Exec& ex, const Kern& k, bool loads_first) {
+void launch_fused(const Exec& ex, const Kern& k) {
   if (ex.on_device()) {
 #if defined(__CUDACC__)
-    // fp32: 4 blocks of 256 (64 registers, no spill with linear fractions; H100 fp32 linear 67.6 -> 73.6 %
-    // of fluid-only against 3 blocks); 5 blocks (48 registers) or fp64 at 3 (80) spill 150-650 B per
-    // thread and lose 20-30 % (bench/imb/NOTES.md, session 7).
+    // Blocks of 256 per multiprocessor: 4 in fp32 (64 registers), 2 in fp64.
+    // More blocks leave too few registers: the kernel spills and runs slower.
     constexpr int kMinBlocks = (sizeof(typename Kern::R) == 4 ? 4 : 2) * 256 / Kern::kCells;
     if (k.tv.nty > 65535 || k.tv.ntz > 65535)
       throw ConfigError("psm fused step: " + std::to_string(k.tv.nty) + " x " + std::to_string(k.tv.ntz) +
                         " tiles along y and z exceed the launch grid (65535 each); use psm.pipeline: mapped");
     const dim3 grid(static_cast<unsigned>(k.tv.ntx), static_cast<unsigned>(k.tv.nty), static_cast<unsigned>(k.tv.ntz));
-    if (loads_first) psm_fused_kernel<kMinBlocks, true><<<grid, Kern::kCells, 0, ex.stream()>>>(k);
-    else psm_fused_kernel<kMinBlocks, false><<<grid, Kern::kCells, 0, ex.stream()>>>(k);
+    psm_fused_kernel<kMinBlocks><<<grid, Kern::kCells, 0, ex.stream()>>>(k);
     LBDEM_CUDA_CHECK(cudaGetLastError());
     return;
 #else
-    (void)loads_first;
     throw_not_compiled_for_cuda("psm fused step");
 #endif
   }
@@ -184,8 +153,8 @@ struct FusedArgs {
 };
 
 template <class L, class T, lbm::StreamKind S, int P, bool B, bool Force, PsmVariant V, FractionMethod M>
-void fused_launch_m(const Exec& ex, const FusedArgs& a) {
-  using Frac = FractionOf<L::D, M, LdgTableAccess, T>;  // fractions in the lattice's precision
+void fused_launch(const Exec& ex, const FusedArgs& a) {
+  using Frac = FractionOf<L::D, M, PointerTableAccess, T>;  // fractions in the lattice's precision
   PsmFusedKernel<L, T, S, P, B, Force, V, Frac> k;
   k.set_lattice(*a.raw, a.setup->tau, a.opt->weight);
   k.K = a.K;
@@ -200,44 +169,25 @@ void fused_launch_m(const Exec& ex, const FusedArgs& a) {
   if (a.tv.t.tx != k.kTX || a.tv.t.ty != k.kTY || a.tv.t.tz != k.kTZ)
     throw ConfigError("psm fused step: the tile map's tiles are not the kernel's " + std::to_string(k.kTX) + "x" +
                       std::to_string(k.kTY) + "x" + std::to_string(k.kTZ));
-  launch_fused(ex, k, a.opt->fused_loads_first);
-}
-
-template <class L, class T, lbm::StreamKind S, int P, bool B, bool Force, PsmVariant V>
-void fused_launch_v(const Exec& ex, const FusedArgs& a) {
-  if (a.opt->map.method == FractionMethod::Table) fused_launch_m<L, T, S, P, B, Force, V, FractionMethod::Table>(ex, a);
-  else if (a.opt->map.method == FractionMethod::Linear) fused_launch_m<L, T, S, P, B, Force, V, FractionMethod::Linear>(ex, a);
-  else throw ConfigError("psm fused step: the fused pipeline evaluates table or linear fractions, not exact");
-}
-
-template <class L, class T, lbm::StreamKind S, int P, bool B>
-void fused_launch_b(const Exec& ex, const FusedArgs& a) {
-  const auto& bf = a.raw->body_force;
-  const bool force = bf[0] != 0 || bf[1] != 0 || bf[2] != 0;
-  const bool nebb = a.opt->variant == PsmVariant::NEBB;
-  if (force) {
-    if (nebb) fused_launch_v<L, T, S, P, B, true, PsmVariant::NEBB>(ex, a);
-    else fused_launch_v<L, T, S, P, B, true, PsmVariant::Superposition>(ex, a);
-  } else {
-    if (nebb) fused_launch_v<L, T, S, P, B, false, PsmVariant::NEBB>(ex, a);
-    else fused_launch_v<L, T, S, P, B, false, PsmVariant::Superposition>(ex, a);
-  }
-}
-
-template <class L, class T, lbm::StreamKind S, int P>
-void fused_launch_p(const Exec& ex, const FusedArgs& a) {
-  if (a.raw->has_boundaries) fused_launch_b<L, T, S, P, true>(ex, a);
-  else fused_launch_b<L, T, S, P, false>(ex, a);
+  launch_fused(ex, k);
 }
 
 template <class L, class T>
 void fused_step_typed(const Exec& ex, const FusedArgs& a) {
-  if (a.setup->streaming == lbm::StreamKind::AA) {
-    if ((a.raw->step & 1) == 0) fused_launch_p<L, T, lbm::StreamKind::AA, 0>(ex, a);
-    else fused_launch_p<L, T, lbm::StreamKind::AA, 1>(ex, a);
-  } else {
-    fused_launch_p<L, T, lbm::StreamKind::TwoLattice, 0>(ex, a);
-  }
+  const FractionMethod m = a.opt->map.method;
+  if (m != FractionMethod::Table && m != FractionMethod::Linear)
+    throw ConfigError("psm fused step: the fused pipeline evaluates table or linear fractions, not exact");
+  lbm::dispatch_step(a.setup->streaming, a.raw->step, a.raw->has_boundaries, lbm::has_body_force(a.raw->body_force),
+                     [&](auto S, auto P, auto B, auto F) {
+                       dispatch_variant(a.opt->variant, [&](auto V) {
+                         constexpr auto s = decltype(S)::value;
+                         constexpr int p = decltype(P)::value;
+                         constexpr bool b = decltype(B)::value, f = decltype(F)::value;
+                         constexpr PsmVariant v = decltype(V)::value;
+                         if (m == FractionMethod::Table) fused_launch<L, T, s, p, b, f, v, FractionMethod::Table>(ex, a);
+                         else fused_launch<L, T, s, p, b, f, v, FractionMethod::Linear>(ex, a);
+                       });
+                     });
 }
 
 }  // namespace lbdem::imb

@@ -7,6 +7,7 @@
 
 #include "core/algorithms.hpp"
 #include "core/buffer.hpp"
+#include "lbm/dispatch.hpp"
 #include "lbm/solver.hpp"
 
 namespace lbdem::lbm {
@@ -73,12 +74,9 @@ class SolverImpl final : public LbmSolver {
 
   void step_box(const CellBox& box) override {
     if (box.empty()) return;
-    if (s_.streaming == StreamKind::AA) {
-      if ((t_ & 1) == 0) dispatch<StreamKind::AA, 0>(box);
-      else dispatch<StreamKind::AA, 1>(box);
-    } else {
-      dispatch<StreamKind::TwoLattice, 0>(box);
-    }
+    dispatch_step(s_.streaming, t_, has_bnd_, force_, [&](auto S, auto P, auto B, auto F) {
+      run<decltype(S)::value, decltype(P)::value, decltype(B)::value, decltype(F)::value>(box);
+    });
   }
 
   void end_step() override {
@@ -164,20 +162,10 @@ class SolverImpl final : public LbmSolver {
   }
 
  private:
-  template <StreamKind S_>
-  struct SK { static constexpr StreamKind value = S_; };
-  template <int P_>
-  struct PK { static constexpr int value = P_; };
-
-  // Calls fn(SK<scheme>, PK<parity of the next step>).
+  // Calls fn(scheme, parity of the next step) as integral constants (lbm/dispatch.hpp).
   template <class Fn>
   void with_parity(Fn&& fn) {
-    if (s_.streaming == StreamKind::AA) {
-      if ((t_ & 1) == 0) fn(SK<StreamKind::AA>{}, PK<0>{});
-      else fn(SK<StreamKind::AA>{}, PK<1>{});
-    } else {
-      fn(SK<StreamKind::TwoLattice>{}, PK<0>{});
-    }
+    dispatch_parity(s_.streaming, t_, fn);
   }
 
   PopView<T> src_view() const { return PopView<T>{f0_.data(), stride_}; }
@@ -191,17 +179,6 @@ class SolverImpl final : public LbmSolver {
     if (u_d_.size() != 3 * g_.n) {
       u_d_ = Buffer<double>(ex_.backend(), 3 * g_.n);
       u_d_.fill_zero();
-    }
-  }
-
-  template <StreamKind S, int P>
-  void dispatch(const CellBox& box) {
-    if (has_bnd_) {
-      if (force_) run<S, P, true, true>(box);
-      else run<S, P, true, false>(box);
-    } else {
-      if (force_) run<S, P, false, true>(box);
-      else run<S, P, false, false>(box);
     }
   }
 

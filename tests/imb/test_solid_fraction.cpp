@@ -193,14 +193,14 @@ TEST_F(TableFixture, AgreesWithExactInBand3D) {
   }
 }
 
-// The fused kernel's float evaluations of the table (fp32 runs): the
-// three-division coordinates and the one-division ones (LBDEM_FUSED_ONEDIV)
-// against the double lookup, every cell of the band. Float coordinates move a
+// The fused kernel's float evaluation of the table (fp32 runs: one-division
+// coordinates, nested lerps) and the three-division float lookup against the
+// slot map's double lookup, every cell of the band. Float coordinates move a
 // lookup by a few ulp of t, u, v; the steepest node slope dε/dt is about 1 per
-// unit t, so 2e-5 holds with a margin of ~10 over float round-off (measured
-// max: recorded), and far below the table's own 0.025. The nested-lerp
-// interpolation (LBDEM_FUSED_LERP) against the weighted sum at the same coordinates,
-// and the same one-division, nested-lerp lookup in double (the fused fp64 path).
+// unit t, so 2e-5 holds with a margin of ~10 over float round-off (max:
+// recorded), and far below the table's own 0.025. The nested lerps against the
+// slot map's weighted sum at the same coordinates, and the same one-division,
+// nested-lerp lookup in double (the fused fp64 path).
 TEST_F(TableFixture, FloatLookupsMatchDouble3D) {
   const auto g = t3->geometry;
   const auto acc = t3->host_access();
@@ -235,8 +235,8 @@ TEST_F(TableFixture, FloatLookupsMatchDouble3D) {
   EXPECT_GT(band, 1000);
   EXPECT_LE(worst3, 2e-5);
   EXPECT_LE(worst1, 2e-5);
-  EXPECT_LE(worstl, 2e-6);
-  EXPECT_LE(worstd, 1e-12);  // the fused fp64 path (one division, nested lerps) against the slot map's double  // nested lerps against the weighted sum: float round-off of values <= ~1.1
+  EXPECT_LE(worstl, 2e-6);  // nested lerps against the weighted sum: float round-off of values <= ~1.1
+  EXPECT_LE(worstd, 1e-12);  // the fused fp64 path (one division, nested lerps) against the slot map's double
   RecordProperty("max_err_three_div", std::to_string(worst3));
   RecordProperty("max_err_one_div", std::to_string(worst1));
 }

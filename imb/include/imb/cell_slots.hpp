@@ -98,9 +98,8 @@ struct MapOptions {
   // Table on the device: in __constant__ memory (the first paper's choice) or in
   // global memory read through the read-only cache. Constant memory serialises a
   // warp's reads of different addresses, and table lookups of neighbouring cells
-  // hit different nodes; bench/imb measures both: 1.12 ns per interface cell
-  // from constant memory, 0.04 ns from global memory (H200), so global is the
-  // default and constant memory the opt-in reproduction of the paper.
+  // hit different nodes, so global memory is the default and constant memory
+  // the opt-in reproduction of the paper (bench/imb times both).
   bool table_in_constant = false;
   // Exact method: classify in the box pass, do the interface cells in a second
   // dense pass (much better warp use on the GPU; same results).

@@ -58,13 +58,9 @@ struct FractionOf {
   // per-cell arithmetic in the lattice's precision).
   LBDEM_HD Real eval(Real rx, Real ry, Real rz, Real R, Real aux) const {
     if constexpr (M == FractionMethod::Table && Dim == 3) {
-#if !defined(LBDEM_FUSED_ONEDIV) || LBDEM_FUSED_ONEDIV
-      // One division and nested lerps, in float or double (H100 fp32 table 67.1 -> 71.7 %
-      // of fluid-only with both; the slot map keeps table_fraction_3d in double).
+      // One division and nested lerps, in float or double (fewer divisions and
+      // multiplications; the slot map keeps table_fraction_3d in double).
       return table_fraction_3d_one_div<Access, Real>(g, tab, rx, ry, rz, R);
-#else
-      return table_fraction_3d<Access, Real>(g, tab, rx, ry, rz, R);
-#endif
     } else if constexpr (std::is_same_v<Real, double> || M == FractionMethod::Exact) {
       return (*this)(double(rx), double(ry), double(rz), double(R), double(aux));
     } else if constexpr (M == FractionMethod::Table) {

@@ -39,13 +39,21 @@ struct TableGeometry {
   LBDEM_HD int floats() const { return 2 * nodes(); }  // [v][u][t][coef]: a node's (e0, e1) side by side
 };
 
-// Reads table entries from a plain pointer (host copy, or any device pointer):
-// node i's coefficients (e0, e1), stored side by side.
+// Reads table entries from a plain pointer (the host copy, or a global-memory
+// copy on the device): node i's coefficients (e0, e1), stored side by side. On
+// the device both come in one 8-byte read through the read-only cache (__ldg):
+// the copy must be 8-byte aligned (cudaMalloc'd) and not change during the kernel.
 struct PointerTableAccess {
   const float* p = nullptr;
   LBDEM_HD void pair(int i, float& e0, float& e1) const {
+#if defined(__CUDA_ARCH__)
+    const float2 v = __ldg(reinterpret_cast<const float2*>(p) + i);
+    e0 = v.x;
+    e1 = v.y;
+#else
     e0 = p[2 * i];
     e1 = p[2 * i + 1];
+#endif
   }
 };
 
@@ -180,10 +188,9 @@ LBDEM_HD inline Real cell_far2_t(Real rx, Real ry, Real rz) {
   return dx * dx + dy * dy + dz * dz;
 }
 
-// Table fractions. Double everywhere the slot map uses them (the mapped
-// pipeline's host/GPU agreement is 1e-12; float interpolation there made the
-// map 10 % faster, 0.318 against 0.351 ms on the H200, but host and GPU then
-// differ by 1e-6 in eps through FMA contraction). The fused kernel evaluates
+// Table fractions. Double everywhere the slot map uses them, so that the mapped
+// pipeline's host and GPU fractions agree to round-off in double (in float, FMA
+// contraction on the GPU alone moves eps by ~1e-6). The fused kernel evaluates
 // them in the lattice's precision (Real = float in fp32 runs: the fraction
 // then carries float round-off, as every other quantity of such a run).
 template <class Access, class Real = double>
@@ -198,9 +205,8 @@ LBDEM_HD inline Real table_fraction_3d(const TableGeometry& g, const Access& tab
   return detail::clamp01<Real>(table_interpolate<Access, Real>(g, tab, table_coord<Real>(rx, ry, rz, R), R));
 }
 
-// 3D table fraction with the one-division coordinates and the nested lerps
-// (the fused kernel's lookup in the lattice's precision; LBDEM_FUSED_LERP=0:
-// the weighted sum).
+// 3D table fraction with the one-division coordinates and the nested lerps:
+// the fused kernel's lookup, in the lattice's precision.
 template <class Access, class Real>
 LBDEM_HD inline Real table_fraction_3d_one_div(const TableGeometry& g, const Access& tab, Real rx, Real ry, Real rz,
                                                Real R) {
@@ -208,12 +214,7 @@ LBDEM_HD inline Real table_fraction_3d_one_div(const TableGeometry& g, const Acc
   if (cell_far2_t(rx, ry, rz) <= R * R) return Real(1);
   Real inv_r;
   const TableCoordT<Real> q = table_coord_one_div<Real>(rx, ry, rz, R, inv_r);
-#if !defined(LBDEM_FUSED_LERP) || LBDEM_FUSED_LERP
-  // H100 fp32 table 68.6 -> 71.7 % of fluid-only (bench/results/psm_susp_fused_2026-11-22_26c4bba.md)
   return detail::clamp01<Real>(table_interpolate_lerp<Access, Real>(g, tab, q, inv_r));
-#else
-  return detail::clamp01<Real>(table_interpolate_inv<Access, Real>(g, tab, q, inv_r));
-#endif
 }
 
 template <class Access, class Real = double>

@@ -19,6 +19,7 @@
 // gathered per particle (deterministic: no atomics).
 #include <cmath>
 #include <cstdint>
+#include <type_traits>
 
 #include "core/hd.hpp"
 #include "imb/cell_slots.hpp"
@@ -27,6 +28,14 @@
 namespace lbdem::imb {
 
 enum class PsmVariant { NEBB, Superposition };
+
+// Calls fn(std::integral_constant<PsmVariant, V>) for the runtime choice v (the
+// PSM steps' dispatch, beside lbm::dispatch_step).
+template <class Fn>
+void dispatch_variant(PsmVariant v, Fn&& fn) {
+  if (v == PsmVariant::NEBB) fn(std::integral_constant<PsmVariant, PsmVariant::NEBB>{});
+  else fn(std::integral_constant<PsmVariant, PsmVariant::Superposition>{});
+}
 enum class PsmWeight { NobleTorczynski, Linear };
 
 // Narrow particle view for the coupling (lattice units, SoA): centres, radii,
@@ -59,22 +68,55 @@ LBDEM_HD inline double min_image(double d, double n, bool periodic) {
   return d;
 }
 
-// One fused PSM stream-collide over every cell (fluid cells are the m = 0,
-// B = 0 case of the same arithmetic, so warps hardly diverge).
-//
-// The solid term needs the particles only through moments of their weighted
-// velocities. With Omega^S linear in f^eq(V_k) and f^eq quadratic in V,
+// Total weight B of a cell from the sum of its slots' fractions:
+// B(min(1, sum eps_k)) (first paper Eq. 1).
+template <class R>
+LBDEM_HD LBDEM_FORCEINLINE R psm_cell_weight(R eps_tot, R tm, PsmWeight w) {
+  const R eps = eps_tot < R(1) ? eps_tot : R(1);
+  return psm_weight(eps, tm, w);
+}
+
+// Weight of one slot, B_k = B eps_k / sum eps (eps_tot > 0).
+template <class R>
+LBDEM_HD LBDEM_FORCEINLINE R psm_slot_weight(R B, R eps_k, R eps_tot) {
+  return B * eps_k / eps_tot;
+}
+
+// The PSM collision runs on every cell (fluid cells are the B = 0 case of the
+// same arithmetic, so warps hardly diverge), and it needs the particles only
+// through moments of their weighted velocities. With Omega^S linear in
+// f^eq(V_k) and f^eq quadratic in V,
 //   sum_k B_k f^eq_q(V_k) = w_q [M0 d + rho (3 c.M1 + 4.5 c.M2.c - 1.5 tr M2)],
 //   M0 = sum B_k = B, M1 = sum B_k V_k, M2 = sum B_k V_k V_k^T,
-// so a cell loads its slots once, accumulates these 10 numbers, and the
-// per-direction loop carries no per-particle state (the old kernel kept
-// f, f^eq, f^post and f* arrays plus per-slot loops: ~4x the registers, a fifth
-// of the plain kernel's throughput). The force on particle k has a closed form
-// from the moments of Omega^S (c_qbar = -c_q, sum c f^eq(V) = rho V, rho u = j + F/2):
+// so a cell loads its slots once and accumulates these 10 numbers, and the
+// per-direction loop carries no per-particle state. Adds slot k's weight
+// B_k and solid velocity V_k to M1 and M2 = (xx yy zz xy xz yz).
+template <class R>
+LBDEM_HD LBDEM_FORCEINLINE void add_solid_moments(R Bk, const R (&vs)[3], R (&M1)[3], R (&M2)[6]) {
+  for (int a = 0; a < 3; ++a) M1[a] += Bk * vs[a];
+  M2[0] += Bk * vs[0] * vs[0];
+  M2[1] += Bk * vs[1] * vs[1];
+  M2[2] += Bk * vs[2] * vs[2];
+  M2[3] += Bk * vs[0] * vs[1];
+  M2[4] += Bk * vs[0] * vs[2];
+  M2[5] += Bk * vs[1] * vs[2];
+}
+
+// The force on particle k from one cell has a closed form from the moments of
+// Omega^S (c_qbar = -c_q, sum c f^eq(V) = rho V, rho u = j + F/2):
 //   NEBB:          sum_q c_q Omega^S_q = rho V_k - j + F/2 = rho (V_k - u) + F,
 //   superposition: sum_q c_q Omega^S_q = rho (V_k - u) - sum_q c_q (f_q - f^post_q)
 //                                      = rho (V_k - u) + omega_- F / 2,
 // F_k = -B_k sum_q c_q Omega^S_q (the momentum the solid term takes from the fluid).
+template <class R, bool Force, PsmVariant V>
+LBDEM_HD LBDEM_FORCEINLINE void psm_particle_force(R Bk, R rho, const R (&vs)[3], const R (&u)[3], const R (&F)[3],
+                                                   R omega_m, R (&Fk)[3]) {
+  for (int a = 0; a < 3; ++a) {
+    const R extra = V == PsmVariant::NEBB ? (Force ? F[a] : R(0)) : (Force ? R(0.5) * omega_m * F[a] : R(0));
+    Fk[a] = -(Bk * (rho * (vs[a] - u[a]) + extra));
+  }
+}
+
 // c_q . M2 . c_q for M2 = (xx yy zz xy xz yz), components of c in {-1, 0, 1}:
 // the constant pattern folded in once the direction loop is unrolled.
 template <class L, class R>
@@ -90,64 +132,83 @@ LBDEM_HD LBDEM_FORCEINLINE R cM2(int q, const R (&M2)[6]) {
   return s;
 }
 
-// The PSM collision of one cell from its incoming populations f (in place),
-// the total weight B and the solid moments M1 = sum B_k V_k, M2 = sum B_k V_k V_k^T
-// (see above); returns rho and the (half-force shifted) velocity u that the
-// force on the particles needs. Shared by the mapped (PsmStepKernel) and the
-// fused (psm_fused.hpp) kernels.
+// The PSM update of lbm::Collider::collide: the fluid collision's terms scaled
+// by 1 - B plus the solid term sum_k B_k Omega^S_{q,k} (formulas at the top),
+//   f*_q = f_q - (1 - B)(dp +- dm) + (1 - B)(Sp +- Sm) + solid_q,
+// with B the total weight and M1, M2 the solid moments above.
 template <class L, class R, bool Force, PsmVariant V>
-LBDEM_HD LBDEM_FORCEINLINE void psm_collide(R (&f)[L::Q], R B, const R (&M1)[3], const R (&M2)[6], R omega_p, R omega_m,
-                                            const R (&F)[3], R& rho, R (&u)[3]) {
-  R d, j[3];
-  lbm::moments<L>(f, d, j);
-  rho = R(1) + d;
-  for (int a = 0; a < 3; ++a) u[a] = (j[a] + (Force ? R(0.5) * F[a] : R(0))) / rho;
-  const R usq15 = R(1.5) * (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
-  const R fw = R(1) - B;
-  const R trM2 = R(1.5) * (M2[0] + M2[1] + M2[2]);
-  const R uF = Force ? u[0] * F[0] + u[1] * F[1] + u[2] * F[2] : R(0);
-  const R sp = R(1) - R(0.5) * omega_p, sm = R(1) - R(0.5) * omega_m;
-  // Rest population (c = 0).
-  {
-    const R w0 = R(L::w(0));
-    const R eq0 = w0 * (d - rho * usq15);
-    const R dp0 = omega_p * (f[0] - eq0);
-    const R seq0 = w0 * (B * d - rho * trM2);  // sum_k B_k f^eq_0(V_k)
-    const R solid = V == PsmVariant::NEBB ? seq0 - B * eq0 : seq0 - B * (eq0 + dp0);
-    f[0] = f[0] - fw * dp0 + fw * (Force ? sp * w0 * (R(-3) * uF) : R(0)) + solid;
+struct PsmSolidUpdate {
+  R B;
+  R M1[3], M2[6];
+
+  LBDEM_HD LBDEM_FORCEINLINE PsmSolidUpdate(R B_, const R (&M1_)[3], const R (&M2_)[6]) : B(B_) {
+    for (int a = 0; a < 3; ++a) M1[a] = M1_[a];
+    for (int a = 0; a < 6; ++a) M2[a] = M2_[a];
   }
-  LBDEM_UNROLL
-  for (int q = 1; q < L::Q; q += 2) {
-    const int qb = q + 1;
-    const R w = R(L::w(q));
-    const R cu = lbm::cdot<L>(q, u);
-    const R even = d + rho * (R(4.5) * cu * cu - usq15);  // f^eq_q = w (even + 3 rho cu), f^eq_qb = w (even - 3 rho cu)
-    const R eq_q = w * (even + R(3) * rho * cu), eq_qb = w * (even - R(3) * rho * cu);
-    const R dp = omega_p * (R(0.5) * (f[q] + f[qb]) - w * even);
-    const R dm = omega_m * (R(0.5) * (f[q] - f[qb]) - w * R(3) * rho * cu);
-    R Sp = 0, Sm = 0;
+  // 1 - B and 1.5 tr M2, formed where they are used (after the moments, not
+  // before them: the kernels then hold fewer values across the moment sums).
+  LBDEM_HD LBDEM_FORCEINLINE R fluid_weight() const { return R(1) - B; }
+  LBDEM_HD LBDEM_FORCEINLINE R trace15() const { return R(1.5) * (M2[0] + M2[1] + M2[2]); }
+
+  template <class Src>
+  LBDEM_HD LBDEM_FORCEINLINE void rest(R& f0, const lbm::TrtTerms<R>& t, const lbm::CellMoments<R>& m,
+                                       const Src& src) const {
+    const R fw = fluid_weight(), trM2 = trace15();
+    const R seq0 = t.w * (B * m.d - m.rho * trM2);  // sum_k B_k f^eq_0(V_k)
+    const R solid = V == PsmVariant::NEBB ? seq0 - B * t.eqp : seq0 - B * (t.eqp + t.dp);
+    R r = f0 - fw * t.dp;
     if constexpr (Force) {
-      const R cF = lbm::cdot<L>(q, F);
-      Sp = sp * w * (R(9) * cu * cF - R(3) * uF);
-      Sm = sm * w * R(3) * cF;
+      R Sp, Sm;
+      src(Sp, Sm);
+      r += fw * Sp;
     }
+    f0 = r + solid;
+  }
+
+  template <class Src>
+  LBDEM_HD LBDEM_FORCEINLINE void pair(int q, R& fq, R& fqb, const lbm::TrtTerms<R>& t, const lbm::CellMoments<R>& m,
+                                       const Src& src) const {
+    R Sp = 0, Sm = 0;
+    if constexpr (Force) src(Sp, Sm);
+    // f^eq_q and f^eq_qb as w (even +- 3 rho c.u): the same as eqp +- eqm up to
+    // round-off, and in this form the PSM kernels need fewer registers.
+    const R eq_q = t.w * (t.even + R(3) * m.rho * t.cu), eq_qb = t.w * (t.even - R(3) * m.rho * t.cu);
     // sum_k B_k f^eq(V_k) for q and qb.
     const R cM1 = lbm::cdot<L>(q, M1);
     const R cM2c = cM2<L>(q, M2);
-    const R seven = B * d + rho * (R(4.5) * cM2c - trM2);
-    const R seq_q = w * (seven + R(3) * rho * cM1), seq_qb = w * (seven - R(3) * rho * cM1);
+    const R fw = fluid_weight(), trM2 = trace15();
+    const R seven = B * m.d + m.rho * (R(4.5) * cM2c - trM2);
+    const R seq_q = t.w * (seven + R(3) * m.rho * cM1), seq_qb = t.w * (seven - R(3) * m.rho * cM1);
     R solid_q, solid_qb;
     if constexpr (V == PsmVariant::NEBB) {  // Omega_q = f_qb - f_q + f^eq_q(V) - f^eq_qb(u)
-      solid_q = B * (f[qb] - f[q] - eq_qb) + seq_q;
-      solid_qb = B * (f[q] - f[qb] - eq_q) + seq_qb;
+      solid_q = B * (fqb - fq - eq_qb) + seq_q;
+      solid_qb = B * (fq - fqb - eq_q) + seq_qb;
     } else {  // Omega_q = f^eq_q(V) - f^eq_q(u) - (f_q - f^post_q)
-      solid_q = seq_q - B * (eq_q + dp + dm);
-      solid_qb = seq_qb - B * (eq_qb + dp - dm);
+      solid_q = seq_q - B * (eq_q + t.dp + t.dm);
+      solid_qb = seq_qb - B * (eq_qb + t.dp - t.dm);
     }
-    const R fq = f[q];
-    f[q] = fq - fw * (dp + dm) + fw * (Sp + Sm) + solid_q;
-    f[qb] = f[qb] - fw * (dp - dm) + fw * (Sp - Sm) + solid_qb;
+    R a = fq - fw * (t.dp + t.dm);
+    R b = fqb - fw * (t.dp - t.dm);
+    if constexpr (Force) {
+      a += fw * (Sp + Sm);
+      b += fw * (Sp - Sm);
+    }
+    fq = a + solid_q;
+    fqb = b + solid_qb;
   }
+};
+
+// The PSM collision of one cell from its incoming populations f (in place),
+// the total weight B and the solid moments M1 = sum B_k V_k, M2 = sum B_k V_k V_k^T:
+// the fluid collision `coll` with the solid update. Returns rho and the
+// (half-force shifted) velocity u that the force on the particles needs.
+template <class L, class R, bool Force, PsmVariant V>
+LBDEM_HD LBDEM_FORCEINLINE void psm_collide(const lbm::Collider<L, R, Force>& coll, R (&f)[L::Q], R B,
+                                            const R (&M1)[3], const R (&M2)[6], R& rho, R (&u)[3]) {
+  lbm::CellMoments<R> m;
+  coll.template collide<true>(f, m, PsmSolidUpdate<L, R, Force, V>(B, M1, M2));
+  rho = m.rho;
+  for (int a = 0; a < 3; ++a) u[a] = m.u[a];
 }
 
 // The lattice side of a PSM stream-collide kernel, shared by the mapped
@@ -177,6 +238,16 @@ struct PsmLatticeFields {
     tm = static_cast<T>(tau - 0.5);
     weight = w;
   }
+
+  // The fluid collision at these rates and body force.
+  template <class L, bool Force>
+  LBDEM_HD LBDEM_FORCEINLINE lbm::Collider<L, T, Force> collider() const {
+    lbm::Collider<L, T, Force> coll;
+    coll.omega_p = omega_p;
+    coll.omega_m = omega_m;
+    for (int a = 0; a < 3; ++a) coll.F[a] = F[a];
+    return coll;
+  }
 };
 
 template <class L, class T, lbm::StreamKind S, int Parity, bool Bnd, bool Force, PsmVariant V>
@@ -184,20 +255,20 @@ struct PsmStepKernel : PsmLatticeFields<T> {
   using R = T;
   using Lat = PsmLatticeFields<T>;  // the lattice side's members, by name (a dependent base)
   using Lat::src, Lat::dst, Lat::g, Lat::flags, Lat::bt, Lat::omega_p, Lat::omega_m, Lat::F, Lat::tm, Lat::weight;
-  bool periodic[3];
   CellSlotsView slots;
   SlotForceView out;
 
   // Solid velocity of slot k's particle at the cell centre (stored by the map:
   // translation + rotation, paper Eq. 2) and its weight B_k = B eps_k / sum eps.
   LBDEM_HD void slot_velocity(Index cell, int k, R B, R eps_tot, R& Bk, R (&vs)[3]) const {
-    Bk = eps_tot > R(0) ? B * R(slots.eps_at(cell, k)) / eps_tot : R(0);
+    Bk = eps_tot > R(0) ? psm_slot_weight(B, R(slots.eps_at(cell, k)), eps_tot) : R(0);
     vs[0] = R(slots.vel_at(0, cell, k));
     vs[1] = R(slots.vel_at(1, cell, k));
     vs[2] = R(slots.vel_at(2, cell, k));
   }
 
-  LBDEM_HD void operator()(Index cell) const {
+  // Cell `cell` at storage coordinates (x, y, z) (core/exec.hpp for_each_cell).
+  LBDEM_HD void operator()(Index cell, int x, int y, int z) const {
     const int m = slots.used(cell);
     if constexpr (Bnd) {
       if (flags[cell] != 0) {  // boundary cell: no fluid, no solid term; its slots carry no force
@@ -207,7 +278,7 @@ struct PsmStepKernel : PsmLatticeFields<T> {
       }
     }
     // Populations first (independent loads, issued before the slot chain).
-    const lbm::Neighbours nb = lbm::neighbours<L>(g, cell);
+    const lbm::Neighbours nb = lbm::neighbours_at<L>(g, x, y, z);
     R f[L::Q];
     lbm::load_incoming<L, T, R, S, Parity>(src, nb, cell, f);
     // 1. Solid moments of the overlapping particles (all zero in a fluid
@@ -216,50 +287,38 @@ struct PsmStepKernel : PsmLatticeFields<T> {
     R B = 0, eps_tot = 0, M1[3] = {0, 0, 0}, M2[6] = {0, 0, 0, 0, 0, 0};  // M2: xx yy zz xy xz yz
     if (m > 0) {
       for (int k = 0; k < m; ++k) eps_tot += R(slots.eps_at(cell, k));
-      const R eps = eps_tot < R(1) ? eps_tot : R(1);
-      B = psm_weight(eps, tm, weight);
+      B = psm_cell_weight(eps_tot, tm, weight);
       for (int k = 0; k < m; ++k) {
         R Bk, vs[3];
         slot_velocity(cell, k, B, eps_tot, Bk, vs);
-        for (int a = 0; a < 3; ++a) M1[a] += Bk * vs[a];
-        M2[0] += Bk * vs[0] * vs[0];
-        M2[1] += Bk * vs[1] * vs[1];
-        M2[2] += Bk * vs[2] * vs[2];
-        M2[3] += Bk * vs[0] * vs[1];
-        M2[4] += Bk * vs[0] * vs[2];
-        M2[5] += Bk * vs[1] * vs[2];
+        add_solid_moments(Bk, vs, M1, M2);
       }
     }
     // 2. Stream-collide.
-    // A warp with no solid cell at all (~40 % of them at phi = 0.13) runs the
-    // plain collision: the same result as B = 0 below, fewer instructions.
+    // A warp with no solid cell at all (most warps away from the particles)
+    // runs the plain collision: the same result as B = 0 below, fewer instructions.
 #if defined(__CUDA_ARCH__)
     const bool plain = !__any_sync(__activemask(), m > 0);
 #else
     const bool plain = m == 0;
 #endif
+    const lbm::Collider<L, R, Force> coll = Lat::template collider<L, Force>();
     if (plain) {
-      lbm::Collider<L, R, Force> coll;
-      coll.omega_p = omega_p;
-      coll.omega_m = omega_m;
-      for (int a = 0; a < 3; ++a) coll.F[a] = F[a];
       R drho, uu[3];
       coll(f, drho, uu);
       lbm::store_outgoing<L, T, R, S, Parity, Bnd>(dst, nb, cell, f, flags, bt, uu);
       return;
     }
     R rho, u[3];
-    psm_collide<L, R, Force, V>(f, B, M1, M2, omega_p, omega_m, F, rho, u);
+    psm_collide<L, R, Force, V>(coll, f, B, M1, M2, rho, u);
     lbm::store_outgoing<L, T, R, S, Parity, Bnd>(dst, nb, cell, f, flags, bt, u);
-    // 3. Force on each particle (closed form above; torque: in the gather),
+    // 3. Force on each particle (psm_particle_force; torque: in the gather),
     // after the populations are stored (slot data re-read from cache).
     for (int k = 0; k < m; ++k) {
-      R Bk, vs[3];
+      R Bk, vs[3], Fk[3];
       slot_velocity(cell, k, B, eps_tot, Bk, vs);
-      for (int a = 0; a < 3; ++a) {
-        const R extra = V == PsmVariant::NEBB ? (Force ? F[a] : R(0)) : (Force ? R(0.5) * omega_m * F[a] : R(0));
-        out.at(a, k, cell) = -double(Bk * (rho * (vs[a] - u[a]) + extra));
-      }
+      psm_particle_force<R, Force, V>(Bk, rho, vs, u, F, omega_m, Fk);
+      for (int a = 0; a < 3; ++a) out.at(a, k, cell) = double(Fk[a]);
     }
   }
 };

@@ -43,9 +43,6 @@ struct PsmOptions {
   MapOptions map;  // fraction method, max radius, table
   PsmPipeline pipeline = PsmPipeline::Auto;
   int tile_capacity = 64;  // fused: candidate particles per tile (overflow is reported)
-  // Fused kernel on the device: population loads before the fraction work
-  // (true) or after it (false); see psm_fused_impl.hpp. Same results.
-  bool fused_loads_first = true;
 };
 
 // The pipeline a step with these options and K slots per cell runs; throws
@@ -89,7 +86,6 @@ class PsmCoupling {
   CellSlots& mapped_slots();
 
   lbm::LbmSolver& solver_;
-  std::array<bool, 3> periodic_;
   int K_;
   Grid grid_;
   std::unique_ptr<CellSlots> slots_;
@@ -103,7 +99,7 @@ class PsmCoupling {
 
 // Per-(lattice, precision) kernels (psm_*.cu).
 void psm_fluid_step(const Exec& ex, const lbm::LbmSetup& s, const lbm::LbmRaw& raw, const CellSlotsView& slots,
-                    const SlotForceView& sf, const PsmOptions& opt, const std::array<bool, 3>& periodic);
+                    const SlotForceView& sf, const PsmOptions& opt);
 void psm_gather(const Exec& ex, const CellSlotsView& slots, const SlotForceView& sf, const PairView& pairs,
                 const PsmParticles& p, int dim, const ForceOut& out);
 

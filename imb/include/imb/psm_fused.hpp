@@ -18,9 +18,9 @@
 //      halves of the six values: warp_sum6_exchange), then the warps in order,
 //      into the particle's entry for this tile. TileMap::finish adds a
 //      particle's entries in order.
-// The mapped pipeline wrote per-cell slots (0.35 ms per step at φ 0.128 on
-// 256³) and a per-(slot, cell) force array that a gather read back; here
-// nothing per cell leaves the kernel but the populations.
+// The mapped pipeline writes per-cell slots and a per-(slot, cell) force array
+// that a gather reads back; here nothing per cell leaves the kernel but the
+// populations.
 //
 // The host backend runs the same per-cell functions tile by tile and adds in
 // the same tree order (run_fused_host below).
@@ -32,13 +32,6 @@
 #include "imb/psm.hpp"
 #include "imb/tile_map.hpp"
 #include "lbm/kernels.hpp"
-
-// Build-time variants of the fused kernel (benchmark sweeps: imb/CMakeLists.txt
-// LBDEM_FUSED_DEFS). Every variant but LBDEM_FUSED_DIAG (attribution only)
-// computes the same result up to round-off, and the fused tests hold for each.
-#ifndef LBDEM_FUSED_WX
-#define LBDEM_FUSED_WX 32  // a warp's cells along x (32, 16 or 8)
-#endif
 
 namespace lbdem::imb {
 
@@ -57,8 +50,8 @@ struct FusedCand {
 // The solid state of one cell: up to kFusedMaxSlots slots (ε_k, candidate
 // rank). The ranks are packed 8 bits each into one register; the ε_k live
 // outside the registers (shared memory on the device, eps[k * stride]): the
-// kernel holds 19 populations and the moments at once and spilled with them
-// in registers.
+// kernel holds 19 populations and the moments at once, and the ε_k in
+// registers as well would spill.
 template <class R>
 struct FusedSolid {
   int m = 0;
@@ -85,11 +78,13 @@ struct PsmFusedKernel : PsmLatticeFields<T> {
   SphereView p;
   Frac frac;
 
-  // The tile shape as compile-time constants (TileShape::for_dim): the
-  // per-thread index arithmetic is then shifts and masks.
-  static constexpr int kTX = 32, kTY = Dim == 3 ? 4 : 8, kTZ = Dim == 3 ? LBDEM_FUSED_TZ : 1;
+  // The tile shape as compile-time constants (TileShape::for_dim, the tile
+  // map's shape): the per-thread index arithmetic is then shifts and masks.
+  static constexpr TileShape kShape = TileShape::for_dim(Dim);
+  static constexpr int kTX = kShape.tx, kTY = kShape.ty, kTZ = kShape.tz;
   static constexpr int kCells = kTX * kTY * kTZ;  // threads per block
   static constexpr int kWarps = kCells / 32;
+  static_assert(kTX == 32, "a warp is one x row of its tile");
   static_assert(kCells <= 256 && kCells >= 6 * 16, "the host runner's arrays and the force sums");
 
   // A tile: its index in the lists and its position in the tile grid (the
@@ -126,21 +121,14 @@ struct PsmFusedKernel : PsmLatticeFields<T> {
     return c < tv.capacity ? c : tv.capacity;
   }
 
-  // A warp's footprint in its tile: kWX cells along x by kWY = 32 / kWX along
-  // y (LBDEM_FUSED_WX, default 32: one x row). A narrower footprint is more
-  // compact, so fewer warps meet a sphere's surface (and take the PSM path and
-  // the force trees); its loads are kWY segments of kWX cells.
-  static constexpr int kWX = LBDEM_FUSED_WX, kWY = 32 / kWX;
-  static_assert(kWX * kWY == 32 && kTX % kWX == 0 && kTY % kWY == 0, "LBDEM_FUSED_WX: 32, 16 or 8");
-  static constexpr int kWarpsX = kTX / kWX, kWarpsY = kTY / kWY;
-
-  // Thread tid's offsets from its tile's first cell: lane l of warp w at
-  // (l % kWX, l / kWX) inside the warp's footprint, the warps in x, then y, then z.
+  // Thread tid's offsets from its tile's first cell: a warp is one x row of
+  // the tile (coalesced population loads), lane l at x = l; the warps in y,
+  // then z.
   LBDEM_HD static void local(int tid, int& lx, int& ly, int& lz) {
     const int lane = tid % 32, w = tid / 32;
-    lx = lane % kWX + kWX * (w % kWarpsX);
-    ly = lane / kWX + kWY * ((w / kWarpsX) % kWarpsY);
-    lz = w / (kWarpsX * kWarpsY);
+    lx = lane;
+    ly = w % kTY;
+    lz = w / kTY;
   }
 
   LBDEM_HD void load_candidate(const TileId& tile, int i, FusedCand<R>& c) const {
@@ -236,8 +224,7 @@ struct PsmFusedKernel : PsmLatticeFields<T> {
       }
     }
     if (s.m == 0) return;
-    const R eps = s.eps_tot < R(1) ? s.eps_tot : R(1);
-    s.B = psm_weight(eps, tm, weight);
+    s.B = psm_cell_weight(s.eps_tot, tm, weight);
     LBDEM_UNROLL
     for (int k = 0; k < kFusedMaxSlots; ++k) {
       if (k >= s.m) break;
@@ -246,14 +233,7 @@ struct PsmFusedKernel : PsmLatticeFields<T> {
       rel(x, y, z, q, r);
       R vs[3];
       solid_velocity(q, r, vs);
-      const R Bk = s.B * s.eps_at(k) / s.eps_tot;
-      for (int a = 0; a < 3; ++a) s.M1[a] += Bk * vs[a];
-      s.M2[0] += Bk * vs[0] * vs[0];
-      s.M2[1] += Bk * vs[1] * vs[1];
-      s.M2[2] += Bk * vs[2] * vs[2];
-      s.M2[3] += Bk * vs[0] * vs[1];
-      s.M2[4] += Bk * vs[0] * vs[2];
-      s.M2[5] += Bk * vs[1] * vs[2];
+      add_solid_moments(psm_slot_weight(s.B, s.eps_at(k), s.eps_tot), vs, s.M1, s.M2);
     }
   }
 
@@ -281,15 +261,11 @@ struct PsmFusedKernel : PsmLatticeFields<T> {
   LBDEM_HD LBDEM_FORCEINLINE void collide_store(Index cell, const lbm::Neighbours& nb, R (&f)[L::Q],
                                                 const FusedSolid<R>& s, bool plain, R& rho, R (&u)[3]) const {
     if (plain) {
-      lbm::Collider<L, R, Force> coll;
-      coll.omega_p = omega_p;
-      coll.omega_m = omega_m;
-      for (int a = 0; a < 3; ++a) coll.F[a] = F[a];
       R drho;
-      coll(f, drho, u);
+      Lat::template collider<L, Force>()(f, drho, u);
       rho = R(1) + drho;
     } else {
-      psm_collide<L, R, Force, V>(f, s.B, s.M1, s.M2, omega_p, omega_m, F, rho, u);
+      psm_collide<L, R, Force, V>(Lat::template collider<L, Force>(), f, s.B, s.M1, s.M2, rho, u);
     }
     lbm::store_outgoing<L, T, R, S, Parity, Bnd>(dst, nb, cell, f, flags, bt, u);
   }
@@ -310,12 +286,8 @@ struct PsmFusedKernel : PsmLatticeFields<T> {
     rel(x, y, z, q, r);
     R vs[3];
     solid_velocity(q, r, vs);
-    const R Bk = s.B * s.eps_at(k) / s.eps_tot;
     R Fk[3];
-    for (int a = 0; a < 3; ++a) {
-      const R extra = V == PsmVariant::NEBB ? (Force ? F[a] : R(0)) : (Force ? R(0.5) * omega_m * F[a] : R(0));
-      Fk[a] = -(Bk * (rho * (vs[a] - u[a]) + extra));
-    }
+    psm_particle_force<R, Force, V>(psm_slot_weight(s.B, s.eps_at(k), s.eps_tot), rho, vs, u, F, omega_m, Fk);
     out[0] = Fk[0];
     out[1] = Fk[1];
     out[2] = Fk[2];

@@ -14,10 +14,10 @@
 // fixed order: the result does not depend on atomic order, so it is
 // deterministic, and host and device add in the same order.
 //
-// Why: the slot map wrote (particle, ε, velocity) for every overlapped cell and
-// the PSM kernel read them back through a count → slot chain; at φ 0.128 on a
-// 256³ grid that map cost 0.35 ms per step, half the plain LBM step. The tile
-// lists hold ~3 entries per tile and cost a few microseconds.
+// Why: the slot map of the mapped pipeline writes (particle, ε, velocity) for
+// every overlapped cell and its PSM kernel reads them back through a count →
+// slot chain, a pass over memory comparable to a fluid step; a tile list holds
+// a few entries per tile.
 //
 // Periodic axes: a cell takes the minimum image of each candidate; a particle
 // spans less than half a period (checked), so no cell sees two images.
@@ -37,21 +37,19 @@ namespace lbdem::imb {
 
 // Slots per cell the fused kernel keeps in registers (a case may ask for fewer).
 inline constexpr int kFusedMaxSlots = 4;
-// Cells of a 3D tile along z (32 x 4 x TZ cells, one CUDA block each): a
-// build-time knob (-DLBDEM_FUSED_TZ=1 in CMAKE_CXX_FLAGS and CMAKE_CUDA_FLAGS).
-// H100, 256³ suspension, coupled / fluid-only, TZ 2 against 1: fp32 linear
-// 73.4 / 71.4 %, table 66.9 / 65.4 %; fp64 linear 75.8 / 77.4 %, table
-// 72.2 / 74.3 % (TZ 1 doubles the tile build, 0.018 -> 0.040 ms).
-#ifndef LBDEM_FUSED_TZ
-#define LBDEM_FUSED_TZ 2
-#endif
+// Cells of a 3D tile along z (32 x 4 x kFusedTileZ cells, one CUDA block of
+// 256 threads each). The tile map and the fused kernel both take the shape
+// from TileShape::for_dim.
+inline constexpr int kFusedTileZ = 2;
 // Largest candidate list per tile the fused kernel's shared memory holds.
 inline constexpr int kFusedMaxCapacity = 128;
 
 struct TileShape {
   int tx = 32, ty = 4, tz = 2;
-  static TileShape for_dim(int dim) { return dim == 3 ? TileShape{32, 4, LBDEM_FUSED_TZ} : TileShape{32, 8, 1}; }
-  LBDEM_HD int cells() const { return tx * ty * tz; }
+  LBDEM_HD static constexpr TileShape for_dim(int dim) {
+    return dim == 3 ? TileShape{32, 4, kFusedTileZ} : TileShape{32, 8, 1};
+  }
+  LBDEM_HD constexpr int cells() const { return tx * ty * tz; }
 };
 
 // What the fused kernel and finish() read (trivially copyable).

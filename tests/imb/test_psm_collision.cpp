@@ -1,0 +1,136 @@
+// The PSM collision of one cell (imb/psm.hpp psm_collide) against identities
+// that hold whatever the implementation: it is the fluid collision of
+// lbm::Collider with the fluid terms scaled by 1 - B plus a solid term, so
+//  - B = 0 gives the fluid collision;
+//  - superposition without force: f* = f^post + B (f^eq(rho, V) - f^eq(rho, u))
+//    (Holdych et al. 2003), f^post the fluid collision;
+//  - NEBB at B = 1 without force: f*_q = f_qbar + f^eq_q(rho, V) - f^eq_qbar(rho, u)
+//    (first paper Eq. 2, the fluid term switched off);
+//  - the momentum the solid term gives the fluid is minus the closed-form force
+//    on the particle (psm_particle_force), for both operators, with and without
+//    a body force.
+// D3Q19 and D2Q9 in double: the tolerances are round-off of populations ~1e-2.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "imb/psm.hpp"
+#include "lbm/lattice.hpp"
+
+namespace lbdem::imb {
+namespace {
+
+constexpr double kTol = 2e-15;
+
+// Shifted equilibrium f^eq_q - w_q at (rho, u), written out independently of the kernels.
+template <class L>
+double feq_shifted(int q, double rho, const double (&u)[3]) {
+  double cu = 0, uu = 0;
+  for (int a = 0; a < 3; ++a) {
+    cu += L::c(q, a) * u[a];
+    uu += u[a] * u[a];
+  }
+  return L::w(q) * (rho * (1 + 3 * cu + 4.5 * cu * cu - 1.5 * uu) - 1);
+}
+
+// Incoming shifted populations near equilibrium, with a non-equilibrium part.
+template <class L>
+void random_cell(std::mt19937& rng, double (&f)[L::Q]) {
+  std::uniform_real_distribution<double> U(-1, 1);
+  const double rho = 1 + 0.02 * U(rng);
+  const double u[3] = {0.05 * U(rng), 0.05 * U(rng), L::D == 3 ? 0.05 * U(rng) : 0.0};
+  for (int q = 0; q < L::Q; ++q) f[q] = feq_shifted<L>(q, rho, u) + 1e-3 * L::w(q) * U(rng);
+}
+
+template <class L, bool Force>
+lbm::Collider<L, double, Force> collider(const double (&F)[3]) {
+  lbm::Collider<L, double, Force> c;
+  const lbm::Relaxation r = lbm::relaxation(lbm::CollisionKind::TRT, 0.8, 3.0 / 16.0);
+  c.omega_p = r.omega_p;
+  c.omega_m = r.omega_m;
+  for (int a = 0; a < 3; ++a) c.F[a] = F[a];
+  return c;
+}
+
+// Solid moments of one particle of weight B moving at V at the cell centre.
+void one_particle(double B, const double (&V)[3], double (&M1)[3], double (&M2)[6]) {
+  for (double& m : M1) m = 0;
+  for (double& m : M2) m = 0;
+  add_solid_moments(B, V, M1, M2);
+}
+
+template <class L, bool Force, PsmVariant Var>
+void check_lattice(std::mt19937& rng) {
+  const double F[3] = {Force ? 2e-5 : 0.0, Force ? -1e-5 : 0.0, Force && L::D == 3 ? 3e-5 : 0.0};
+  const auto coll = collider<L, Force>(F);
+  std::uniform_real_distribution<double> U(-1, 1);
+  for (int trial = 0; trial < 50; ++trial) {
+    double f[L::Q];
+    random_cell<L>(rng, f);
+    double fluid[L::Q];
+    for (int q = 0; q < L::Q; ++q) fluid[q] = f[q];
+    double drho, uf[3];
+    coll(fluid, drho, uf);
+
+    // B = 0: the fluid collision.
+    {
+      double g[L::Q], rho, u[3];
+      for (int q = 0; q < L::Q; ++q) g[q] = f[q];
+      const double M1[3] = {0, 0, 0}, M2[6] = {0, 0, 0, 0, 0, 0};
+      psm_collide<L, double, Force, Var>(coll, g, 0.0, M1, M2, rho, u);
+      for (int q = 0; q < L::Q; ++q) ASSERT_NEAR(g[q], fluid[q], kTol) << "q " << q;
+      EXPECT_NEAR(rho, 1 + drho, kTol);
+      for (int a = 0; a < 3; ++a) EXPECT_NEAR(u[a], uf[a], kTol);
+    }
+
+    const double B = 0.5 * (1 + U(rng));
+    const double V[3] = {0.04 * U(rng), 0.04 * U(rng), L::D == 3 ? 0.04 * U(rng) : 0.0};
+    double M1[3], M2[6];
+    one_particle(B, V, M1, M2);
+    double g[L::Q], rho, u[3];
+    for (int q = 0; q < L::Q; ++q) g[q] = f[q];
+    psm_collide<L, double, Force, Var>(coll, g, B, M1, M2, rho, u);
+
+    if constexpr (!Force && Var == PsmVariant::Superposition) {
+      for (int q = 0; q < L::Q; ++q)
+        ASSERT_NEAR(g[q], fluid[q] + B * (feq_shifted<L>(q, rho, V) - feq_shifted<L>(q, rho, u)), kTol) << "q " << q;
+    }
+    if constexpr (!Force && Var == PsmVariant::NEBB) {
+      double h[L::Q], rh, uh[3];
+      for (int q = 0; q < L::Q; ++q) h[q] = f[q];
+      one_particle(1.0, V, M1, M2);
+      psm_collide<L, double, Force, Var>(coll, h, 1.0, M1, M2, rh, uh);
+      for (int q = 0; q < L::Q; ++q) {
+        const int qb = L::opp(q);
+        ASSERT_NEAR(h[q], f[qb] + feq_shifted<L>(q, rh, V) - feq_shifted<L>(qb, rh, uh), kTol) << "q " << q;
+      }
+    }
+
+    // Momentum of the solid term = what the PSM step gives beyond (1 - B) times
+    // the fluid collision's change; the force on the particle is minus it.
+    double solid_mom[3] = {0, 0, 0};
+    for (int q = 0; q < L::Q; ++q) {
+      const double solid = (g[q] - f[q]) - (1 - B) * (fluid[q] - f[q]);
+      for (int a = 0; a < 3; ++a) solid_mom[a] += L::c(q, a) * solid;
+    }
+    double Fk[3];
+    psm_particle_force<double, Force, Var>(B, rho, V, u, F, coll.omega_m, Fk);
+    for (int a = 0; a < 3; ++a) EXPECT_NEAR(Fk[a], -solid_mom[a], 1e-14) << "axis " << a;
+  }
+}
+
+template <class L>
+void check_all() {
+  std::mt19937 rng(12345);
+  check_lattice<L, false, PsmVariant::NEBB>(rng);
+  check_lattice<L, true, PsmVariant::NEBB>(rng);
+  check_lattice<L, false, PsmVariant::Superposition>(rng);
+  check_lattice<L, true, PsmVariant::Superposition>(rng);
+}
+
+TEST(PsmCollision, IsFluidCollisionPlusSolidTermD3Q19) { check_all<lbm::D3Q19>(); }
+TEST(PsmCollision, IsFluidCollisionPlusSolidTermD2Q9) { check_all<lbm::D2Q9>(); }
+
+}  // namespace
+}  // namespace lbdem::imb
