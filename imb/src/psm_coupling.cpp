@@ -5,9 +5,9 @@
 namespace lbdem::imb {
 
 void psm_step_d2q9(const Exec&, const lbm::LbmSetup&, const lbm::LbmRaw&, const CellSlotsView&, const SlotForceView&,
-                   const PsmOptions&, const std::array<bool, 3>&);
+                   const PsmOptions&);
 void psm_step_d3q19(const Exec&, const lbm::LbmSetup&, const lbm::LbmRaw&, const CellSlotsView&, const SlotForceView&,
-                    const PsmOptions&, const std::array<bool, 3>&);
+                    const PsmOptions&);
 void psm_fused_d2q9(const Exec&, const FusedArgs&);
 void psm_fused_d3q19_f32(const Exec&, const FusedArgs&);
 void psm_fused_d3q19_f64(const Exec&, const FusedArgs&);
