@@ -136,19 +136,34 @@ LBDEM_HD LBDEM_FORCEINLINE R cM2(int q, const R (&M2)[6]) {
 // by 1 - B plus the solid term sum_k B_k Omega^S_{q,k} (formulas at the top),
 //   f*_q = f_q - (1 - B)(dp +- dm) + (1 - B)(Sp +- Sm) + solid_q,
 // with B the total weight and M1, M2 the solid moments above.
-template <class L, class R, bool Force, PsmVariant V>
+//
+// Hoist: where 1 - B and 1.5 tr M2 are formed. The same values either way; it
+// only moves work between registers and instructions. true: once, before the
+// moment sums (the mapped kernel, whose 80-register bound otherwise spills
+// more); false: where each direction uses them (the fused kernel, which then
+// holds fewer values across the moment sums).
+template <class L, class R, bool Force, PsmVariant V, bool Hoist = false>
 struct PsmSolidUpdate {
   R B;
   R M1[3], M2[6];
+  R fw_ = 0, tr_ = 0;  // 1 - B and 1.5 tr M2 when hoisted
 
   LBDEM_HD LBDEM_FORCEINLINE PsmSolidUpdate(R B_, const R (&M1_)[3], const R (&M2_)[6]) : B(B_) {
     for (int a = 0; a < 3; ++a) M1[a] = M1_[a];
     for (int a = 0; a < 6; ++a) M2[a] = M2_[a];
+    if constexpr (Hoist) {
+      fw_ = R(1) - B;
+      tr_ = R(1.5) * (M2[0] + M2[1] + M2[2]);
+    }
   }
-  // 1 - B and 1.5 tr M2, formed where they are used (after the moments, not
-  // before them: the kernels then hold fewer values across the moment sums).
-  LBDEM_HD LBDEM_FORCEINLINE R fluid_weight() const { return R(1) - B; }
-  LBDEM_HD LBDEM_FORCEINLINE R trace15() const { return R(1.5) * (M2[0] + M2[1] + M2[2]); }
+  LBDEM_HD LBDEM_FORCEINLINE R fluid_weight() const {
+    if constexpr (Hoist) return fw_;
+    else return R(1) - B;
+  }
+  LBDEM_HD LBDEM_FORCEINLINE R trace15() const {
+    if constexpr (Hoist) return tr_;
+    else return R(1.5) * (M2[0] + M2[1] + M2[2]);
+  }
 
   template <class Src>
   LBDEM_HD LBDEM_FORCEINLINE void rest(R& f0, const lbm::TrtTerms<R>& t, const lbm::CellMoments<R>& m,
@@ -202,11 +217,11 @@ struct PsmSolidUpdate {
 // the total weight B and the solid moments M1 = sum B_k V_k, M2 = sum B_k V_k V_k^T:
 // the fluid collision `coll` with the solid update. Returns rho and the
 // (half-force shifted) velocity u that the force on the particles needs.
-template <class L, class R, bool Force, PsmVariant V>
+template <class L, class R, bool Force, PsmVariant V, bool Hoist = false>
 LBDEM_HD LBDEM_FORCEINLINE void psm_collide(const lbm::Collider<L, R, Force>& coll, R (&f)[L::Q], R B,
                                             const R (&M1)[3], const R (&M2)[6], R& rho, R (&u)[3]) {
   lbm::CellMoments<R> m;
-  coll.template collide<true>(f, m, PsmSolidUpdate<L, R, Force, V>(B, M1, M2));
+  coll.template collide<true>(f, m, PsmSolidUpdate<L, R, Force, V, Hoist>(B, M1, M2));
   rho = m.rho;
   for (int a = 0; a < 3; ++a) u[a] = m.u[a];
 }
@@ -310,7 +325,7 @@ struct PsmStepKernel : PsmLatticeFields<T> {
       return;
     }
     R rho, u[3];
-    psm_collide<L, R, Force, V>(coll, f, B, M1, M2, rho, u);
+    psm_collide<L, R, Force, V, true>(coll, f, B, M1, M2, rho, u);
     lbm::store_outgoing<L, T, R, S, Parity, Bnd>(dst, nb, cell, f, flags, bt, u);
     // 3. Force on each particle (psm_particle_force; torque: in the gather),
     // after the populations are stored (slot data re-read from cache).
