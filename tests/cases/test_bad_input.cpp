@@ -11,6 +11,8 @@
 #include <sstream>
 #include <string>
 
+#include "run_lbdem.hpp"
+
 namespace fs = std::filesystem;
 
 namespace {
@@ -27,20 +29,8 @@ time: {steps: 10}
 diagnostics: {interval: 5}
 )";
 
-struct Result {
-  int code;
-  std::string out;
-};
-
-Result run(const std::string& args) {
-  const std::string cmd = std::string(LBDEM_EXE) + " " + args + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
-  std::string out;
-  char buf[4096];
-  while (std::size_t n = fread(buf, 1, sizeof buf, p)) out.append(buf, n);
-  const int st = pclose(p);
-  return {WIFEXITED(st) ? WEXITSTATUS(st) : -1, out};
-}
+using lbdem::test::Result;
+using lbdem::test::run;
 
 class BadInput : public ::testing::Test {
  protected:

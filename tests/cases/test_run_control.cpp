@@ -15,6 +15,7 @@
 #include <thread>
 #include <vector>
 
+#include "run_lbdem.hpp"
 #include "core/output.hpp"
 #include "core/signals.hpp"
 
@@ -23,21 +24,8 @@ using namespace lbdem;
 
 namespace {
 
-struct Result {
-  int code;
-  std::string out;
-};
-
-// Runs lbdem with `args` (already quoted), stdout and stderr together.
-Result run(const std::string& args) {
-  const std::string cmd = std::string(LBDEM_EXE) + " " + args + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
-  std::string out;
-  char buf[4096];
-  while (std::size_t n = fread(buf, 1, sizeof buf, p)) out.append(buf, n);
-  const int st = pclose(p);
-  return {WIFEXITED(st) ? WEXITSTATUS(st) : -1, out};
-}
+using test::Result;
+using test::run;
 
 std::string slurp(const fs::path& p) {
   std::ifstream in(p);

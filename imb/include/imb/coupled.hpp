@@ -51,7 +51,7 @@ struct CoupledParams {
 // force weighted by (1 - B) (Noble-Torczynski), so the fluid receives g_b times
 // sum_cells (1 - B) = V - sum_p S_B(r_p): that, not V - sum V_p, is what must
 // balance the weight (B < eps in partial cells: with V - sum V_p the system
-// drifts by g_b sum (eps - B), 1.2 % of the weight at phi = 0.128, tau = 0.6).
+// drifts by g_b sum (eps - B), about a percent of the weight in a dense suspension).
 // S_B(r) = sum over cells of B(eps) for one particle, averaged over 8 sub-cell
 // positions with exact fractions (fluctuates with position by ~1e-3 of S_B).
 std::array<double, 3> balancing_body_force(const dem::HostParticles& p, int dim, const std::array<double, 3>& g,

@@ -51,23 +51,28 @@ struct CellMoments {
 // the non-zero components, added or subtracted (no multiplications once the
 // direction loop is unrolled): fewer instructions and registers, for the PSM
 // collision, where the solid term competes for them. The two differ at most
-// in the sign of a zero.
+// in the sign of a zero. cdot is the folded form on an array.
+template <class L, class R>
+LBDEM_HD LBDEM_FORCEINLINE R cdot(int q, const R (&v)[3]) {
+  R s = 0;
+  bool any = false;
+  LBDEM_UNROLL
+  for (int a = 0; a < 3; ++a) {
+    if (L::c(q, a) == 0) continue;
+    const R t = L::c(q, a) > 0 ? v[a] : -v[a];
+    s = any ? s + t : t;
+    any = true;
+  }
+  return s;
+}
+
 template <class L, bool Folded, class R>
 LBDEM_HD LBDEM_FORCEINLINE R c_dot(int q, R x, R y, R z) {
   if constexpr (!Folded) {
     return R(L::c(q, 0)) * x + R(L::c(q, 1)) * y + R(L::c(q, 2)) * z;
   } else {
     const R v[3] = {x, y, z};
-    R s = 0;
-    bool any = false;
-    LBDEM_UNROLL
-    for (int a = 0; a < 3; ++a) {
-      if (L::c(q, a) == 0) continue;
-      const R t = L::c(q, a) > 0 ? v[a] : -v[a];
-      s = any ? s + t : t;
-      any = true;
-    }
-    return s;
+    return cdot<L>(q, v);
   }
 }
 

@@ -95,22 +95,6 @@ LBDEM_HD LBDEM_FORCEINLINE void moments(const R (&f)[L::Q], R& d, R (&j)[3]) {
   }
 }
 
-// c_q . v with the lattice velocity's constant components folded in (no
-// multiplications by 0 or +-1 once the direction loop is unrolled).
-template <class L, class R>
-LBDEM_HD LBDEM_FORCEINLINE R cdot(int q, const R (&v)[3]) {
-  R s = 0;
-  bool any = false;
-  LBDEM_UNROLL
-  for (int a = 0; a < 3; ++a) {
-    if (L::c(q, a) == 0) continue;
-    const R t = L::c(q, a) > 0 ? v[a] : -v[a];
-    s = any ? s + t : t;
-    any = true;
-  }
-  return s;
-}
-
 // Loads the incoming (pre-collision) shifted populations of cell `cell`.
 template <class L, class T, class R, StreamKind S, int Parity>
 LBDEM_HD LBDEM_FORCEINLINE void load_incoming(const PopView<T>& src, const Neighbours& nb, Index cell,
