@@ -43,15 +43,14 @@ PsmPipeline resolve_pipeline(const PsmOptions& o, int K) {
 }
 
 PsmCoupling::PsmCoupling(lbm::LbmSolver& solver, int K)
-    : solver_(solver), K_(K), grid_(solver.setup().domain),
-      ex_(solver.backend()) {
+    : solver_(solver), K_(K), ex_(solver.backend()) {
   if (K < 1) throw ConfigError("PSM slots per cell K = " + std::to_string(K) + ": must be >= 1");
 }
 
 PsmCoupling::~PsmCoupling() = default;
 
 CellSlots& PsmCoupling::mapped_slots() {
-  if (!slots_) slots_ = std::make_unique<CellSlots>(solver_.backend(), grid_, K_);
+  if (!slots_) slots_ = std::make_unique<CellSlots>(solver_.backend(), grid(), K_);
   return *slots_;
 }
 
@@ -64,12 +63,12 @@ void PsmCoupling::map(const PsmParticles& p, const PsmOptions& opt, bool check_o
   pipeline_ = resolve_pipeline(opt, K_);
   if (pipeline_ == PsmPipeline::Fused) {
     if (!tiles_ || tiles_->capacity() != opt.tile_capacity)
-      tiles_ = std::make_unique<TileMap>(solver_.backend(), grid_, K_, opt.tile_capacity);
+      tiles_ = std::make_unique<TileMap>(solver_.backend(), grid(), K_, opt.tile_capacity);
     if (opt.map.method == FractionMethod::Table) {
       if (!opt.map.table) throw ConfigError("PSM: solid-fraction method 'table' needs a table (build_fraction_table)");
-      if (opt.map.table->geometry.dim != grid_.dim())
+      if (opt.map.table->geometry.dim != grid().dim())
         throw ConfigError("PSM: the fraction table is " + std::to_string(opt.map.table->geometry.dim) +
-                          "D but the grid is " + std::to_string(grid_.dim()) + "D");
+                          "D but the grid is " + std::to_string(grid().dim()) + "D");
       if (ex_.on_device() && table_id_ != opt.map.table->id) {  // copied once per table, not per step
         table_.reserve_discard(solver_.backend(), static_cast<Index>(opt.map.table->values.size()));
         table_.copy_from_host(opt.map.table->values);

@@ -86,20 +86,9 @@ T transform_reduce(const Exec& ex, Index n, T init, Op op, F f, Scratch& s) {
 
 // transform_reduce of f(cell, x, y, z) over the cells of a box of storage
 // (core/grid.hpp), in the box's x-fastest order.
-template <class F>
-struct BoxCellsValue {
-  CellBox box;
-  GridView g;
-  F f;
-  LBDEM_HD LBDEM_FORCEINLINE auto operator()(Index t) const {
-    int x, y, z;
-    box.coords(t, x, y, z);
-    return f(g.index(x, y, z), x, y, z);
-  }
-};
 template <class T, class Op, class F>
 T transform_reduce_cells(const Exec& ex, const GridView& g, const CellBox& box, T init, Op op, F f, Scratch& s) {
-  return transform_reduce(ex, box.size(), init, op, BoxCellsValue<F>{box, g, f}, s);
+  return transform_reduce(ex, box.size(), init, op, BoxCells<F>{box, g, f}, s);
 }
 
 // out[i] = sum of in[0..i). out may alias in. Asynchronous on the device.

@@ -113,16 +113,17 @@ void for_each_bounded(const Exec& ex, Index n, const F& f) {
 
 // A per-cell functor f(cell, x, y, z) over the cells of a box of storage
 // (core/grid.hpp): thread t takes the box's t-th cell, so one kernel body
-// serves the owned cells, the inner cells and each outer slab alike.
+// serves the owned cells, the inner cells and each outer slab alike. Returns
+// f's value (transform_reduce_cells in core/algorithms.hpp reduces it).
 template <class F>
 struct BoxCells {
   CellBox box;
   GridView g;
   F f;
-  LBDEM_HD LBDEM_FORCEINLINE void operator()(Index t) const {
+  LBDEM_HD LBDEM_FORCEINLINE auto operator()(Index t) const {
     int x, y, z;
     box.coords(t, x, y, z);
-    f(g.index(x, y, z), x, y, z);
+    return f(g.index(x, y, z), x, y, z);
   }
 };
 

@@ -87,7 +87,7 @@ class PsmCoupling {
 
   lbm::LbmSolver& solver_;
   int K_;
-  Grid grid_;
+  const Grid& grid() const { return solver_.setup().domain; }
   std::unique_ptr<CellSlots> slots_;
   Buffer<double> slot_forces_;
   std::unique_ptr<TileMap> tiles_;
