@@ -65,6 +65,60 @@ void Exec::synchronize() const {
 #endif
 }
 
+void Lanes::make(const Exec& main) const {
+  edge_ = Exec(main.backend());
+  made_ = true;
+#if defined(LBDEM_HAVE_CUDA)
+  if (main.on_device()) {
+    int least = 0, greatest = 0;
+    LBDEM_CUDA_CHECK(cudaDeviceGetStreamPriorityRange(&least, &greatest));
+    cudaStream_t s = nullptr;
+    LBDEM_CUDA_CHECK(cudaStreamCreateWithPriority(&s, cudaStreamNonBlocking, greatest));
+    edge_.set_stream(s);
+    cudaEvent_t a = nullptr, b = nullptr;
+    LBDEM_CUDA_CHECK(cudaEventCreateWithFlags(&a, cudaEventDisableTiming));
+    LBDEM_CUDA_CHECK(cudaEventCreateWithFlags(&b, cudaEventDisableTiming));
+    fork_event_ = a;
+    join_event_ = b;
+  }
+#endif
+}
+
+const Exec& Lanes::edge(const Exec& main) const {
+  if (!main.on_device()) return main;
+  if (!made_) make(main);
+  return edge_;
+}
+
+void Lanes::fork(const Exec& main) const {
+  if (!main.on_device()) return;
+  if (!made_) make(main);
+#if defined(LBDEM_HAVE_CUDA)
+  auto e = static_cast<cudaEvent_t>(fork_event_);
+  LBDEM_CUDA_CHECK(cudaEventRecord(e, main.stream()));
+  LBDEM_CUDA_CHECK(cudaStreamWaitEvent(edge_.stream(), e, 0));
+#endif
+}
+
+void Lanes::join(const Exec& main) const {
+  if (!main.on_device()) return;
+  if (!made_) make(main);
+#if defined(LBDEM_HAVE_CUDA)
+  auto e = static_cast<cudaEvent_t>(join_event_);
+  LBDEM_CUDA_CHECK(cudaEventRecord(e, edge_.stream()));
+  LBDEM_CUDA_CHECK(cudaStreamWaitEvent(main.stream(), e, 0));
+#endif
+}
+
+Lanes::~Lanes() {
+#if defined(LBDEM_HAVE_CUDA)
+  // Destructors do not throw: a failure here has nothing left to protect.
+  if (fork_event_) cudaEventDestroy(static_cast<cudaEvent_t>(fork_event_));
+  if (join_event_) cudaEventDestroy(static_cast<cudaEvent_t>(join_event_));
+  if (made_ && edge_.on_device() && edge_.stream()) cudaStreamDestroy(edge_.stream());
+#endif
+}
+
 }  // namespace lbdem
 
 namespace lbdem {

@@ -72,12 +72,30 @@ class SolverImpl final : public LbmSolver {
     }
   }
 
-  void step_box(const CellBox& box) override {
+  void step_box(const CellBox& box, Lane lane = Lane::Main) override {
     if (box.empty()) return;
+    const Exec& ex = exec(lane);
     dispatch_step(s_.streaming, t_, has_bnd_, force_, [&](auto S, auto P, auto B, auto F) {
-      run<decltype(S)::value, decltype(P)::value, decltype(B)::value, decltype(F)::value>(box);
+      run<decltype(S)::value, decltype(P)::value, decltype(B)::value, decltype(F)::value>(box, ex);
     });
   }
+
+  void fork() override { lanes_.fork(ex_); }
+  void join() override { lanes_.join(ex_); }
+  const Exec& exec(Lane lane) const override { return lane == Lane::Edge ? lanes_.edge(ex_) : ex_; }
+
+  void pack_halo(const HaloBlock& b, void* buf) override {
+    if (b.box.empty() || b.slots == 0) return;
+    const PopView<T> f{(b.second ? f1_ : f0_).data(), stride_};
+    for_each(exec(Lane::Edge), b.box.size(), HaloPackKernel<T>{f, b, g_, static_cast<T*>(buf)});
+  }
+  void unpack_halo(const HaloBlock& b, const void* buf) override {
+    if (b.box.empty() || b.slots == 0) return;
+    const PopView<T> f{(b.second ? f1_ : f0_).data(), stride_};
+    for_each(exec(Lane::Edge), b.box.size(),
+             HaloUnpackKernel<T>{f, b, g_, flags_.data(), static_cast<const T*>(buf)});
+  }
+  int storage_bytes() const override { return static_cast<int>(sizeof(T)); }
 
   void end_step() override {
     if (s_.streaming == StreamKind::TwoLattice) f0_.swap(f1_);
@@ -183,7 +201,7 @@ class SolverImpl final : public LbmSolver {
   }
 
   template <StreamKind S, int P, bool B, bool F>
-  void run(const CellBox& box) {
+  void run(const CellBox& box, const Exec& ex) {
     StepKernel<L, T, S, P, B, F> k;
     k.src = PopView<T>{f0_.data(), stride_};
     k.dst = S == StreamKind::AA ? k.src : PopView<T>{f1_.data(), stride_};
@@ -193,11 +211,12 @@ class SolverImpl final : public LbmSolver {
     k.coll.omega_p = static_cast<T>(omega_p_);
     k.coll.omega_m = static_cast<T>(omega_m_);
     for (int a = 0; a < 3; ++a) k.coll.F[a] = static_cast<T>(s_.body_force[static_cast<std::size_t>(a)]);
-    for_each_cell(ex_, g_, box, k);
+    for_each_cell(ex, g_, box, k);
   }
 
   LbmSetup s_;
   Exec ex_;
+  Lanes lanes_;
   GridView g_;
   CellBox owned_;
   Index stride_ = 0;

@@ -54,6 +54,29 @@ class Exec {
 #endif
 };
 
+// A second queue beside an Exec, for work that must overlap the main queue's
+// (the halo's edge cells and packing): on the device a non-blocking stream
+// of the highest priority and two events to order the queues; on the host
+// the main queue itself (work runs in the order it is issued). Made on first
+// use; no allocation afterwards.
+class Lanes {
+ public:
+  Lanes() = default;
+  Lanes(const Lanes&) = delete;
+  Lanes& operator=(const Lanes&) = delete;
+  ~Lanes();
+  const Exec& edge(const Exec& main) const;
+  void fork(const Exec& main) const;  // edge work queued next waits for main's work so far
+  void join(const Exec& main) const;  // main work queued next waits for edge's work so far
+
+ private:
+  void make(const Exec& main) const;
+  mutable Exec edge_;
+  mutable bool made_ = false;
+  mutable void* fork_event_ = nullptr;
+  mutable void* join_event_ = nullptr;
+};
+
 [[noreturn]] void throw_not_compiled_for_cuda(const char* where);
 
 #if defined(__CUDACC__)

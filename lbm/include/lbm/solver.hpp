@@ -13,6 +13,7 @@
 #include "lbm/boundary.hpp"
 #include "lbm/collision.hpp"
 #include "lbm/grid.hpp"
+#include "lbm/halo_block.hpp"
 #include "lbm/kernels.hpp"
 
 namespace lbdem::lbm {
@@ -59,6 +60,12 @@ struct LbmRaw {
   BoundaryTable boundaries;
 };
 
+// Two queues of work, so that the cells next to a cut can be updated and
+// their halo sent while the inner cells are updated: Main (the solver's
+// stream) and Edge (a stream of higher priority on the device; the same
+// queue on the host).
+enum class Lane { Main, Edge };
+
 class LbmSolver {
  public:
   virtual ~LbmSolver() = default;
@@ -72,8 +79,20 @@ class LbmSolver {
   // for boxes that together hold every owned cell once (e.g. the outer slabs,
   // then the inner box: Grid::outer / Grid::inner), then end_step(). step(1)
   // is step_box(owned) + end_step(). Asynchronous on the device.
-  virtual void step_box(const CellBox& box) = 0;
+  virtual void step_box(const CellBox& box, Lane lane = Lane::Main) = 0;
   virtual void end_step() = 0;
+  // Orders the lanes: after fork(), work queued on Edge starts after the work
+  // queued on Main so far; after join(), work queued on Main starts after
+  // the work queued on Edge so far.
+  virtual void fork() = 0;
+  virtual void join() = 0;
+  virtual const Exec& exec(Lane lane) const = 0;
+  // Halo packing on the Edge lane (lbm/halo_block.hpp): pack copies the
+  // block's slots of its cells into buf, unpack copies them back under the
+  // block's mask. buf is backend memory of HaloBlock::bytes(storage_bytes()).
+  virtual void pack_halo(const HaloBlock& b, void* buf) = 0;
+  virtual void unpack_halo(const HaloBlock& b, const void* buf) = 0;
+  virtual int storage_bytes() const = 0;  // bytes of one stored population
   virtual void macroscopic(std::vector<double>& rho, std::vector<double>& u) = 0;  // to host
   virtual LbmDiagnostics diagnostics() = 0;          // synchronous
   virtual std::vector<double> populations() = 0;     // incoming f (not shifted), [q*cells + cell]
