@@ -91,37 +91,105 @@ void PsmCoupling::step(const PsmParticles& p, const PsmOptions& opt, const Force
     solver_.step(1);
     return;
   }
+  const Parts parts = this->parts();
+  for (const CellBox& b : parts.outer) step_part(b, p, opt);
+  step_part(parts.inner, p, opt);
+  finish_step(p, out);
+}
+
+PsmCoupling::Parts PsmCoupling::parts() const {
+  Parts r;
+  if (pipeline_ != PsmPipeline::Fused) {
+    r.outer = grid().outer(1);
+    r.inner = grid().inner(1);
+    return r;
+  }
+  // Tiles: the inner part is the tiles that hold no cell within one layer of
+  // a cut; the outer parts are the rest of the tile grid, peeled axis by axis.
+  const TileView tv = tiles_->view();
+  const int nt[3] = {tv.ntx, tv.nty, tv.ntz};
+  const int ts[3] = {tv.t.tx, tv.t.ty, tv.t.tz};
+  CellBox all;
+  for (int a = 0; a < 3; ++a) all.ext[a] = nt[a];
+  CellBox in = all;
+  const Grid& g = grid();
+  for (int a = 0; a < 3; ++a) {
+    if (!g.split[static_cast<std::size_t>(a)]) continue;
+    const int lo = g.ghost_on(a), n = static_cast<int>(g.local[static_cast<std::size_t>(a)]);
+    const int first = lo / ts[a] + 1;         // past the tile of the first owned layer
+    const int last = (lo + n - 1) / ts[a] - 1;  // before the tile of the last owned layer
+    in.lo[a] = first;
+    in.ext[a] = last >= first ? last - first + 1 : 0;
+  }
+  if (in.empty()) {
+    r.outer = {all};
+    r.inner = CellBox{};
+    return r;
+  }
+  CellBox rest = all;
+  for (int a = 0; a < 3; ++a) {
+    if (in.lo[a] == rest.lo[a] && in.ext[a] == rest.ext[a]) continue;
+    CellBox lo = rest, hi = rest;
+    lo.ext[a] = in.lo[a] - rest.lo[a];
+    hi.lo[a] = in.lo[a] + in.ext[a];
+    hi.ext[a] = rest.lo[a] + rest.ext[a] - hi.lo[a];
+    if (!lo.empty()) r.outer.push_back(lo);
+    if (!hi.empty()) r.outer.push_back(hi);
+    rest.lo[a] = in.lo[a];
+    rest.ext[a] = in.ext[a];
+  }
+  r.inner = in;
+  return r;
+}
+
+void PsmCoupling::step_part(const CellBox& part, const PsmParticles& p, const PsmOptions& opt, lbm::Lane lane) {
+  if (part.empty()) return;
   const PsmPipeline want = resolve_pipeline(opt, K_);
   if (want != pipeline_)
     throw ConfigError(std::string("PsmCoupling::step: the particles were mapped for the ") + to_string(pipeline_) +
                       " pipeline but the step asks for " + to_string(want) + " (call map() with the same options)");
-  const lbm::LbmRaw raw = solver_.raw();
+  lbm::LbmRaw raw = solver_.raw();
+  const Exec& ex = solver_.exec(lane);
   const int dim = solver_.setup().lattice == lbm::LatticeKind::D2Q9 ? 2 : 3;
   if (pipeline_ == PsmPipeline::Fused) {
     FusedArgs a;
     a.setup = &solver_.setup();
     a.raw = &raw;
     a.tv = tiles_->view();
+    a.tiles = part;
     a.p = p;
     a.opt = &opt;
     a.table = opt.map.method == FractionMethod::Table
                   ? (ex_.on_device() ? table_.data() : opt.map.table->values.data())
                   : nullptr;
     a.K = K_;
-    if (dim == 2) psm_fused_d2q9(ex_, a);
-    else if (solver_.setup().precision == lbm::Precision::FP32) psm_fused_d3q19_f32(ex_, a);
-    else psm_fused_d3q19_f64(ex_, a);
-    solver_.commit_external_step();
-    if (out.force) tiles_->finish(ex_, p, out);
+    if (dim == 2) psm_fused_d2q9(ex, a);
+    else if (solver_.setup().precision == lbm::Precision::FP32) psm_fused_d3q19_f32(ex, a);
+    else psm_fused_d3q19_f64(ex, a);
     return;
   }
   CellSlots& cs = mapped_slots();
-  if (slot_forces_.size() == 0)
+  if (slot_forces_.size() == 0) {
+    // Zeroed once: slots in ghost cells are never written (their cells belong
+    // to another rank), so their share of a particle's force stays zero here.
     slot_forces_ = Buffer<double>(solver_.backend(), SlotForceView::kComponents * static_cast<Index>(K_) * raw.grid.n);
+    slot_forces_.fill_zero();
+  }
   const SlotForceView sf{slot_forces_.data(), raw.grid.n, K_};
-  psm_fluid_step(ex_, solver_.setup(), raw, cs.view(), sf, opt);
+  raw.owned = part;
+  psm_fluid_step(ex, solver_.setup(), raw, cs.view(), sf, opt);
+}
+
+void PsmCoupling::finish_step(const PsmParticles& p, const ForceOut& out) {
   solver_.commit_external_step();
   if (!out.force) return;  // forces not wanted this step (e.g. a fixed particle between checks)
+  if (pipeline_ == PsmPipeline::Fused) {
+    tiles_->finish(ex_, p, out);
+    return;
+  }
+  const int dim = solver_.setup().lattice == lbm::LatticeKind::D2Q9 ? 2 : 3;
+  const CellSlots& cs = *slots_;
+  const SlotForceView sf{slot_forces_.data(), solver_.raw().grid.n, K_};
   psm_gather(ex_, cs.view(), sf, cs.pairs(), p, dim, out);
 }
 

@@ -44,9 +44,9 @@ __global__ void __launch_bounds__(Kern::kCells, MinBlocks) psm_fused_kernel(Kern
   __shared__ R slot_eps[kFusedMaxSlots][Kern::kCells];
   const int tid = static_cast<int>(threadIdx.x);
   const int lane = tid & 31, warp = tid >> 5;
-  const typename Kern::TileId tile{
-      blockIdx.x + static_cast<Index>(k.tv.ntx) * (blockIdx.y + static_cast<Index>(k.tv.nty) * blockIdx.z),
-      static_cast<int>(blockIdx.x), static_cast<int>(blockIdx.y), static_cast<int>(blockIdx.z)};
+  const int ix = static_cast<int>(blockIdx.x) + k.tiles.lo[0], iy = static_cast<int>(blockIdx.y) + k.tiles.lo[1],
+            iz = static_cast<int>(blockIdx.z) + k.tiles.lo[2];
+  const typename Kern::TileId tile{ix + static_cast<Index>(k.tv.ntx) * (iy + static_cast<Index>(k.tv.nty) * iz), ix, iy, iz};
   int x, y, z;
   bool fluid = k.coords(tile, tid, x, y, z);
   const Index cell = fluid ? k.g.index(x, y, z) : 0;
@@ -128,10 +128,12 @@ void launch_fused(const Exec& ex, const Kern& k) {
     // Blocks of 256 per multiprocessor: 4 in fp32 (64 registers), 2 in fp64.
     // More blocks leave too few registers: the kernel spills and runs slower.
     constexpr int kMinBlocks = (sizeof(typename Kern::R) == 4 ? 4 : 2) * 256 / Kern::kCells;
-    if (k.tv.nty > 65535 || k.tv.ntz > 65535)
-      throw ConfigError("psm fused step: " + std::to_string(k.tv.nty) + " x " + std::to_string(k.tv.ntz) +
+    if (k.tiles.empty()) return;
+    if (k.tiles.ext[1] > 65535 || k.tiles.ext[2] > 65535)
+      throw ConfigError("psm fused step: " + std::to_string(k.tiles.ext[1]) + " x " + std::to_string(k.tiles.ext[2]) +
                         " tiles along y and z exceed the launch grid (65535 each); use psm.pipeline: mapped");
-    const dim3 grid(static_cast<unsigned>(k.tv.ntx), static_cast<unsigned>(k.tv.nty), static_cast<unsigned>(k.tv.ntz));
+    const dim3 grid(static_cast<unsigned>(k.tiles.ext[0]), static_cast<unsigned>(k.tiles.ext[1]),
+                    static_cast<unsigned>(k.tiles.ext[2]));
     psm_fused_kernel<kMinBlocks><<<grid, Kern::kCells, 0, ex.stream()>>>(k);
     LBDEM_CUDA_CHECK(cudaGetLastError());
     return;
@@ -146,6 +148,7 @@ struct FusedArgs {
   const lbm::LbmSetup* setup;
   const lbm::LbmRaw* raw;
   TileView tv;
+  CellBox tiles;  // box of tiles to update
   SphereView p;
   const PsmOptions* opt;
   const float* table;  // table values on the Exec's backend (Table method)
@@ -159,6 +162,7 @@ void fused_launch(const Exec& ex, const FusedArgs& a) {
   k.set_lattice(*a.raw, a.setup->tau, a.opt->weight);
   k.K = a.K;
   k.tv = a.tv;
+  k.tiles = a.tiles;
   k.p = a.p;
   k.frac = Frac{};
   k.frac.linear_normalised = a.opt->map.linear_normalised;

@@ -31,12 +31,21 @@ class PsmScene {
       : opt_(opt), n_(static_cast<Index>(ps.size())), pd_(b, 10 * std::max<Index>(n_, 1)),
         f6_(b, 6 * std::max<Index>(n_, 1)) {
     solver_ = lbm::make_lbm_solver(setup, b);
-    const auto& d = setup.domain.local;
-    cells_ = static_cast<std::size_t>(d[0] * d[1] * d[2]);
+    // Storage cells; on a piece with ghost layers those are flagged as ghosts.
+    cells_ = static_cast<std::size_t>(setup.domain.storage_cells());
     std::vector<double> u(3 * cells_);
     for (std::size_t c = 0; c < cells_; ++c)
       for (int a = 0; a < 3; ++a) u[3 * c + static_cast<std::size_t>(a)] = u0[static_cast<std::size_t>(a)];
-    solver_->initialize(std::vector<std::uint8_t>(cells_, 0), std::vector<double>(cells_, 1.0), u);
+    std::vector<std::uint8_t> flags(cells_, 0);
+    const GridView g = setup.domain.view();
+    const CellBox o = setup.domain.owned();
+    for (int z = 0; z < g.nz; ++z)
+      for (int y = 0; y < g.ny; ++y)
+        for (int x = 0; x < g.nx; ++x)
+          if (x < o.lo[0] || x >= o.lo[0] + o.ext[0] || y < o.lo[1] || y >= o.lo[1] + o.ext[1] || z < o.lo[2] ||
+              z >= o.lo[2] + o.ext[2])
+            flags[static_cast<std::size_t>(g.index(x, y, z))] = lbm::kGhostFlag;
+    solver_->initialize(flags, std::vector<double>(cells_, 1.0), u);
     double* p = pd_.data();
     view_.x = p; view_.y = p + n_; view_.z = p + 2 * n_; view_.r = p + 3 * n_;
     view_.vx = p + 4 * n_; view_.vy = p + 5 * n_; view_.vz = p + 6 * n_;
@@ -82,6 +91,8 @@ class PsmScene {
 
   lbm::LbmSolver& solver() { return *solver_; }
   imb::PsmCoupling& coupling() { return *coupling_; }
+  const imb::PsmParticles& particles() const { return view_; }
+  double* force6() { return f6_.data(); }
   imb::PsmOptions& options() { return opt_; }
   std::size_t cells() const { return cells_; }
 

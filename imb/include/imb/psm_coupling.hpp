@@ -4,6 +4,7 @@
 // on the solver's backend; nothing is allocated per step.
 #include <array>
 #include <memory>
+#include <vector>
 
 #include "core/buffer.hpp"
 #include "imb/cell_slots.hpp"
@@ -67,6 +68,20 @@ class PsmCoupling {
   // force is read only every few steps).
   void step(const PsmParticles& p, const PsmOptions& opt, double* force6) { step(p, opt, ForceOut::six(force6)); }
   void step(const PsmParticles& p, const PsmOptions& opt, const ForceOut& out);
+
+  // The same step in parts, so that a halo exchange can overlap it (as
+  // LbmSolver::step_box): step_part() for each outer part (together they hold
+  // every owned cell next to a cut), then the inner part, then finish_step().
+  // A part is a box of cells (mapped pipeline) or of whole tiles (fused: a
+  // tile's forces are written once, so no tile is in two parts). On one rank
+  // there is one part, the whole grid. Valid after map().
+  struct Parts {
+    std::vector<CellBox> outer;
+    CellBox inner;
+  };
+  Parts parts() const;
+  void step_part(const CellBox& part, const PsmParticles& p, const PsmOptions& opt, lbm::Lane lane = lbm::Lane::Main);
+  void finish_step(const PsmParticles& p, const ForceOut& out);
 
   // The per-cell slots of the mapped pipeline (valid after a mapped map()).
   const CellSlots& slots() const;

@@ -75,6 +75,7 @@ struct PsmFusedKernel : PsmLatticeFields<T> {
   using Lat::src, Lat::dst, Lat::g, Lat::flags, Lat::bt, Lat::omega_p, Lat::omega_m, Lat::F, Lat::tm, Lat::weight;
   int K;  // slots per cell in use (<= kFusedMaxSlots)
   TileView tv;
+  CellBox tiles;  // the tiles this launch updates (a box in tile coordinates; PsmCoupling::parts)
   SphereView p;
   Frac frac;
 
@@ -303,10 +304,13 @@ struct PsmFusedKernel : PsmLatticeFields<T> {
 template <class Kern>
 void run_fused_host(const Kern& k) {
   using R = typename Kern::R;
-  const Index ntiles = k.tv.tiles();
+  const Index ntiles = k.tiles.size();
   const int ncell = k.tv.t.cells();
 #pragma omp parallel for schedule(dynamic, 8)
-  for (Index tl = 0; tl < ntiles; ++tl) {
+  for (Index ti = 0; ti < ntiles; ++ti) {
+    int ix, iy, iz;
+    k.tiles.coords(ti, ix, iy, iz);
+    const Index tl = ix + static_cast<Index>(k.tv.ntx) * (iy + static_cast<Index>(k.tv.nty) * iz);
     const auto tile = k.tile_id(tl);
     FusedCand<R> cand[kFusedMaxCapacity];
     const int nc = k.candidates(tl);
