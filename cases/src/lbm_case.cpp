@@ -6,8 +6,10 @@
 #include <chrono>
 #include <cmath>
 #include <functional>
+#include <optional>
 #include <sstream>
 
+#include "cases/parallel.hpp"
 #include "cases/scenes.hpp"
 #include "core/buffer.hpp"
 #include "core/output.hpp"
@@ -41,6 +43,7 @@ struct LbmCase {
   double max_mach = 0.3;
   std::array<long, 3> fluid_cells{1, 1, 1};
   std::array<int, 3> pad{0, 0, 0};  // boundary layers added below each axis
+  ParallelOptions parallel;
   std::vector<std::uint8_t> flags;
   std::vector<double> rho, u;
   // Scene-specific reference, evaluated at the end (lattice units in/out).
@@ -80,6 +83,7 @@ LbmCase parse(const Config& root, const RunOptions& opt) {
   s.precision = root.choice("precision", "fp64", {"fp32", "fp64"}) == "fp32" ? lbm::Precision::FP32 : lbm::Precision::FP64;
   s.streaming = root.choice("streaming", "aa", {"aa", "two_lattice"}) == "aa" ? lbm::StreamKind::AA : lbm::StreamKind::TwoLattice;
 
+  c.parallel = parse_parallel(root);
   const Config coll = root.section("collision");
   s.collision = coll.choice("model", "trt", {"bgk", "trt"}) == "bgk" ? lbm::CollisionKind::BGK : lbm::CollisionKind::TRT;
   s.magic = coll.number_in("magic", 3.0 / 16.0, 1e-6, 100.0, "TRT magic parameter Lambda; 3/16 exact walls, 1/4 most stable");
@@ -202,7 +206,8 @@ int run_parsed(LbmCase& c, const RunOptions& opt);
 // device/host memory plus the host staging fields (flags, rho, u, pressure:
 // 1 + 5 doubles per cell) for set-up and output.
 void check_memory(const LbmCase& c, Backend backend) {
-  const std::size_t need = lbm::lbm_memory_estimate(c.setup);
+  // Each rank holds its piece (the decomposition is checked here, before anything is allocated).
+  const std::size_t need = distributed_fluid_memory(c.setup, c.parallel, halo::Comm::world().size());
   const auto cells = static_cast<std::size_t>(c.setup.domain.storage_cells());
   const std::size_t host_need = cells * (1 + 5 * sizeof(double)) + (backend == Backend::Host ? need : 0);
   const std::size_t have = backend_free_bytes(backend);
@@ -356,7 +361,9 @@ int run_parsed(LbmCase& c, const RunOptions& opt) {
   auto& s = c.setup;
   const Backend backend = resolve_backend(opt.backend);
   if (opt.validate_only) return 0;
-  io::prepare_output_dir(c.outdir, opt.overwrite);
+  const halo::Comm& comm = halo::Comm::world();
+  const bool root = comm.root();
+  if (root) io::prepare_output_dir(c.outdir, opt.overwrite);
 
   const Units& U = c.units;
   const auto& n = s.domain.local;
@@ -368,23 +375,31 @@ int run_parsed(LbmCase& c, const RunOptions& opt) {
     spdlog::info("units: dx = {:.6g} m, dt = {:.6g} s, tau = {:.6g}, {} steps = {:.6g} s; output in {}", U.dx, U.dt,
                  U.tau, c.steps, c.steps * U.dt, c.outdir);
   }
-  auto solver = lbm::make_lbm_solver(s, backend);
+  DistributedFluid fluid(s, backend, c.parallel, comm);
+  auto* solver = &fluid;
   solver->initialize(c.flags, c.rho, c.u);
+  if (!opt.quiet && comm.distributed()) spdlog::info("parallel: {} ({})", fluid.describe(), comm.describe());
 
-  io::GridWriter writer(c.outdir, "fields", s.domain);
-  io::TimeSeries series(c.outdir + "/diagnostics.csv",
-                        {"step", "time_s", "mass_rel_change", "momentum_x", "momentum_y", "momentum_z",
-                         "max_speed_m_s", "max_mach"});
+  // Rank 0 writes everything: the files do not depend on the rank count.
+  std::optional<io::GridWriter> writer;
+  std::optional<io::TimeSeries> series;
+  if (root) {
+    writer.emplace(c.outdir, "fields", s.domain);
+    series.emplace(c.outdir + "/diagnostics.csv",
+                   std::vector<std::string>{"step", "time_s", "mass_rel_change", "momentum_x", "momentum_y", "momentum_z",
+                                            "max_speed_m_s", "max_mach"});
+  }
   std::vector<double> rho, u, flagd(c.flags.begin(), c.flags.end()), p;
   auto write_fields = [&](long step) {
     solver->macroscopic(rho, u);
+    if (!root) return;
     p.resize(rho.size());
     for (std::size_t i = 0; i < rho.size(); ++i) {
       p[i] = c.flags[i] ? 0.0 : U.to_si_pressure(rho[i] - 1.0);
       rho[i] *= U.rho;
     }
     for (auto& v : u) v = U.to_si_velocity(v);
-    writer.write(step, step * U.dt,
+    writer->write(step, step * U.dt,
                  {{"density", 1, rho.data(), "kg/m^3"}, {"velocity", 3, u.data(), "m/s"},
                   {"pressure", 1, p.data(), "Pa (deviation from the reference)"},
                   {"boundary", 1, flagd.data(), "0 fluid, k boundary entry"}});
@@ -403,19 +418,31 @@ int run_parsed(LbmCase& c, const RunOptions& opt) {
   }
   // One step per solver->step() call (the same steps as one longer call): a
   // stop signal (core/signals.hpp) ends the run after the step in progress.
-  while (step < c.steps && !stop_requested()) {
+  // On several ranks they agree on stopping every kStopPoll steps (a signal
+  // may reach them at different steps; they must stop at the same one).
+  constexpr long kStopPoll = 64;
+  bool stop = false;
+  auto poll_stop = [&] { return comm.distributed() ? comm.any(stop_requested()) : stop_requested(); };
+  while (step < c.steps && !stop) {
     long next = std::min(c.steps, (step / c.diag_interval + 1) * c.diag_interval);
     if (c.out_interval > 0) next = std::min(next, (step / c.out_interval + 1) * c.out_interval);
+    if (comm.distributed()) next = std::min(next, step + kStopPoll);
     auto t = clk::now();
-    for (; step < next && !stop_requested(); ++step) solver->step(1);
+    if (comm.distributed()) {
+      solver->step(next - step);
+      step = next;
+    } else {
+      for (; step < next && !stop_requested(); ++step) solver->step(1);
+    }
     solver->synchronize();
     phases.add("lbm", secs(t));
-    if (step % c.diag_interval == 0 || step == c.steps || stop_requested()) {
+    stop = poll_stop();
+    if (step % c.diag_interval == 0 || step == c.steps || stop) {
       t = clk::now();
       const auto d = solver->diagnostics();
       const double vmax = U.to_si_velocity(d.max_speed);
       const double ma = d.max_speed * std::sqrt(3.0);
-      series.append({static_cast<double>(step), step * U.dt, (d.mass - d0.mass) / d0.mass, d.momentum[0],
+      if (root) series->append({static_cast<double>(step), step * U.dt, (d.mass - d0.mass) / d0.mass, d.momentum[0],
                      d.momentum[1], d.momentum[2], vmax, ma});
       phases.add("diagnostics", secs(t));
       if (!d.finite) {
@@ -449,7 +476,8 @@ int run_parsed(LbmCase& c, const RunOptions& opt) {
     phases.add("output", secs(t));
   }
   solver->macroscopic(rho, u);  // lattice units again for the verification
-  const auto checks = c.verify ? c.verify(step, rho, u) : std::vector<Verification>{};
+  const auto checks = c.verify && root ? c.verify(step, rho, u) : std::vector<Verification>{};
+  const std::size_t memory = solver->memory_bytes();
 
   const double lbm_s = phases.phases().count("lbm") ? phases.phases().at("lbm") : 0;
   const double mlups = lbm_s > 0 ? fluid_cells * static_cast<double>(step) / lbm_s / 1e6 : 0;
@@ -459,7 +487,8 @@ int run_parsed(LbmCase& c, const RunOptions& opt) {
      << to_string(s.streaming) << "\",\n  \"backend\": \"" << to_string(backend) << "\",\n  \"steps\": " << step
      << ",\n  \"steps_planned\": " << c.steps << ",\n  \"interrupted\": " << (interrupted ? "true" : "false")
      << ",\n  \"dx_m\": " << U.dx << ",\n  \"dt_s\": " << U.dt << ",\n  \"tau\": " << U.tau
-     << ",\n  \"mlups\": " << mlups << ",\n  \"memory_bytes\": " << solver->memory_bytes() << ",\n  \"phases_s\": {";
+     << ",\n  \"ranks\": " << comm.size() << ",\n  \"decomposition\": \"" << fluid.decomposition().describe()
+     << "\",\n  \"mlups\": " << mlups << ",\n  \"memory_bytes\": " << memory << ",\n  \"phases_s\": {";
   bool first = true;
   for (auto& [k, v] : phases.phases()) {
     js << (first ? "" : ", ") << "\"" << k << "\": " << v;
@@ -472,7 +501,7 @@ int run_parsed(LbmCase& c, const RunOptions& opt) {
     first = false;
   }
   js << "}\n}\n";
-  io::write_text_atomically(c.outdir + "/summary.json", js.str());
+  if (root) io::write_text_atomically(c.outdir + "/summary.json", js.str());
   if (interrupted) {
     spdlog::warn("stopped by {} at step {} of {} (t = {:.6g} s); output up to that step is in {}", stop_signal_name(),
                  step, c.steps, step * U.dt, c.outdir);
@@ -480,7 +509,7 @@ int run_parsed(LbmCase& c, const RunOptions& opt) {
   }
   if (!opt.quiet) {
     spdlog::info("done: {} steps in {} ({:.1f} MLUPS), memory {:.1f} MiB", step, format_duration(prog.elapsed()), mlups,
-                 solver->memory_bytes() / 1048576.0);
+                 memory / 1048576.0);
     for (auto& [k, v] : phases.phases())
       spdlog::info("  phase {:<12} {:8.3f} s ({:.1f}%)", k, v, 100.0 * v / std::max(1e-12, phases.total()));
     for (auto& v : checks) spdlog::info("  check {} = {:.6e}  ({})", v.name, v.value, v.note);

@@ -14,8 +14,22 @@
 #include "cases/scenes.hpp"
 #include "core/exec.hpp"
 #include "core/signals.hpp"
+#include "halo/comm.hpp"
+#include "halo/device.hpp"
 
 using namespace lbdem;
+
+namespace {
+// On several ranks an error ends every rank: rank 0 prints it (a bad case file
+// fails alike on every rank), any other rank prints only errors of its own;
+// then the run is aborted with the exit code. On one rank: print and return.
+int fail(int code, const char* what, bool every_rank_alike) {
+  const halo::Comm& comm = halo::Comm::world();
+  if (comm.root() || !every_rank_alike) std::fprintf(stderr, "error: %s\n", what);
+  if (comm.distributed()) comm.abort(code);
+  return code;
+}
+}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"lbdem: lattice Boltzmann + DEM engine for particle-resolved gas-solid flow"};
@@ -81,19 +95,20 @@ int main(int argc, char** argv) {
       std::printf("%s: scene '%s' ok\n", case_file.c_str(), cfg.text("scene").c_str());
       return 0;
     }
+    // Under mpirun every rank runs the case on its piece; the GPU of a rank
+    // is picked from its rank on the node. Only rank 0 logs progress.
+    const halo::Comm& comm = halo::Comm::world();
+    if (!comm.root()) spdlog::set_level(spdlog::level::warn);
+    if (resolve_backend(opt.backend) == Backend::Cuda) halo::select_device(comm);
     install_stop_handlers();
     return run_case(cfg, opt);
   } catch (const ConfigError& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
-    return 2;
+    return fail(2, e.what(), true);
   } catch (const DivergenceError& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
-    return 3;
+    return fail(3, e.what(), true);
   } catch (const ResourceError& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
-    return 4;
+    return fail(4, e.what(), false);
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "error: %s\n", e.what());
-    return 1;
+    return fail(1, e.what(), false);
   }
 }

@@ -1,0 +1,176 @@
+#include "cases/parallel.hpp"
+
+#include <algorithm>
+#include <cstring>
+
+#include "core/error.hpp"
+
+namespace lbdem {
+
+ParallelOptions parse_parallel(const Config& root) {
+  ParallelOptions po;
+  const auto sec = root.optional_section("parallel");
+  if (!sec) return po;
+  if (sec->has("decomposition")) {
+    const auto d = sec->integers("decomposition", 3, 3, 1, 1 << 20);
+    for (int a = 0; a < 3; ++a) po.decomposition[static_cast<std::size_t>(a)] = static_cast<int>(d[static_cast<std::size_t>(a)]);
+  }
+  if (sec->has("transport"))
+    po.transport = halo::parse_transport(sec->choice("transport", {"auto", "host_mpi", "mpi", "device_mpi", "cuda_aware_mpi", "nccl"}),
+                                         sec->full_key("transport"));
+  sec->finish();
+  return po;
+}
+
+namespace {
+halo::Decomposition choose(const lbm::LbmSetup& whole, const ParallelOptions& po, int ranks) {
+  return halo::decompose(whole.domain, ranks, po.decomposition, "parallel.decomposition");
+}
+}  // namespace
+
+std::size_t distributed_fluid_memory(const lbm::LbmSetup& whole, const ParallelOptions& po, int ranks) {
+  if (ranks <= 1) return lbm::lbm_memory_estimate(whole);
+  const halo::Decomposition dec = choose(whole, po, ranks);
+  std::size_t most = 0;
+  for (int r = 0; r < ranks; ++r) {
+    lbm::LbmSetup s = whole;
+    s.domain = dec.piece(whole.domain, r);
+    most = std::max(most, lbm::lbm_memory_estimate(s));
+  }
+  return most;
+}
+
+DistributedFluid::DistributedFluid(const lbm::LbmSetup& whole, Backend backend, const ParallelOptions& po,
+                                   const halo::Comm& comm)
+    : comm_(comm), whole_(whole) {
+  if (!comm.distributed()) {
+    dec_.global = whole.domain.global;
+    dec_.periodic = whole.domain.periodic;
+    solver_ = lbm::make_lbm_solver(whole, backend);
+    return;
+  }
+  dec_ = choose(whole, po, comm.size());
+  lbm::LbmSetup s = whole;
+  s.domain = dec_.piece(whole.domain, comm.rank());
+  solver_ = lbm::make_lbm_solver(s, backend);
+  transport_ = halo::make_transport(po.transport, comm, backend);
+  halo_ = std::make_unique<lbm::FluidHalo>(*solver_, dec_, comm.rank(), *transport_);
+}
+
+void DistributedFluid::initialize(const std::vector<std::uint8_t>& flags, const std::vector<double>& rho,
+                                  const std::vector<double>& u) {
+  if (!halo_) {
+    solver_->initialize(flags, rho, u);
+    return;
+  }
+  std::vector<std::uint8_t> pf;
+  std::vector<double> pr, pu;
+  lbm::piece_fields(whole_.domain, solver_->setup().domain, flags, rho, u, pf, pr, pu);
+  solver_->initialize(pf, pr, pu);
+  halo_->fill();
+}
+
+void DistributedFluid::step(long n) {
+  if (halo_) halo_->step(n);
+  else solver_->step(n);
+}
+
+lbm::LbmDiagnostics DistributedFluid::diagnostics() {
+  lbm::LbmDiagnostics d = solver_->diagnostics();
+  if (!halo_) return d;
+  const Grid& p = solver_->setup().domain;
+  auto to_global = [&](std::array<long, 3>& c) {
+    if (c[0] < 0) return;
+    for (int a = 0; a < 3; ++a) {
+      const auto ua = static_cast<std::size_t>(a);
+      c[ua] += p.offset[ua] - p.ghost_on(a);
+    }
+  };
+  to_global(d.max_speed_cell);
+  to_global(d.nonfinite_cell);
+  // Deviation of the mass from the fluid cell count is what a sum must keep
+  // (the count is exact): sum (mass - cells) and add the global count.
+  std::vector<double> sums{d.mass - static_cast<double>(d.fluid_cells), d.momentum[0], d.momentum[1], d.momentum[2]};
+  comm_.sum(sums);
+  const long cells = comm_.sum(d.fluid_cells);
+  lbm::LbmDiagnostics g;
+  g.fluid_cells = cells;
+  g.mass = static_cast<double>(cells) + sums[0];
+  g.momentum = {sums[1], sums[2], sums[3]};
+  const auto [vmax, who] = comm_.maxloc(d.max_speed);
+  g.max_speed = vmax;
+  // The owner of the extreme tells everyone where it is.
+  std::vector<std::byte> cell(sizeof(long) * 3);
+  if (comm_.rank() == who) std::memcpy(cell.data(), d.max_speed_cell.data(), cell.size());
+  comm_.broadcast(cell, who);
+  std::memcpy(g.max_speed_cell.data(), cell.data(), cell.size());
+  g.finite = comm_.all(d.finite);
+  if (!g.finite) {
+    // The lowest rank with a non-finite cell names it.
+    const long bad = d.finite ? comm_.size() : comm_.rank();
+    const long first = -comm_.max(-bad);
+    std::vector<std::byte> nc(sizeof(long) * 3);
+    if (comm_.rank() == first) std::memcpy(nc.data(), d.nonfinite_cell.data(), nc.size());
+    comm_.broadcast(nc, static_cast<int>(first));
+    std::memcpy(g.nonfinite_cell.data(), nc.data(), nc.size());
+  }
+  return g;
+}
+
+void DistributedFluid::macroscopic(std::vector<double>& rho, std::vector<double>& u) {
+  if (!halo_) {
+    solver_->macroscopic(rho, u);
+    return;
+  }
+  std::vector<double> pr, pu;
+  solver_->macroscopic(pr, pu);
+  // Owned cells only, x-fastest, density then velocity.
+  const Grid& p = solver_->setup().domain;
+  const GridView gv = p.view();
+  const CellBox o = p.owned();
+  std::vector<double> mine;
+  mine.reserve(static_cast<std::size_t>(o.size()) * 4);
+  for (int z = 0; z < o.ext[2]; ++z)
+    for (int y = 0; y < o.ext[1]; ++y)
+      for (int x = 0; x < o.ext[0]; ++x) {
+        const auto i = static_cast<std::size_t>(gv.index(x + o.lo[0], y + o.lo[1], z + o.lo[2]));
+        mine.push_back(pr[i]);
+        for (std::size_t k = 0; k < 3; ++k) mine.push_back(pu[3 * i + k]);
+      }
+  const auto all = comm_.gather(std::as_bytes(std::span<const double>(mine)), 0);
+  rho.clear();
+  u.clear();
+  if (!comm_.root()) return;
+  const GridView gw = whole_.domain.view();
+  rho.assign(static_cast<std::size_t>(gw.n), 1.0);
+  u.assign(3 * static_cast<std::size_t>(gw.n), 0.0);
+  for (int r = 0; r < comm_.size(); ++r) {
+    const Grid q = dec_.piece(whole_.domain, r);
+    const CellBox qo = q.owned();
+    const auto& bytes = all[static_cast<std::size_t>(r)];
+    if (bytes.size() != static_cast<std::size_t>(qo.size()) * 4 * sizeof(double))
+      throw Error("gathering fields: rank " + std::to_string(r) + " sent a piece of the wrong size");
+    const auto* v = reinterpret_cast<const double*>(bytes.data());
+    std::size_t k = 0;
+    for (int z = 0; z < qo.ext[2]; ++z)
+      for (int y = 0; y < qo.ext[1]; ++y)
+        for (int x = 0; x < qo.ext[0]; ++x) {
+          const auto wi = static_cast<std::size_t>(gw.index(static_cast<int>(x + q.offset[0]), static_cast<int>(y + q.offset[1]),
+                                                            static_cast<int>(z + q.offset[2])));
+          rho[wi] = v[k++];
+          for (std::size_t c = 0; c < 3; ++c) u[3 * wi + c] = v[k++];
+        }
+  }
+}
+
+std::size_t DistributedFluid::memory_bytes() const {
+  const auto mine = static_cast<long>(solver_->memory_bytes());
+  return static_cast<std::size_t>(comm_.sum(mine));
+}
+
+std::string DistributedFluid::describe() const {
+  if (!halo_) return "1 rank";
+  return dec_.describe() + " ranks, halo by " + halo::to_string(transport_->kind());
+}
+
+}  // namespace lbdem

@@ -1,0 +1,148 @@
+// `mpirun -np N lbdem run`: fluid scenes on 2, 3 and 4 ranks (1D and 2D cuts,
+// chosen and given, periodic and walled axes, both streaming schemes, both
+// precisions) write the fields of the one-rank run bitwise, and one set of
+// files. Refusals of decompositions that cannot work. Skipped where the
+// build has no MPI launcher.
+#include <gtest/gtest.h>
+#include <hdf5.h>
+
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "run_lbdem.hpp"
+
+namespace lbdem::test {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::vector<double> read_dataset(const std::string& file, const std::string& name) {
+  const hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  if (f < 0) return {};
+  const hid_t d = H5Dopen2(f, name.c_str(), H5P_DEFAULT);
+  std::vector<double> v;
+  if (d >= 0) {
+    const hid_t sp = H5Dget_space(d);
+    v.resize(static_cast<std::size_t>(H5Sget_simple_extent_npoints(sp)));
+    H5Dread(d, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data());
+    H5Sclose(sp);
+    H5Dclose(d);
+  }
+  H5Fclose(f);
+  return v;
+}
+
+struct Case {
+  std::string name;
+  std::string yaml;  // without output/parallel sections
+  long steps;
+  int ranks;
+  std::string decomposition;  // "" = chosen
+  std::string transport = "";
+};
+
+std::string dir_for(const std::string& name, int ranks) {
+  return (fs::temp_directory_path() / ("lbdem_mpi_" + name + "_" + std::to_string(ranks))).string();
+}
+
+Result run_ranks(const Case& c, int ranks, const std::string& outdir) {
+  fs::remove_all(outdir);
+  const std::string file = outdir + ".yaml";
+  std::ofstream(file) << c.yaml << "output: {directory: " << outdir << ", interval: 0}\n"
+                      << (ranks > 1 && !c.decomposition.empty() ? "parallel: {decomposition: " + c.decomposition + "}\n" : "");
+  const std::string args = "run " + file + " --backend cpu --quiet --steps " + std::to_string(c.steps);
+  if (ranks == 1) return run(args);
+  // One OpenMP thread per rank: the ranks share two cores.
+  const std::string cmd = std::string("env OMP_NUM_THREADS=1 ") + LBDEM_MPIEXEC + " " + std::to_string(ranks) + " " +
+                          LBDEM_EXE + " " + args + " 2>&1";
+  FILE* p = popen(cmd.c_str(), "r");
+  std::string out;
+  char buf[4096];
+  while (std::size_t n = fread(buf, 1, sizeof buf, p)) out.append(buf, n);
+  const int st = pclose(p);
+  return {WIFEXITED(st) ? WEXITSTATUS(st) : -1, out};
+}
+
+class MpiRuns : public ::testing::TestWithParam<Case> {};
+
+TEST_P(MpiRuns, FieldsEqualOneRankBitwise) {
+  if (std::string(LBDEM_MPIEXEC).empty()) GTEST_SKIP() << "built without an MPI launcher";
+  const Case c = GetParam();
+  const std::string d1 = dir_for(c.name, 1), dn = dir_for(c.name, c.ranks);
+  const Result r1 = run_ranks(c, 1, d1);
+  ASSERT_EQ(r1.code, 0) << r1.out;
+  const Result rn = run_ranks(c, c.ranks, dn);
+  ASSERT_EQ(rn.code, 0) << rn.out;
+  char tag[32];
+  std::snprintf(tag, sizeof tag, "%08ld", c.steps);
+  const std::string f1 = d1 + "/fields_" + tag + ".h5", fn = dn + "/fields_" + tag + ".h5";
+  ASSERT_TRUE(fs::exists(f1)) << f1;
+  ASSERT_TRUE(fs::exists(fn)) << fn << "\n" << rn.out;
+  for (const char* field : {"density", "velocity", "pressure"}) {
+    const auto a = read_dataset(f1, field), b = read_dataset(fn, field);
+    ASSERT_FALSE(a.empty()) << field;
+    ASSERT_EQ(a.size(), b.size()) << field;
+    for (std::size_t i = 0; i < a.size(); ++i)
+      ASSERT_EQ(std::memcmp(&a[i], &b[i], sizeof(double)), 0) << field << "[" << i << "]: " << a[i] << " vs " << b[i];
+  }
+  // One set of files, written once; the summary names the ranks.
+  std::ifstream js(dn + "/summary.json");
+  const std::string summary((std::istreambuf_iterator<char>(js)), std::istreambuf_iterator<char>());
+  EXPECT_NE(summary.find("\"ranks\": " + std::to_string(c.ranks)), std::string::npos) << summary;
+  fs::remove_all(d1);
+  fs::remove_all(dn);
+  fs::remove(d1 + ".yaml");
+  fs::remove(dn + ".yaml");
+}
+
+const char* kTaylorGreen2d =
+    "scene: taylor_green\nlattice: D2Q9\nprecision: fp64\ncollision: {model: bgk, tau: 0.8}\n"
+    "fluid: {density: 1.0, kinematic_viscosity: 1.0e-6}\ndomain: {cells: [24, 20], spacing: 1.5625e-5}\n"
+    "taylor_green: {velocity: 1.0e-3}\ntime: {steps: 10}\ndiagnostics: {interval: 7}\n";
+const char* kChannel =
+    "scene: channel\nlattice: D2Q9\nprecision: fp64\nstreaming: two_lattice\ncollision: {model: trt, tau: 0.8}\n"
+    "fluid: {density: 1.2, kinematic_viscosity: 1.5e-5}\ndomain: {cells: [8, 18], spacing: 3.125e-5}\n"
+    "channel: {mode: periodic, body_acceleration: 5.0}\ntime: {steps: 10}\ndiagnostics: {interval: 5}\n";
+const char* kCavity =
+    "scene: lid_driven_cavity\nlattice: D2Q9\nprecision: fp32\ncollision: {model: trt, tau: 0.6}\n"
+    "fluid: {density: 1.0, kinematic_viscosity: 1.0e-4}\ndomain: {cells: [20, 22], spacing: 7.8125e-5}\n"
+    "lid_driven_cavity: {lid_velocity: 1.0}\ntime: {steps: 10}\ndiagnostics: {interval: 10}\n";
+const char* kTaylorGreen3d =
+    "scene: taylor_green\nlattice: D3Q19\nprecision: fp32\nstreaming: aa\ncollision: {model: trt, tau: 0.8}\n"
+    "fluid: {density: 1.0, kinematic_viscosity: 1.0e-6}\ndomain: {cells: [12, 10, 10], spacing: 1.5625e-5}\n"
+    "taylor_green: {velocity: 1.0e-3}\ntime: {steps: 10}\ndiagnostics: {interval: 4}\n";
+const char* kBox =
+    "scene: periodic_box\nlattice: D3Q19\nprecision: fp64\nstreaming: two_lattice\ncollision: {model: bgk, tau: 0.6}\n"
+    "fluid: {density: 1.2, kinematic_viscosity: 1.5e-5}\ndomain: {cells: [10, 9, 8], spacing: 1.0e-4}\n"
+    "periodic_box: {initial_velocity: [0.1, 0.05, 0.0]}\ntime: {steps: 10}\ndiagnostics: {interval: 10}\n";
+
+INSTANTIATE_TEST_SUITE_P(
+    Cases, MpiRuns,
+    ::testing::Values(Case{"tg2d_2", kTaylorGreen2d, 11, 2, ""}, Case{"tg2d_4", kTaylorGreen2d, 11, 4, "[2, 2, 1]"},
+                      Case{"channel_3", kChannel, 9, 3, "[1, 3, 1]"}, Case{"channel_2x", kChannel, 9, 2, "[2, 1, 1]"},
+                      Case{"cavity_4", kCavity, 9, 4, "[2, 2, 1]"}, Case{"tg3d_2z", kTaylorGreen3d, 7, 2, "[1, 1, 2]"},
+                      Case{"tg3d_4", kTaylorGreen3d, 8, 4, "[1, 2, 2]"}, Case{"box_3", kBox, 6, 3, ""}),
+    [](const ::testing::TestParamInfo<Case>& i) { return i.param.name; });
+
+TEST(MpiRunsRefused, DecompositionThatCannotWork) {
+  if (std::string(LBDEM_MPIEXEC).empty()) GTEST_SKIP() << "built without an MPI launcher";
+  // Ranks per axis whose product is not the rank count, and a cut thinner than two cells.
+  for (const std::string d : {"[3, 1, 1]", "[1, 11, 1]"}) {
+    Case c{"refused", kTaylorGreen2d, 5, 2, d};
+    if (d == "[1, 11, 1]") c.ranks = 11;
+    const std::string dn = dir_for("refused", c.ranks);
+    const Result r = run_ranks(c, c.ranks, dn);
+    EXPECT_EQ(r.code, 2) << r.out;
+    EXPECT_NE(r.out.find("parallel.decomposition"), std::string::npos) << r.out;
+    EXPECT_FALSE(fs::exists(dn + "/summary.json"));
+    fs::remove_all(dn);
+    fs::remove(dn + ".yaml");
+  }
+}
+
+}  // namespace
+}  // namespace lbdem::test
