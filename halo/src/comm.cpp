@@ -142,6 +142,8 @@ Comm::Comm() {
   LBDEM_MPI_CHECK(MPI_Comm_split_type(*own, MPI_COMM_TYPE_SHARED, rank_, MPI_INFO_NULL, &node));
   LBDEM_MPI_CHECK(MPI_Comm_rank(node, &local_rank_));
   LBDEM_MPI_CHECK(MPI_Comm_size(node, &local_size_));
+  node_ = rank_;
+  LBDEM_MPI_CHECK(MPI_Allreduce(MPI_IN_PLACE, &node_, 1, MPI_INT, MPI_MIN, node));
   LBDEM_MPI_CHECK(MPI_Comm_free(&node));
 #else
   why_single_ = "built without MPI";

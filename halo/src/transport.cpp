@@ -46,7 +46,7 @@ bool mpi_cuda_aware() {
   // The library was built with CUDA support; whether it is on is a run-time
   // question, and only an initialised MPI can answer it.
   int initialised = 0;
-  MPI_Initialized(&initialised);
+  LBDEM_MPI_CHECK(MPI_Initialized(&initialised));
   return initialised && MPIX_Query_cuda_support() == 1;
 #else
   return false;
@@ -166,9 +166,9 @@ TransportTimes traffic(const std::vector<Message>& messages, const Comm& comm) {
 
 namespace {
 
-// "host\nPCI bus id" of this rank's current device ("" for the bus id
-// without a usable device).
-std::string host_and_device() {
+// "node\nhost name\nPCI bus id" of this rank's current device (an empty bus
+// id without a usable device).
+std::string node_and_device(const Comm& comm) {
   char host[256] = {};
   if (gethostname(host, sizeof host - 1) != 0) host[0] = '\0';
   std::string bus;
@@ -178,34 +178,37 @@ std::string host_and_device() {
     char id[64] = {};
     if (cudaDeviceGetPCIBusId(id, sizeof id, dev) == cudaSuccess) bus = id;
   }
-  (void)cudaGetLastError();
+  (void)cudaGetLastError();  // no device: reported as an empty bus id
 #endif
-  return std::string(host) + "\n" + bus;
+  return std::to_string(comm.node()) + "\n" + host + "\n" + bus;
 }
 
 }  // namespace
 
 bool every_rank_has_own_gpu(const Comm& comm, std::string* clash) {
-  const std::string mine = host_and_device();
+  const std::string mine = node_and_device(comm);
   const auto* p = reinterpret_cast<const std::byte*>(mine.data());
   const auto all = comm.allgather(std::span<const std::byte>(p, mine.size()));
-  std::vector<std::pair<std::string, std::string>> hd;
+  struct Where {
+    std::string node, host, bus;
+  };
+  std::vector<Where> w;
   for (const auto& b : all) {
     const std::string s(reinterpret_cast<const char*>(b.data()), b.size());
-    const auto nl = s.find('\n');
-    hd.emplace_back(s.substr(0, nl), nl == std::string::npos ? "" : s.substr(nl + 1));
+    const auto a = s.find('\n'), z = s.rfind('\n');
+    w.push_back({s.substr(0, a), s.substr(a + 1, z - a - 1), s.substr(z + 1)});
   }
   // Every rank sees the same list, so every rank gives the same answer.
-  for (std::size_t a = 0; a < hd.size(); ++a) {
-    if (hd[a].second.empty()) {
-      if (clash) *clash = "rank " + std::to_string(a) + " on host " + hd[a].first + " has no usable GPU";
+  for (std::size_t a = 0; a < w.size(); ++a) {
+    if (w[a].bus.empty()) {
+      if (clash) *clash = "rank " + std::to_string(a) + " on host " + w[a].host + " has no usable GPU";
       return false;
     }
-    for (std::size_t b = a + 1; b < hd.size(); ++b)
-      if (hd[a] == hd[b]) {
+    for (std::size_t b = a + 1; b < w.size(); ++b)
+      if (w[a].node == w[b].node && w[a].bus == w[b].bus) {
         if (clash)
-          *clash = "ranks " + std::to_string(a) + " and " + std::to_string(b) + " on host " + hd[a].first +
-                   " share the GPU at PCI bus id " + hd[a].second;
+          *clash = "ranks " + std::to_string(a) + " and " + std::to_string(b) + " on host " + w[a].host +
+                   " share the GPU at PCI bus id " + w[a].bus;
         return false;
       }
   }

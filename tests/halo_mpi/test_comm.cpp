@@ -51,6 +51,11 @@ TEST(Comm, RanksAndNodes) {
     EXPECT_NE(c.native(), nullptr);
     EXPECT_NE(c.describe().find("mpi"), std::string::npos) << c.describe();
   }
+  EXPECT_LE(c.node(), c.rank());
+  EXPECT_GE(c.node(), 0);
+  if (c.local_size() == c.size()) {
+    EXPECT_EQ(c.node(), 0);  // one node: its lowest rank is 0
+  }
   if (!c.distributed()) {
     EXPECT_EQ(c.local_size(), 1);
   }

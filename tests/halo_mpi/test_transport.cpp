@@ -281,8 +281,13 @@ TEST(Transport, NamesParseAndBadNamesSayWhatIsValid) {
 
 TEST(Transport, SelectDeviceFollowsTheLocalRank) {
   const int d = select_device(comm());
+  std::string clash;
+  const bool own = every_rank_has_own_gpu(comm(), &clash);
   if (!gpu_usable()) {
     EXPECT_EQ(d, -1);
+    EXPECT_FALSE(own);
+    EXPECT_NE(clash.find("no usable GPU"), std::string::npos) << clash;
+    EXPECT_NE(resolve_transport(TransportKind::Auto, comm(), Backend::Cuda), TransportKind::Nccl);
     return;
   }
 #if defined(LBDEM_HAVE_CUDA)
@@ -294,6 +299,10 @@ TEST(Transport, SelectDeviceFollowsTheLocalRank) {
   EXPECT_EQ(current, d);
   if (comm().local_size() > n) {
     EXPECT_THROW(select_device(comm(), TransportKind::Nccl), ResourceError);
+    EXPECT_FALSE(own);
+    EXPECT_NE(clash.find("share the GPU"), std::string::npos) << clash;
+  } else {
+    EXPECT_TRUE(own) << clash;
   }
 #endif
 }

@@ -28,6 +28,8 @@ class Comm {
   int size() const { return size_; }
   int local_rank() const { return local_rank_; }  // rank among the ranks of this node
   int local_size() const { return local_size_; }
+  // The lowest rank on this rank's node: equal exactly for the ranks of one node.
+  int node() const { return node_; }
   bool distributed() const { return size_ > 1; }
   bool root() const { return rank_ == 0; }
 
@@ -79,7 +81,7 @@ class Comm {
   ~Comm();
   Comm(const Comm&) = delete;
   Comm& operator=(const Comm&) = delete;
-  int rank_ = 0, size_ = 1, local_rank_ = 0, local_size_ = 1;
+  int rank_ = 0, size_ = 1, local_rank_ = 0, local_size_ = 1, node_ = 0;
   void* native_ = nullptr;  // MPI_Comm* for the transports
   void* own_ = nullptr;     // MPI_Comm* for the collectives and exchange() here
   std::string why_single_;  // why this is one rank without MPI ("" under MPI)
