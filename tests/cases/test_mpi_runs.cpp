@@ -101,7 +101,7 @@ TEST_P(MpiRuns, FieldsEqualOneRankBitwise) {
 
 const char* kTaylorGreen2d =
     "scene: taylor_green\nlattice: D2Q9\nprecision: fp64\ncollision: {model: bgk, tau: 0.8}\n"
-    "fluid: {density: 1.0, kinematic_viscosity: 1.0e-6}\ndomain: {cells: [24, 20], spacing: 1.5625e-5}\n"
+    "fluid: {density: 1.0, kinematic_viscosity: 1.0e-6}\ndomain: {cells: [20, 20], spacing: 1.5625e-5}\n"
     "taylor_green: {velocity: 1.0e-3}\ntime: {steps: 10}\ndiagnostics: {interval: 7}\n";
 const char* kChannel =
     "scene: channel\nlattice: D2Q9\nprecision: fp64\nstreaming: two_lattice\ncollision: {model: trt, tau: 0.8}\n"
@@ -113,7 +113,7 @@ const char* kCavity =
     "lid_driven_cavity: {lid_velocity: 1.0}\ntime: {steps: 10}\ndiagnostics: {interval: 10}\n";
 const char* kTaylorGreen3d =
     "scene: taylor_green\nlattice: D3Q19\nprecision: fp32\nstreaming: aa\ncollision: {model: trt, tau: 0.8}\n"
-    "fluid: {density: 1.0, kinematic_viscosity: 1.0e-6}\ndomain: {cells: [12, 10, 10], spacing: 1.5625e-5}\n"
+    "fluid: {density: 1.0, kinematic_viscosity: 1.0e-6}\ndomain: {cells: [12, 12, 12], spacing: 1.5625e-5}\n"
     "taylor_green: {velocity: 1.0e-3}\ntime: {steps: 10}\ndiagnostics: {interval: 4}\n";
 const char* kBox =
     "scene: periodic_box\nlattice: D3Q19\nprecision: fp64\nstreaming: two_lattice\ncollision: {model: bgk, tau: 0.6}\n"
@@ -131,9 +131,9 @@ INSTANTIATE_TEST_SUITE_P(
 TEST(MpiRunsRefused, DecompositionThatCannotWork) {
   if (std::string(LBDEM_MPIEXEC).empty()) GTEST_SKIP() << "built without an MPI launcher";
   // Ranks per axis whose product is not the rank count, and a cut thinner than two cells.
-  for (const std::string d : {"[3, 1, 1]", "[1, 11, 1]"}) {
-    Case c{"refused", kTaylorGreen2d, 5, 2, d};
-    if (d == "[1, 11, 1]") c.ranks = 11;
+  for (const std::string d : {"[3, 1, 1]", "[1, 1, 5]"}) {
+    Case c{"refused", kBox, 5, 2, d};
+    if (d == "[1, 1, 5]") c.ranks = 5;  // 8 cells along z: fewer than 2 per rank
     const std::string dn = dir_for("refused", c.ranks);
     const Result r = run_ranks(c, c.ranks, dn);
     EXPECT_EQ(r.code, 2) << r.out;
