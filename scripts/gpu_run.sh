@@ -7,6 +7,7 @@
 #     bench-baseline DIR    builds only the benchmark targets of another source tree DIR (e.g. an older
 #                           commit from `git archive`) in DIR/build-bench and runs the same benchmarks;
 #                           JSON as $OUT/baseline_<bench>.json (commit: $BASELINE_COMMIT, else "baseline")
+#     scaling [quick]       fluid-only scaling over MPI ranks (scripts/scaling_gpu.sh): $OUT/scaling.jsonl
 #     profile               Nsight Compute per-kernel time and DRAM bytes of 3 coupled suspension steps
 #     pack                  everything in $OUT into $OUT/out.tgz (for a runner that returns few files)
 #   BENCHES selects benchmarks (default: lbm dem imb psm-susp psm-sweep). psm-sweep alone needs two
@@ -73,6 +74,9 @@ while [ $# -gt 0 ]; do
         lbdem_bench_psm >> "$OUT/baseline_build.log" 2>&1
       echo "baseline build exit $?"; tail -3 "$OUT/baseline_build.log"
       LBDEM_COMMIT="${BASELINE_COMMIT:-baseline}" run_benches "$dir/build-bench" baseline_ ;;
+    scaling)
+      q=""; [ "${1:-}" = quick ] && { q=quick; shift; }
+      bash "$here/scripts/scaling_gpu.sh" "$build" "$OUT/scaling.jsonl" $q; echo "scaling exit $?" ;;
     profile)
       for prec in fp32 fp64; do
         timeout 240 ncu --clock-control none --metrics gpu__time_duration.sum,dram__bytes.sum --print-summary per-kernel \

@@ -98,7 +98,22 @@ double now() { return std::chrono::duration<double>(std::chrono::steady_clock::n
 
 }  // namespace
 
+int run(int argc, char** argv);
+
 int main(int argc, char** argv) {
+  // A refusal (a transport that cannot run here, a grid too small for the
+  // ranks) ends every rank with one line, not an abort trace.
+  try {
+    return run(argc, argv);
+  } catch (const std::exception& e) {
+    const halo::Comm& comm = halo::Comm::world();
+    if (comm.root()) std::fprintf(stderr, "lbdem_bench_scaling: %s\n", e.what());
+    if (comm.distributed()) comm.abort(2);
+    return 2;
+  }
+}
+
+int run(int argc, char** argv) {
   const Args a = parse(argc, argv);
   const halo::Comm& comm = halo::Comm::world();
   const Backend backend = resolve_backend(a.backend);

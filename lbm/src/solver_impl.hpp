@@ -52,7 +52,15 @@ class SolverImpl final : public LbmSolver {
     if (flags.size() != n || rho.size() != n || u.size() != 3 * n)
       throw Error("LbmSolver::initialize: field sizes do not match the grid (" + std::to_string(n) + " cells)");
     flags_.copy_from_host(flags);
-    has_bnd_ = std::any_of(flags.begin(), flags.end(), [](std::uint8_t v) { return v != 0; });
+    // Boundary handling is on when the case has boundary entries, the same
+    // on every piece of a cut grid (a piece whose storage holds no wall runs
+    // the same kernel as the whole grid). Ghost cells alone need none: the
+    // step never reflects off them and updates only owned cells.
+    has_bnd_ = s_.boundaries.count > 0;
+    for (std::uint8_t v : flags)
+      if (v != 0 && v != kGhostFlag && static_cast<int>(v) > s_.boundaries.count)
+        throw Error("LbmSolver::initialize: cell flag " + std::to_string(v) + " names no boundary entry (the case has " +
+                    std::to_string(s_.boundaries.count) + ")");
     ensure_macro_buffers();
     rho_d_.copy_from_host(rho);
     u_d_.copy_from_host(u);
@@ -166,7 +174,8 @@ class SolverImpl final : public LbmSolver {
     r.grid = g_;
     r.owned = owned_;
     r.flags = flags_.data();
-    r.has_boundaries = has_bnd_;
+    // Coupling kernels that iterate beyond the owned box (tiles) must skip ghost cells by their flag.
+    r.has_boundaries = has_bnd_ || !s_.domain.whole_grid();
     r.step = t_;
     r.omega_p = omega_p_;
     r.omega_m = omega_m_;

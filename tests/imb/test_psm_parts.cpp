@@ -3,7 +3,11 @@
 // parts then the inner part give bitwise the populations and the particle
 // forces of one launch over the whole piece — mapped (cell boxes) and fused
 // (tile boxes: each tile's partial forces are written once) pipelines, both
-// lattices, fp64 and fp32, spheres across the cut faces.
+// lattices, fp64 and fp32, spheres across the cut faces. One exception: the
+// mapped pipeline on the GPU fills a cell's slots with atomics, so two maps of
+// the same spheres may list a shared cell's particles in another order and
+// the solid terms add in another order: there the two runs agree to
+// round-off (1e-13 relative) instead of bitwise.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -86,14 +90,17 @@ TEST_P(PsmParts, OuterThenInnerEqualsOneLaunchBitwise) {
     b.coupling().step_part(all, b.particles(), b.options());
     b.coupling().finish_step(b.particles(), imb::ForceOut::six(b.force6()));
   }
+  const bool bitwise = !(p.backend == Backend::Cuda && p.pipeline == imb::PsmPipeline::Mapped);
+  auto same = [&](double x, double y, double scale) {
+    return bitwise ? std::memcmp(&x, &y, sizeof(double)) == 0 : std::abs(x - y) <= 1e-13 * scale;
+  };
   const auto fa = a.forces(), fb = b.forces();
   ASSERT_EQ(fa.size(), fb.size());
   double fmax = 0;
-  for (std::size_t i = 0; i < fa.size(); ++i) {
-    ASSERT_EQ(std::memcmp(&fa[i], &fb[i], sizeof(double)), 0) << "force/torque " << i << ": " << fa[i] << " vs " << fb[i];
-    fmax = std::max(fmax, std::abs(fa[i]));
-  }
+  for (double v : fa) fmax = std::max(fmax, std::abs(v));
   EXPECT_GT(fmax, 0.0);
+  for (std::size_t i = 0; i < fa.size(); ++i)
+    ASSERT_TRUE(same(fa[i], fb[i], fmax)) << "force/torque " << i << ": " << fa[i] << " vs " << fb[i];
   // Populations of the owned cells (populations() leaves the others unset).
   const auto pa = a.solver().populations(), pb = b.solver().populations();
   ASSERT_EQ(pa.size(), pb.size());
@@ -105,7 +112,7 @@ TEST_P(PsmParts, OuterThenInnerEqualsOneLaunchBitwise) {
       int x, y, z;
       o.coords(t, x, y, z);
       const auto i = static_cast<std::size_t>(q * g.n + g.index(x, y, z));
-      ASSERT_EQ(std::memcmp(&pa[i], &pb[i], sizeof(double)), 0) << "q " << q << " cell " << x << "," << y << "," << z;
+      ASSERT_TRUE(same(pa[i], pb[i], 1.0)) << "q " << q << " cell " << x << "," << y << "," << z;
     }
 }
 
