@@ -42,6 +42,7 @@ GridView Grid::view() const {
     v.shift[a] = static_cast<double>(offset[k] - ghost_on(a));
     v.global[a] = static_cast<int>(global[k]);
     v.periodic[a] = periodic[k] && !split[k];
+    v.image[a] = periodic[k] && split[k] ? static_cast<double>(global[k]) : 0.0;
   }
   return v;
 }

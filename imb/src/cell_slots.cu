@@ -85,6 +85,7 @@ struct MapKernel {
   Index nx, ny, nz;         // storage cells per axis
   bool per_x, per_y, per_z;  // axes that wrap onto themselves in storage
   double sx, sy, sz;         // global lattice frame -> storage coordinates: subtract (GridView::shift)
+  GridView img;              // nearest_image on cut periodic axes
   int B;             // box edge in cells
   Index box;         // B^Dim
   int* flags;        // [0] surplus events, [1] radius errors, [2] offending particle, [3] deferred count
@@ -123,7 +124,13 @@ struct MapKernel {
     const std::uint32_t l32 = static_cast<std::uint32_t>(t - pi * box), B32 = static_cast<std::uint32_t>(B);
     const Index po = static_cast<Index>(pi) * p.stride;
     const double R = p.r[po];
-    const double cx = p.x[po] - sx, cy = p.y[po] - sy, cz = Dim == 3 ? p.z[po] - sz : 0.5;
+    // Global position (the image nearest this piece on a cut periodic axis),
+    // then storage coordinates for the box; the offsets to cell centres are
+    // taken in the global frame, (storage index + shift) + 1/2 - x, so that
+    // every piece of a cut grid computes the whole grid's bits.
+    const double xg = img.nearest_image(0, p.x[po]), yg = img.nearest_image(1, p.y[po]);
+    const double zg = Dim == 3 ? img.nearest_image(2, p.z[po]) : 0.5;
+    const double cx = xg - sx, cy = yg - sy, cz = Dim == 3 ? zg - sz : 0.5;
     const Index i0 = static_cast<Index>(floor(cx - R)), j0 = static_cast<Index>(floor(cy - R));
     const Index k0 = Dim == 3 ? static_cast<Index>(floor(cz - R)) : 0;
     if (check_radius && l32 == 0) {  // one thread per particle checks that its box fits
@@ -144,7 +151,8 @@ struct MapKernel {
     const Index ci = axis(gi, nx, per_x), cj = axis(gj, ny, per_y);
     const Index ck = Dim == 3 ? axis(gk, nz, per_z) : 0;
     if (ci < 0 || cj < 0 || ck < 0) return false;
-    o = {pi, ci + nx * (cj + ny * ck), gi + 0.5 - cx, gj + 0.5 - cy, gk + 0.5 - cz, R};
+    o = {pi, ci + nx * (cj + ny * ck), (static_cast<double>(gi) + sx) + 0.5 - xg,
+         (static_cast<double>(gj) + sy) + 0.5 - yg, Dim == 3 ? (static_cast<double>(gk) + sz) + 0.5 - zg : gk + 0.5 - cz, R};
     return true;
   }
 
@@ -361,6 +369,7 @@ struct LaunchMap {
     k.per_x = g.periodic[0];
     k.per_y = g.periodic[1];
     k.per_z = g.periodic[2];
+    k.img = g;
     k.sx = g.shift[0];
     k.sy = g.shift[1];
     k.sz = g.shift[2];

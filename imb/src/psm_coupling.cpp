@@ -60,6 +60,7 @@ const CellSlots& PsmCoupling::slots() const {
 }
 
 void PsmCoupling::map(const PsmParticles& p, const PsmOptions& opt, bool check_overflow) {
+  const PsmPipeline before = pipeline_;
   pipeline_ = resolve_pipeline(opt, K_);
   if (pipeline_ == PsmPipeline::Fused) {
     if (!tiles_ || tiles_->capacity() != opt.tile_capacity)
@@ -76,7 +77,9 @@ void PsmCoupling::map(const PsmParticles& p, const PsmOptions& opt, bool check_o
       }
     }
     tiles_->build(ex_, p, opt.map.max_radius);
+    if (before != pipeline_ || !parts_ready_) { parts_ = compute_parts(); parts_ready_ = true; }
   } else {
+    if (before != pipeline_ || !parts_ready_) { parts_ = compute_parts(); parts_ready_ = true; }
     if (p.n == 0) return;
     mapped_slots().map(ex_, p, opt.map);
   }
@@ -91,13 +94,43 @@ void PsmCoupling::step(const PsmParticles& p, const PsmOptions& opt, const Force
     solver_.step(1);
     return;
   }
-  const Parts parts = this->parts();
-  for (const CellBox& b : parts.outer) step_part(b, p, opt);
-  step_part(parts.inner, p, opt);
+  for (const CellBox& b : parts_.outer) step_part(b, p, opt);
+  step_part(parts_.inner, p, opt);
   finish_step(p, out);
 }
 
-PsmCoupling::Parts PsmCoupling::parts() const {
+namespace {
+// The PSM step as the halo exchange's external step.
+class PsmHaloStep final : public lbm::ExternalStep {
+ public:
+  PsmHaloStep(PsmCoupling& c, const PsmParticles& p, const PsmOptions& opt, const ForceOut& out)
+      : c_(c), p_(p), opt_(opt), out_(out), parts_(c.parts()) {}
+  void outer(lbm::Lane lane) override {
+    for (const CellBox& b : parts_.outer) c_.step_part(b, p_, opt_, lane);
+  }
+  void inner(lbm::Lane lane) override { c_.step_part(parts_.inner, p_, opt_, lane); }
+  void commit() override { c_.finish_step(p_, out_); }
+
+ private:
+  PsmCoupling& c_;
+  const PsmParticles& p_;
+  const PsmOptions& opt_;
+  const ForceOut& out_;
+  const PsmCoupling::Parts& parts_;
+};
+}  // namespace
+
+void PsmCoupling::step(const PsmParticles& p, const PsmOptions& opt, const ForceOut& out, lbm::FluidHalo& halo) {
+  if (p.n == 0) {
+    halo.step(1);
+    return;
+  }
+  PsmHaloStep ext(*this, p, opt, out);
+  halo.begin_step(&ext);
+  halo.finish_step();
+}
+
+PsmCoupling::Parts PsmCoupling::compute_parts() const {
   Parts r;
   if (pipeline_ != PsmPipeline::Fused) {
     r.outer = grid().outer(1);

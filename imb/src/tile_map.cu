@@ -81,9 +81,9 @@ struct TileBuild {
       flags[3] = static_cast<int>(pi);
     }
     // Centres in storage coordinates (GridView::shift: the global frame's offset).
-    const int tx = axis_tile(lx, p.x[o] - tv.g.shift[0], R, tv.g.nx, tv.t.tx, tv.g.periodic[0]);
-    const int ty = axis_tile(ly, p.y[o] - tv.g.shift[1], R, tv.g.ny, tv.t.ty, tv.g.periodic[1]);
-    const int tz = dim == 3 ? axis_tile(lz, p.z[o] - tv.g.shift[2], R, tv.g.nz, tv.t.tz, tv.g.periodic[2])
+    const int tx = axis_tile(lx, tv.g.nearest_image(0, p.x[o]) - tv.g.shift[0], R, tv.g.nx, tv.t.tx, tv.g.periodic[0]);
+    const int ty = axis_tile(ly, tv.g.nearest_image(1, p.y[o]) - tv.g.shift[1], R, tv.g.ny, tv.t.ty, tv.g.periodic[1]);
+    const int tz = dim == 3 ? axis_tile(lz, tv.g.nearest_image(2, p.z[o]) - tv.g.shift[2], R, tv.g.nz, tv.t.tz, tv.g.periodic[2])
                             : (lz == 0 ? 0 : -1);
     if (tx < 0 || ty < 0 || tz < 0) {
       zero_entry(t);

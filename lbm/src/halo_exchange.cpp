@@ -190,18 +190,27 @@ void FluidHalo::finish_fill() {
   s_.synchronize();
 }
 
-void FluidHalo::begin_step() {
+void FluidHalo::begin_step(ExternalStep* ext) {
   if (in_step_) throw Error("FluidHalo::begin_step called twice without finish_step");
   in_step_ = true;
+  ext_ = ext;
   t_begin_ = now();
   phase_ = phase_of_step();
   const Exec& edge = s_.exec(Lane::Edge);
+  auto whole = [&] {
+    if (ext_) {
+      ext_->outer(Lane::Main);
+      ext_->inner(Lane::Main);
+    } else {
+      s_.step_box(owned_);
+    }
+  };
   if (links_.empty()) {
-    s_.step_box(owned_);
+    whole();
     return;
   }
   if (mode_ == Mode::Serial) {
-    s_.step_box(owned_);
+    whole();
     s_.fork();
     pack(phase_);
     const double t0 = now();
@@ -210,14 +219,17 @@ void FluidHalo::begin_step() {
     return;
   }
   s_.fork();
-  for (const CellBox& b : outer_) s_.step_box(b, Lane::Edge);
+  if (ext_) ext_->outer(Lane::Edge);
+  else
+    for (const CellBox& b : outer_) s_.step_box(b, Lane::Edge);
   if (mode_ == Mode::Overlap) {
     pack(phase_);
     const double t0 = now();
     tr_.start(edge);
     times_.start += now() - t0;
   }
-  s_.step_box(inner_, Lane::Main);
+  if (ext_) ext_->inner(Lane::Main);
+  else s_.step_box(inner_, Lane::Main);
 }
 
 void FluidHalo::finish_step() {
@@ -232,7 +244,9 @@ void FluidHalo::finish_step() {
     }
     s_.join();
   }
-  s_.end_step();
+  if (ext_) ext_->commit();
+  else s_.end_step();
+  ext_ = nullptr;
   ++times_.steps;
   times_.total += now() - t_begin_;
 }

@@ -174,8 +174,7 @@ class SolverImpl final : public LbmSolver {
     r.grid = g_;
     r.owned = owned_;
     r.flags = flags_.data();
-    // Coupling kernels that iterate beyond the owned box (tiles) must skip ghost cells by their flag.
-    r.has_boundaries = has_bnd_ || !s_.domain.whole_grid();
+    r.has_boundaries = has_bnd_;
     r.step = t_;
     r.omega_p = omega_p_;
     r.omega_m = omega_m_;

@@ -19,6 +19,7 @@
 // convert particle centres to storage coordinates through GridView::shift and
 // never assume the grid starts at 0.
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -38,6 +39,17 @@ struct GridView {
   // The axis wraps onto itself in storage: periodic and owned whole by this
   // rank. On a split axis images come through the ghost layers instead.
   bool periodic[3] = {true, true, true};
+  // The global period on a periodic axis cut across ranks (0 elsewhere): a
+  // particle seen by this piece is taken at its image nearest the piece.
+  double image[3] = {0, 0, 0};
+
+  // Global coordinate x on axis a moved by whole periods to the image
+  // nearest this piece's storage (unchanged on axes without `image`).
+  LBDEM_HD double nearest_image(int a, double x) const {
+    if (image[a] <= 0) return x;
+    const double centre = shift[a] + 0.5 * extent(a);
+    return x - image[a] * floor((x - centre) / image[a] + 0.5);
+  }
 
   LBDEM_HD void coords(Index cell, int& x, int& y, int& z) const {
     const auto c = static_cast<unsigned>(cell);

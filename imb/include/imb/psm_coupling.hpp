@@ -10,6 +10,7 @@
 #include "imb/cell_slots.hpp"
 #include "imb/psm.hpp"
 #include "imb/tile_map.hpp"
+#include "lbm/halo_exchange.hpp"
 #include "lbm/solver.hpp"
 
 namespace lbdem::imb {
@@ -79,7 +80,11 @@ class PsmCoupling {
     std::vector<CellBox> outer;
     CellBox inner;
   };
-  Parts parts() const;
+  const Parts& parts() const { return parts_; }
+  // One step on a piece of a cut grid: the parts above, overlapped with the
+  // halo exchange of the populations (lbm/halo_exchange.hpp). The forces are
+  // this rank's share (its owned cells); the caller sums them over ranks.
+  void step(const PsmParticles& p, const PsmOptions& opt, const ForceOut& out, lbm::FluidHalo& halo);
   void step_part(const CellBox& part, const PsmParticles& p, const PsmOptions& opt, lbm::Lane lane = lbm::Lane::Main);
   void finish_step(const PsmParticles& p, const ForceOut& out);
 
@@ -109,6 +114,9 @@ class PsmCoupling {
   Buffer<float> table_;  // fused pipeline: the fraction table on the backend
   std::uint64_t table_id_ = 0;
   PsmPipeline pipeline_ = PsmPipeline::Auto;  // of the last map()
+  Parts parts_;                               // of the last map()'s pipeline
+  bool parts_ready_ = false;
+  Parts compute_parts() const;
   Exec ex_;
 };
 

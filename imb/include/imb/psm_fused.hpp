@@ -76,6 +76,7 @@ struct PsmFusedKernel : PsmLatticeFields<T> {
   int K;  // slots per cell in use (<= kFusedMaxSlots)
   TileView tv;
   CellBox tiles;  // the tiles this launch updates (a box in tile coordinates; PsmCoupling::parts)
+  CellBox own;    // the owned cells (storage coordinates): the cells a step updates
   SphereView p;
   Frac frac;
 
@@ -106,7 +107,8 @@ struct PsmFusedKernel : PsmLatticeFields<T> {
     o[2] = t.iz * kTZ;
   }
 
-  // Cell of thread `tid` in tile `t`; false if the tile overhangs the grid there.
+  // Cell of thread `tid` in tile `t`; false if it is not an owned cell (the
+  // tile overhangs the grid there, or it is a ghost cell of a cut grid).
   LBDEM_HD bool coords(const TileId& t, int tid, int& x, int& y, int& z) const {
     int o[3], lx, ly, lz;
     tile_origin(t, o);
@@ -114,7 +116,9 @@ struct PsmFusedKernel : PsmLatticeFields<T> {
     x = o[0] + lx;
     y = o[1] + ly;
     z = o[2] + lz;
-    return x < g.nx && y < g.ny && z < g.nz;
+    return static_cast<unsigned>(x - own.lo[0]) < static_cast<unsigned>(own.ext[0]) &&
+           static_cast<unsigned>(y - own.lo[1]) < static_cast<unsigned>(own.ext[1]) &&
+           static_cast<unsigned>(z - own.lo[2]) < static_cast<unsigned>(own.ext[2]);
   }
 
   LBDEM_HD int candidates(Index tile) const {
@@ -147,9 +151,11 @@ struct PsmFusedKernel : PsmLatticeFields<T> {
     // axes that wrap (particles may be given unwrapped, any number of periods
     // away), so that one minimum-image correction in rel() finds the image
     // that overlaps a cell.
-    c.o[0] = R(wrap_centre(p.x[o] - g.shift[0], g.nx, g.periodic[0]) - org[0]);
-    c.o[1] = R(wrap_centre(p.y[o] - g.shift[1], g.ny, g.periodic[1]) - org[1]);
-    c.o[2] = Dim == 3 ? R(wrap_centre(p.z[o] - g.shift[2], g.nz, g.periodic[2]) - org[2]) : R(0.5);
+    // On a cut periodic axis the image nearest this piece; the offset from
+    // the tile's first cell is taken in the global frame (one rounding).
+    c.o[0] = R(wrap_centre(g.nearest_image(0, p.x[o]), g.nx, g.periodic[0]) - (org[0] + g.shift[0]));
+    c.o[1] = R(wrap_centre(g.nearest_image(1, p.y[o]), g.ny, g.periodic[1]) - (org[1] + g.shift[1]));
+    c.o[2] = Dim == 3 ? R(wrap_centre(g.nearest_image(2, p.z[o]), g.nz, g.periodic[2]) - (org[2] + g.shift[2])) : R(0.5);
     const double rad = p.r[o];
     c.r = R(rad);
     c.aux = R(frac.prepare(rad));

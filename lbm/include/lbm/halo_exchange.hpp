@@ -53,6 +53,18 @@ struct HaloTimes {
   int messages = 0;                // per exchange
 };
 
+// A step computed by another module on the solver's populations (imb/: the
+// PSM step), in the parts the exchange overlaps: outer() updates every owned
+// cell next to a cut (and may update more), inner() the rest, commit() ends
+// the step (LbmSolver::commit_external_step and whatever follows it).
+class ExternalStep {
+ public:
+  virtual ~ExternalStep() = default;
+  virtual void outer(Lane lane) = 0;
+  virtual void inner(Lane lane) = 0;
+  virtual void commit() = 0;
+};
+
 class FluidHalo {
  public:
   // The solver's grid must be `dec.piece(whole, rank)`. The transport is bound
@@ -70,7 +82,8 @@ class FluidHalo {
   void finish_fill();
   // One step in two halves (several ranks in one process: all begin, then all
   // finish), or n whole steps.
-  void begin_step();
+  // `ext`: the step is computed by ext (its parts) instead of the solver's own kernel.
+  void begin_step(ExternalStep* ext = nullptr);
   void finish_step();
   void step(long n);
   // How a step is ordered (benchmarks compare them to measure how much
@@ -100,6 +113,7 @@ class FluidHalo {
   CellBox inner_, owned_;
   Mode mode_ = Mode::Overlap;
   bool in_step_ = false;
+  ExternalStep* ext_ = nullptr;
   Phase phase_ = Phase::None;
   double t_begin_ = 0;
   std::size_t bytes_ = 0;
