@@ -7,7 +7,8 @@
 // sphere crosses the periodic ends of two cut axes (pieces see its image).
 // The fused pipeline's tiles start at the piece's first storage cell, so a
 // cell's offset from a sphere is rounded from another tile origin than on the
-// whole grid: its populations agree to round-off (1e-13), not bitwise. On the
+// whole grid: its populations agree to round-off (a few epsilon of the
+// storage precision), not bitwise. On the
 // GPU the mapped pipeline fills a cell's slots with atomics (slot order): also
 // round-off there.
 #include <gtest/gtest.h>
@@ -127,10 +128,15 @@ TEST_P(PsmHalo, PiecesEqualWholeGrid) {
   double fmax = 0;
   for (double v : fr) fmax = std::max(fmax, std::abs(v));
   ASSERT_GT(fmax, 0.0);
+  // The fused fp32 kernel sums a tile's cells in float per warp: a tile cut
+  // by the piece boundary is summed in two parts there (float round-off).
+  const double ftol = p.pipeline == imb::PsmPipeline::Fused && p.precision == lbm::Precision::FP32 ? 1e-6 : 1e-12;
   for (std::size_t i = 0; i < fr.size(); ++i)
-    EXPECT_NEAR(fs[i], fr[i], 1e-12 * fmax) << "particle " << i / 6 << " component " << i % 6;
+    EXPECT_NEAR(fs[i], fr[i], ftol * fmax) << "particle " << i / 6 << " component " << i % 6;
   // Populations of every owned cell.
   const bool bitwise = p.pipeline == imb::PsmPipeline::Mapped && p.backend == Backend::Host;
+  // Round-off of the storage precision: a few units of its epsilon.
+  const double tol = p.precision == lbm::Precision::FP64 ? 1e-13 : 2e-6;
   const auto fa = ref.solver().populations();
   const GridView ga = whole.domain.view();
   const int Q = lbm::lattice_q(whole.lattice);
@@ -151,7 +157,7 @@ TEST_P(PsmHalo, PiecesEqualWholeGrid) {
         if (bitwise)
           ASSERT_EQ(std::memcmp(&va, &vb, sizeof va), 0) << "rank " << r << " q " << q << " cell " << wx << "," << wy << "," << wz << ": " << va << " vs " << vb;
         else
-          ASSERT_NEAR(va, vb, 1e-13) << "rank " << r << " q " << q;
+          ASSERT_NEAR(va, vb, tol) << "rank " << r << " q " << q;
         ++compared;
       }
   }
