@@ -1,0 +1,293 @@
+// DEM on several ranks against one rank (run under `mpiexec -n N`, N = 1..4):
+// particles migrate across every face and edge of the cut (periodic wrap
+// included) and none is lost or duplicated; the gathered states (positions,
+// velocities, spins, forces) equal the one-rank run's bitwise, both summing
+// contacts in global-id order (DemParams::contact_order); a cut thinner than
+// the ghost width is refused. Rank 0 runs the one-rank reference itself.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <memory>
+#include <cmath>
+#include <cstring>
+#include <random>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "core/error.hpp"
+#include "dem/domain.hpp"
+#include "dem/init.hpp"
+#include "dem/system.hpp"
+#include "halo/comm.hpp"
+
+namespace lbdem::dem {
+namespace {
+
+const halo::Comm& world() { return halo::Comm::world(); }
+// Whether a check failed on any rank: every rank stops together (a rank that
+// returned alone would leave the others waiting in a collective).
+bool any_failure() { return world().any(::testing::Test::HasFailure()); }
+
+Material material(double k, double e, double mu) {
+  Material m;
+  m.stiffness = k;
+  m.restitution = e;
+  m.friction = mu;
+  m.wall_stiffness = k;
+  m.wall_restitution = e;
+  m.wall_friction = mu;
+  return m;
+}
+
+void random_velocities(HostParticles& hp, double vrms, double wrms, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> nv(0, vrms / std::sqrt(3.0)), nw(0, wrms / std::sqrt(3.0));
+  for (Index i = 0; i < hp.size(); ++i) {
+    hp.v[static_cast<std::size_t>(i)] = {nv(rng), nv(rng), nv(rng)};
+    hp.w[static_cast<std::size_t>(i)] = {nw(rng), nw(rng), nw(rng)};
+  }
+}
+
+struct Scene {
+  DemParams p;
+  HostParticles hp;
+};
+
+// A frictional granular gas of ~300 spheres in a fully periodic box: every
+// particle crosses several cut faces (and the periodic boundary) in 10^4 steps.
+Scene gas() {
+  Scene s;
+  DemParams& p = s.p;
+  p.lo = {0, 0, 0};
+  p.hi = {1.6, 1.6, 1.6};
+  p.periodic = {true, true, true};
+  p.friction = true;
+  p.material = material(1e5, 0.9, 0.3);
+  RandomPackingSpec r;
+  r.lo = p.lo;
+  r.hi = p.hi;
+  r.periodic = p.periodic;
+  r.solid_fraction = 0.04;
+  r.r_min = 0.045;
+  r.r_max = 0.055;
+  r.density = 2600;
+  r.seed = 11;
+  s.hp = random_packing(r);
+  random_velocities(s.hp, 1.5, 20.0, 5);
+  p.dt = min_collision_time(p, s.hp) / 50;
+  p.contact_order = ContactOrder::GlobalId;
+  return s;
+}
+
+// A bed: spheres rain onto a floor wall under gravity in a box periodic in x
+// and y, closed by walls in z; friction and rotation.
+Scene bed() {
+  Scene s;
+  DemParams& p = s.p;
+  p.lo = {0, 0, 0};
+  p.hi = {0.8, 0.8, 1.2};
+  p.periodic = {true, true, false};
+  p.friction = true;
+  p.gravity = {0, 0, -9.81};
+  p.material = material(2e4, 0.5, 0.5);
+  p.walls = {Wall{{0, 0, 0}, {0, 0, 1}}, Wall{{0, 0, 1.2}, {0, 0, -1}}};
+  RandomPackingSpec r;
+  r.lo = {0, 0, 0.05};
+  r.hi = {0.8, 0.8, 1.15};
+  r.periodic = {true, true, false};
+  r.solid_fraction = 0.15;
+  r.r_min = 0.03;
+  r.r_max = 0.04;
+  r.density = 2600;
+  r.seed = 3;
+  s.hp = random_packing(r);
+  random_velocities(s.hp, 0.3, 5.0, 9);
+  p.dt = min_collision_time(p, s.hp) / 50;
+  p.contact_order = ContactOrder::GlobalId;
+  return s;
+}
+
+// Cuts of the ranks' count to try: every way of splitting 1, 2 or 3 axes.
+std::vector<std::array<int, 3>> cuts_for(int n) {
+  std::vector<std::array<int, 3>> out;
+  for (int a = 1; a <= n; ++a)
+    for (int b = 1; a * b <= n; ++b)
+      if (n % (a * b) == 0) out.push_back({a, b, n / (a * b)});
+  return out;
+}
+
+std::string text(const std::array<int, 3>& d) {
+  return std::to_string(d[0]) + "x" + std::to_string(d[1]) + "x" + std::to_string(d[2]);
+}
+
+// Bitwise equality of two gathered sets (ids, then every state component).
+void expect_same(const HostParticles& a, const HostParticles& b, const std::string& what) {
+  ASSERT_EQ(a.size(), b.size()) << what;
+  long bad = 0;
+  for (std::size_t i = 0; i < a.x.size(); ++i) {
+    const bool same = a.id[i] == b.id[i] && std::memcmp(&a.x[i], &b.x[i], sizeof(Vec3d)) == 0 &&
+                      std::memcmp(&a.v[i], &b.v[i], sizeof(Vec3d)) == 0 &&
+                      std::memcmp(&a.w[i], &b.w[i], sizeof(Vec3d)) == 0 &&
+                      std::memcmp(&a.f[i], &b.f[i], sizeof(Vec3d)) == 0 &&
+                      std::memcmp(&a.t[i], &b.t[i], sizeof(Vec3d)) == 0;
+    if (!same && bad++ < 3)
+      ADD_FAILURE() << what << ": particle id " << b.id[i] << " differs: x " << a.x[i].x << " vs " << b.x[i].x
+                    << ", v " << a.v[i].x << " vs " << b.v[i].x << ", f " << a.f[i].x << " vs " << b.f[i].x;
+  }
+  EXPECT_EQ(bad, 0) << what << ": particles not bitwise equal to the one-rank run";
+}
+
+// Kinds of owner change seen between two samples of a particle.
+struct Crossings {
+  long face = 0, edge = 0, corner = 0, periodic = 0;
+};
+
+// Runs the scene on all ranks cut `dims` for `steps` steps in chunks of
+// `chunk`, comparing with the one-rank reference (rank 0) after each chunk.
+void run_against_reference(const Scene& sc, std::array<int, 3> dims, long steps, long chunk, Crossings* cross) {
+  const halo::Comm& comm = world();
+  const DemDomain dom = decompose_box(comm, sc.p, sc.hp, dims);
+  DemSystem many(Exec(Backend::Host), sc.p, sc.hp, dom);
+  std::unique_ptr<DemSystem> one;
+  if (comm.root()) one = std::make_unique<DemSystem>(Exec(Backend::Host), sc.p, sc.hp);
+  const Index total = sc.hp.size();
+  EXPECT_EQ(many.global_size(), total);
+  std::vector<int> owner_prev;
+  std::vector<Vec3d> x_prev;
+  // Rank 0: the reference advanced alike, then every check.
+  auto compare = [&](long step, const HostParticles& got, const std::vector<std::vector<std::byte>>& parts,
+                     long n_global) {
+    const std::string at = text(dims) + " after " + std::to_string(step) + " steps";
+    one->advance(chunk);
+    const HostParticles ref = one->gather();
+    EXPECT_EQ(n_global, total) << at;
+    // None lost, none duplicated: the gathered ids are exactly 0..total-1.
+    ASSERT_EQ(got.size(), total) << at;
+    for (Index i = 0; i < total; ++i) ASSERT_EQ(got.id[static_cast<std::size_t>(i)], i) << at;
+    expect_same(got, ref, at);
+    if (::testing::Test::HasFailure()) return;
+    std::vector<int> owner(static_cast<std::size_t>(total), -1);
+    for (int r = 0; r < comm.size(); ++r) {
+      const auto& b = parts[static_cast<std::size_t>(r)];
+      for (std::size_t k = 0; k < b.size() / sizeof(std::int64_t); ++k) {
+        std::int64_t id;
+        std::memcpy(&id, b.data() + k * sizeof(id), sizeof(id));
+        ASSERT_EQ(owner[static_cast<std::size_t>(id)], -1) << at << ": particle " << id << " owned twice";
+        owner[static_cast<std::size_t>(id)] = r;
+      }
+    }
+    if (cross && !owner_prev.empty()) {
+      for (Index i = 0; i < total; ++i) {
+        const auto u = static_cast<std::size_t>(i);
+        if (owner[u] == owner_prev[u]) continue;
+        const auto a = dom.dec.coords(owner_prev[u]), b = dom.dec.coords(owner[u]);
+        int changed = 0;
+        bool wrapped = false;
+        for (std::size_t k = 0; k < 3; ++k) {
+          if (a[k] == b[k]) continue;
+          ++changed;
+          const int kk = static_cast<int>(k);
+          if (std::fabs(got.x[u][kk] - x_prev[u][kk]) > 0.5 * (sc.p.hi[k] - sc.p.lo[k])) wrapped = true;
+        }
+        if (changed == 1) ++cross->face;
+        if (changed == 2) ++cross->edge;
+        if (changed == 3) ++cross->corner;
+        if (wrapped) ++cross->periodic;
+      }
+    }
+    owner_prev = owner;
+    x_prev = got.x;
+  };
+  for (long done = 0; done < steps; done += chunk) {
+    many.advance(chunk);
+    const HostParticles got = many.gather();
+    // The owner of every particle: each rank's ids, gathered on rank 0.
+    const HostParticles mine = many.download();
+    std::vector<std::byte> ids(static_cast<std::size_t>(mine.size()) * sizeof(std::int64_t));
+    if (!ids.empty()) std::memcpy(ids.data(), mine.id.data(), ids.size());
+    const auto parts = comm.gather(ids);
+    const long n_global = static_cast<long>(many.global_size());
+    if (comm.root()) compare(done + chunk, got, parts, n_global);
+    if (any_failure()) return;
+  }
+}
+
+TEST(DemMpi, GasCrossesEveryFaceAndEdgeLikeOneRank) {
+  const Scene sc = gas();
+  ASSERT_GT(sc.hp.size(), 200);
+  for (const auto& dims : cuts_for(world().size())) {
+    Crossings c;
+    run_against_reference(sc, dims, 10000, 50, &c);
+    if (any_failure()) return;
+    if (!world().root()) continue;
+    int split = 0;
+    for (int d : dims) split += d > 1;
+    // Each split axis gives face crossings; two split axes give edges; a
+    // periodic axis cut in parts gives wraps through the box boundary.
+    if (split >= 1) {
+      EXPECT_GT(c.face, 20) << text(dims);
+      EXPECT_GT(c.periodic, 5) << text(dims);
+    }
+    if (split >= 2) EXPECT_GT(c.edge, 0) << text(dims);
+    if (split == 3) EXPECT_GT(c.corner, 0) << text(dims);
+    std::printf("[ dem_mpi ] cut %s: %ld face, %ld edge, %ld corner crossings (%ld through a periodic face)\n",
+                text(dims).c_str(), c.face, c.edge, c.corner, c.periodic);
+  }
+}
+
+TEST(DemMpi, BedWithWallsGravityFrictionLikeOneRank) {
+  const Scene sc = bed();
+  ASSERT_GT(sc.hp.size(), 150);
+  for (const auto& dims : cuts_for(world().size())) {
+    run_against_reference(sc, dims, 4000, 500, nullptr);
+    if (any_failure()) return;
+  }
+}
+
+TEST(DemMpi, RefusesPiecesThinnerThanTheGhostWidth) {
+  const halo::Comm& comm = world();
+  if (comm.size() < 2) GTEST_SKIP() << "needs at least two ranks";
+  const Scene sc = gas();
+  const double w = ghost_width(sc.p, sc.hp.r);
+  DemDomain dom;
+  dom.comm = &comm;
+  dom.dec.dims = {comm.size(), 1, 1};
+  dom.dec.periodic = sc.p.periodic;
+  // Pieces along x: the first one half the ghost width thick.
+  dom.cuts[0].push_back(sc.p.lo[0]);
+  dom.cuts[0].push_back(sc.p.lo[0] + 0.5 * w);
+  for (int i = 2; i < comm.size(); ++i)
+    dom.cuts[0].push_back(sc.p.lo[0] + 0.5 * w + (sc.p.hi[0] - sc.p.lo[0] - 0.5 * w) * (i - 1) / (comm.size() - 1));
+  dom.cuts[0].push_back(sc.p.hi[0]);
+  for (std::size_t a = 1; a < 3; ++a) dom.cuts[a] = {sc.p.lo[a], sc.p.hi[a]};
+  try {
+    DemSystem sys(Exec(Backend::Host), sc.p, sc.hp, dom);
+    ADD_FAILURE() << "a piece thinner than the ghost width was accepted";
+  } catch (const ConfigError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("ghost width"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("piece 0"), std::string::npos) << msg;
+  }
+  // The pair path cannot run on several ranks either.
+  DemParams pair = sc.p;
+  pair.path = ForcePath::Pair;
+  EXPECT_THROW(DemSystem(Exec(Backend::Host), pair, sc.hp, decompose_box(comm, sc.p, sc.hp)), ConfigError);
+}
+
+}  // namespace
+}  // namespace lbdem::dem
+
+int main(int argc, char** argv) {
+  ::testing::InitGoogleTest(&argc, argv);
+  const lbdem::halo::Comm& comm = lbdem::halo::Comm::world();
+  if (!comm.root()) {
+    // One report: rank 0's (the others still fail the run through their exit code).
+    auto& listeners = ::testing::UnitTest::GetInstance()->listeners();
+    delete listeners.Release(listeners.default_result_printer());
+  }
+  const int rc = RUN_ALL_TESTS();
+  // Every rank's verdict decides the exit code of each (mpiexec reports any).
+  return comm.any(rc != 0) ? 1 : 0;
+}
