@@ -231,6 +231,21 @@ void DomainExchange::redistribute(DemSystem::Impl& m) {
       throw DivergenceError(fmtx("DEM particle {} moved from rank {} into the piece of rank {}, which is not a "
                                  "neighbour: it moved more than a piece's thickness between two list builds",
                                  h.gid[static_cast<std::size_t>(i)], me, r));
+    {
+      const auto cm = dom.dec.coords(me), cr = dom.dec.coords(r);
+      const int changed = (cm[0] != cr[0]) + (cm[1] != cr[1]) + (cm[2] != cr[2]);
+      ++migrations[changed - 1];
+      // Through a periodic face: the wrapped centre lies far beyond the piece
+      // (a particle moves less than the ghost width between builds).
+      Vec3d lo, hi;
+      dom.piece(me, lo, hi);
+      const Vec3d x = xyz(h.pos[static_cast<std::size_t>(i)]);
+      for (int a = 0; a < 3; ++a)
+        if (box.periodic[a] && (x[a] < lo[a] - width || x[a] >= hi[a] + width)) {
+          ++migrations_periodic;
+          break;
+        }
+    }
     auto& b = out[static_cast<std::size_t>(it - peers.begin())];
     const auto u = static_cast<std::size_t>(i);
     Migrant mg{};

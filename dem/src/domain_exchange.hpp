@@ -43,6 +43,8 @@ class DomainExchange {
   void refresh(DemSystem::Impl& m);
 
   DemDomain dom;
+  long migrations[3] = {0, 0, 0};  // sent across a face, an edge, a corner (DemStats)
+  long migrations_periodic = 0;
 
  private:
   bool near_piece(const Vec3d& x, std::size_t k) const;

@@ -121,21 +121,22 @@ struct BuildList {
         for (int dx = lo[0]; dx <= hi[0]; ++dx) {
           const int cx = wrap(c[0] + dx, nc0, g.periodic[0]);
           if (cx < 0) continue;
+          // Owned particles of the cell, then (decomposed run) its ghosts.
           for (int cell = cx + row, pass = 0; pass < (ghost_off > 0 ? 2 : 1); ++pass, cell += ghost_off) {
-          const int e = cend[cell];
-          for (int j = cstart[cell]; j < e; ++j) {
-            if (j == i) continue;
-            const Real4 pj = pos[j];
-            const Vec3d d = box.min_image(xyz(pj) - xi);
-            const double rc = pi.w + pj.w + skin;
-            if (dot(d, d) < rc * rc) {
-              if (cnt < cap) {
-                nbr[cnt * n + i] = j;
-                if constexpr (Friction) s.hist[cnt * n + i] = have_prev ? lookup(i, j) : Vec3d{};
+            const int e = cend[cell];
+            for (int j = cstart[cell]; j < e; ++j) {
+              if (j == i) continue;
+              const Real4 pj = pos[j];
+              const Vec3d d = box.min_image(xyz(pj) - xi);
+              const double rc = pi.w + pj.w + skin;
+              if (dot(d, d) < rc * rc) {
+                if (cnt < cap) {
+                  nbr[cnt * n + i] = j;
+                  if constexpr (Friction) s.hist[cnt * n + i] = have_prev ? lookup(i, j) : Vec3d{};
+                }
+                ++cnt;
               }
-              ++cnt;
             }
-          }
           }
         }
       }

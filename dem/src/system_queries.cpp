@@ -4,6 +4,7 @@
 #include <cstring>
 #include <numeric>
 
+#include "domain_exchange.hpp"
 #include "system_impl.hpp"
 
 namespace lbdem::dem {
@@ -16,6 +17,11 @@ DemStats DemSystem::stats() const {
   s.neighbour_capacity = m.lists.cap;
   s.status_reads = m.sched.status_reads;
   s.status_waits = m.sched.status_waits;
+  if (m.domain) {
+    for (int k = 0; k < 3; ++k) s.migrations[k] = m.domain->migrations[k];
+    s.migrations_periodic = m.domain->migrations_periodic;
+    s.ghosts = m.store.n - m.store.n_owned;
+  }
   const Index n = m.lists.rows;  // the owned particles' rows
   if (n > 0) {
     std::vector<int> c = m.lists.ncount.to_vector();

@@ -86,6 +86,12 @@ struct DemStats {
   double mean_neighbours = 0;  // at the last build
   long status_reads = 0;  // rebuild-decision reports read by the host
   long status_waits = 0;  // of those, reads that found the device not yet there (CUDA; timing-dependent)
+  // Decomposed run, this rank: particles sent to another rank across a face,
+  // an edge and a corner of its piece (1, 2 and 3 piece coordinates changed,
+  // periodic wrap included), and the ghosts held at the last build.
+  long migrations[3] = {0, 0, 0};
+  long migrations_periodic = 0;  // of those, through a periodic face of the box
+  Index ghosts = 0;
 };
 
 class DemSystem {
