@@ -73,7 +73,8 @@ class Comm {
   // for the transports: a duplicate of MPI_COMM_WORLD, so their tags never
   // meet the messages of the collectives here. nullptr without MPI.
   void* native() const { return native_; }
-  // "mpi (4 ranks, 2 per node)" / "single rank (built without MPI)".
+  // "mpi (4 ranks, 2 on this node)", "mpi (1 rank)", "single rank (built without MPI)",
+  // "single rank (not started by an MPI launcher)".
   std::string describe() const;
 
  private:
