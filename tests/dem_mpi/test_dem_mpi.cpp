@@ -294,16 +294,3 @@ TEST(DemMpi, RefusesPiecesThinnerThanTheGhostWidth) {
 
 }  // namespace
 }  // namespace lbdem::dem
-
-int main(int argc, char** argv) {
-  ::testing::InitGoogleTest(&argc, argv);
-  const lbdem::halo::Comm& comm = lbdem::halo::Comm::world();
-  if (!comm.root()) {
-    // One report: rank 0's (the others still fail the run through their exit code).
-    auto& listeners = ::testing::UnitTest::GetInstance()->listeners();
-    delete listeners.Release(listeners.default_result_printer());
-  }
-  const int rc = RUN_ALL_TESTS();
-  // Every rank's verdict decides the exit code of each (mpiexec reports any).
-  return comm.any(rc != 0) ? 1 : 0;
-}

@@ -12,7 +12,14 @@
 // Message matching: a message is identified by (peer, tag). Two messages to
 // the same peer must carry different tags (two faces of a periodic axis cut
 // in two are two messages to one rank). NCCL has no tags: the transports
-// order sends and receives by (peer, tag), so both sides agree.
+// order sends and receives by (peer, tag), so both sides agree. A message to
+// this rank itself is a local copy (on ex's stream on the CUDA backend).
+//
+// Collective calls: make_transport() on all ranks of the Comm, in the same
+// order (each MPI transport gets its own communicator, so two transports in
+// flight at once never confuse their tags; NCCL's communicator is made once);
+// bind() among the peers of its message list (it checks once that each
+// message's size is the size its peer expects, and throws Error otherwise).
 #include <cstddef>
 #include <memory>
 #include <string>
@@ -40,18 +47,22 @@ struct Message {
   std::size_t recv_bytes = 0;
 };
 
-// Seconds spent in the last start() and finish() (host wall time, including
-// the waits for staging copies and for the network).
+// Seconds spent in the last start() and finish() (host wall time from a
+// steady clock, including the waits for staging copies and for the network;
+// NCCL queues its work on the stream, so its times are only the queueing).
 struct TransportTimes {
   double start = 0, finish = 0;
-  std::size_t bytes_sent = 0;  // per step
-  int messages = 0;
+  std::size_t bytes_sent = 0;  // per step, to other ranks (local copies not counted)
+  int messages = 0;            // per step, non-empty messages to other ranks
 };
 
 class Transport {
  public:
   virtual ~Transport() = default;
   // Fixes the message list (buffers, sizes, peers); allocates staging memory.
+  // Checks the list (peers are ranks, tags 0..63, unique (peer, tag) and
+  // (peer, recv_tag), sizes agreed with the peers) and throws Error if not.
+  // May be called again (not while an exchange is in flight) to rebind.
   virtual void bind(std::vector<Message> messages) = 0;
   // Sends every bound buffer (after the packing work queued on ex) and posts
   // the receives. Returns without waiting for delivery.
@@ -70,10 +81,23 @@ TransportKind parse_transport(const std::string& name, const std::string& key = 
 bool mpi_cuda_aware();
 bool nccl_compiled();
 
+// True when every rank of `comm` computes on a GPU of its own (no two ranks
+// of one host on the same device, compared by PCI bus id). Collective. On
+// false, `clash` (when given) says which ranks share which device.
+bool every_rank_has_own_gpu(const Comm& comm, std::string* clash = nullptr);
+
+// The kind Auto picks for `backend` (collective): on the host backend, or on
+// one rank (nothing to send), HostMpi; on the CUDA backend NCCL when built in
+// and every rank has its own GPU, else DeviceMpi when the MPI is CUDA-aware,
+// else HostMpi. Other kinds are returned as they are.
+TransportKind resolve_transport(TransportKind kind, const Comm& comm, Backend backend);
+
 // The transport of `kind` (Auto resolved as above) for buffers on `backend`.
-// Throws ResourceError with the reason when that kind cannot run here
-// (device MPI without a CUDA-aware MPI, NCCL not built in, NCCL with two ranks
-// on one GPU, a device transport on the host backend).
-std::unique_ptr<Transport> make_transport(TransportKind kind, const Comm& comm, Backend backend);
+// Collective over `comm`. Throws ResourceError naming `key` with the reason
+// when that kind cannot run here (a device transport on the host backend,
+// NCCL not built in, and with more than one rank: device MPI without a
+// CUDA-aware MPI, NCCL with two ranks on one GPU).
+std::unique_ptr<Transport> make_transport(TransportKind kind, const Comm& comm, Backend backend,
+                                          const std::string& key = "parallel.transport");
 
 }  // namespace lbdem::halo
