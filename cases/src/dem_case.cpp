@@ -247,8 +247,11 @@ void write_particles(io::ParticleWriter* w, const dem::DemSystem& sys, long step
 }
 
 // A series row from every rank's particles (collective; the row on rank 0).
+// The sums run in global-id order on several ranks, and with contact_order
+// global_id on one (the same bits on any number of ranks); else in storage order.
 std::vector<double> series_row(const dem::DemSystem& sys, long step, const std::vector<std::int64_t>& track) {
-  const HostParticles h = sys.gather();
+  const bool by_id = halo::Comm::world().size() > 1 || sys.params().contact_order == dem::ContactOrder::GlobalId;
+  const HostParticles h = by_id ? sys.gather() : sys.download();
   if (!halo::Comm::world().root()) return {};
   double ke = 0, kr = 0, vmax = 0;
   std::map<std::int64_t, Index> at;
