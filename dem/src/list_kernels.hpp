@@ -54,8 +54,10 @@ struct CellRange {
 // (fewer on thin periodic axes) surrounding cells. With friction, each slot's
 // history is looked up by partner global id in the previous list: in i's own
 // old row, else in the partner's old row (negated, the pair path keeps only
-// the i<j copy).
-template <bool Friction>
+// the i<j copy). `Ghosts` (a decomposed run): each cell's ghosts, in cell +
+// ghost_off, are scanned after its owned particles (a template flag, so the
+// one-rank kernel is the plain one).
+template <bool Friction, bool Ghosts>
 struct BuildList {
   State s;
   CellGrid g;
@@ -67,7 +69,7 @@ struct BuildList {
   const std::int64_t* gid_prev;
   int have_prev;
   int prev_full;  // 1: both copies valid (particle path); 0: only partner old index > own
-  int ghost_off;  // > 0: the ghosts of a cell are in cell + ghost_off (scanned too)
+  int ghost_off;  // Ghosts: the ghosts of a cell are in cell + ghost_off
 
   LBDEM_HD Vec3d lookup(Index i, Index j) const {
     const Index oi = perm[i], oj = perm[j];
@@ -122,7 +124,7 @@ struct BuildList {
           const int cx = wrap(c[0] + dx, nc0, g.periodic[0]);
           if (cx < 0) continue;
           // Owned particles of the cell, then (decomposed run) its ghosts.
-          for (int cell = cx + row, pass = 0; pass < (ghost_off > 0 ? 2 : 1); ++pass, cell += ghost_off) {
+          for (int cell = cx + row, pass = 0; pass < (Ghosts ? 2 : 1); ++pass, cell += ghost_off) {
             const int e = cend[cell];
             for (int j = cstart[cell]; j < e; ++j) {
               if (j == i) continue;

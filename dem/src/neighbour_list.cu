@@ -15,6 +15,20 @@ namespace lbdem::dem {
 
 namespace {
 
+// The arguments of BuildList, made into the kernel of each flag combination.
+struct BuildArgs {
+  State s;
+  CellGrid g;
+  const int *cstart, *cend, *perm, *nbr_prev, *ncount_prev;
+  const Vec3d* hist_prev;
+  const std::int64_t* gid_prev;
+  int have_prev, prev_full, ghost_off;
+  template <bool Friction, bool Ghosts>
+  BuildList<Friction, Ghosts> make() const {
+    return {s, g, cstart, cend, perm, nbr_prev, ncount_prev, hist_prev, gid_prev, have_prev, prev_full, ghost_off};
+  }
+};
+
 struct CountAt {
   const int* c;
   LBDEM_HD int operator()(Index i) const { return c[i]; }
@@ -185,14 +199,14 @@ void NeighbourList::rebuild(const Exec& ex, ParticleStore& store, const State& p
     State s = physics;
     store.bind(s);
     bind(s);
+    const BuildArgs a{s, grid, cell_start.data(), cell_end.data(), perm.data(), nbr_prev.data(), ncount_prev.data(),
+                      hist_prev.data(), store.gid_prev(), have_prev ? 1 : 0, pair_path ? 0 : 1, ghost_off};
     if (history) {
-      launch(ex, rows, BuildList<true>{s, grid, cell_start.data(), cell_end.data(), perm.data(), nbr_prev.data(),
-                                       ncount_prev.data(), hist_prev.data(), store.gid_prev(), have_prev ? 1 : 0,
-                                       pair_path ? 0 : 1, ghost_off});
+      if (ghost_off > 0) launch(ex, rows, a.make<true, true>());
+      else launch(ex, rows, a.make<true, false>());
     } else {
-      launch(ex, rows, BuildList<false>{s, grid, cell_start.data(), cell_end.data(), perm.data(), nbr_prev.data(),
-                                        ncount_prev.data(), hist_prev.data(), store.gid_prev(), have_prev ? 1 : 0,
-                                        pair_path ? 0 : 1, ghost_off});
+      if (ghost_off > 0) launch(ex, rows, a.make<false, true>());
+      else launch(ex, rows, a.make<false, false>());
     }
     // The one blocking read of a build: a list that overflowed must be
     // rebuilt larger before any force uses it. The flags stay zero otherwise.
