@@ -153,8 +153,17 @@ void RebuildScheduler::take_report(long t, long due) {
   ++reports;
 }
 
+void RebuildScheduler::zero_slot(long q) {
+  ex.synchronize();
+  backend_memset(ex.backend(), slot(q), 0, sizeof(StatusRecord));
+}
+
 void RebuildScheduler::initial_report(const State& st, Index count, long step) {
   launch(ex, count, Report{st, slot(reports), slot(reports + 1)});
+  if (count == 0) {
+    zero_slot(reports);
+    zero_slot(reports + 1);
+  }
   take_report(step, step);
   while (npending > 0) read_front();
 }

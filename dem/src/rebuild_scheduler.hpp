@@ -41,6 +41,9 @@ class RebuildScheduler {
 
   // Device slot of report q (reports are reduced into slot q % kRing).
   StatusRecord* slot(long q) { return status.data() + q % kRing; }
+  // Zeroes slot(q) from the host: what particle 0 of a report kernel does
+  // for the next report, on a rank that owns no particle (decomposed run).
+  void zero_slot(long q);
   // Where reductions go that no report will read (bench hook).
   StatusRecord* sink() { return status.data() + kRing; }
   // Queues the copy of the report just reduced into slot(reports) (device:

@@ -212,6 +212,9 @@ void DemSystem::advance(long steps) {
     const int rep = report ? 1 : 0, check = build ? 0 : 1;
     if (m.p.friction) launch(m.ex, n, KickDrift<true>{st, synced, extrap, rec, next, rep, check});
     else launch(m.ex, n, KickDrift<false>{st, synced, extrap, rec, next, rep, check});
+    // A rank without particles reports zeros (a decomposed run; the kernel's
+    // particle 0 zeroes the next slot otherwise).
+    if (n == 0 && report) r.zero_slot(r.reports + 1);
     // The forces just used become the "old" ones of the velocity predictor.
     m.store.frc.swap(m.store.frco);
     if (m.p.friction) m.store.trq.swap(m.store.trqo);
