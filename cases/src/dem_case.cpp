@@ -224,7 +224,7 @@ DemCase read_case(const Config& root, const RunOptions& opt) {
   }
   if (root.has("decomposition")) {
     const auto d = root.integers("decomposition", 3, 3, 1, 1 << 20);
-    for (int k = 0; k < 3; ++k) c.decomposition[static_cast<std::size_t>(k)] = static_cast<int>(d[static_cast<std::size_t>(k)]);
+    for (std::size_t k = 0; k < 3; ++k) c.decomposition[k] = static_cast<int>(d[k]);
   }
   root.accept("scene");
   root.finish();
@@ -329,8 +329,8 @@ int run_dem_case(const Config& root, const RunOptions& opt) {
   long step = 0;
   // A stop signal (core/signals.hpp) is honoured between advance() calls: the
   // chunk lengths, and with them the neighbour-list rebuild schedule, stay
-  // those of an uninterrupted run.
-  // A stop signal reaching any rank stops all of them at the same step.
+  // those of an uninterrupted run. A signal reaching any rank stops all of
+  // them at the same step.
   auto stop_now = [&comm] { return comm.any(stop_requested()); };
   bool stop = stop_now();
   while (step < c.steps && !stop) {
@@ -344,14 +344,15 @@ int run_dem_case(const Config& root, const RunOptions& opt) {
       const std::vector<double> row = series_row(sys, step, c.track);
       if (series) series->append(row);
       if (comm.any(series && !std::isfinite(row[2])))
-        throw DivergenceError("scene dem: kinetic energy is " + (row.empty() ? std::string("not finite") : std::to_string(row[2])) + " at step " +
+        throw DivergenceError("scene dem: kinetic energy is " +
+                              (row.empty() ? std::string("not finite") : std::to_string(row[2])) + " at step " +
                               std::to_string(step) + " (t = " + std::to_string(sys.time()) +
                               " s): lower time.dt or check the material and the initial overlaps");
     }
     if ((c.output_interval > 0 && step % c.output_interval == 0) || last) write_particles(w, sys, step);
     if (prog.due()) {
       sys.synchronize();
-      prog.report(step, sys.time(), static_cast<double>(sys.size()), "particle-steps/s");
+      prog.report(step, sys.time(), static_cast<double>(n_particles), "particle-steps/s");
     }
   }
   const bool interrupted = step < c.steps;
@@ -364,8 +365,9 @@ int run_dem_case(const Config& root, const RunOptions& opt) {
      << "\n}\n";
   if (writer_rank) io::write_text_atomically(c.outdir + "/summary.json", js.str());
   if (interrupted) {
-    spdlog::warn("stopped by {} at step {} of {} (t = {:.6g} s); output up to that step is in {}", stop_signal_name(),
-                 step, c.steps, sys.time(), c.outdir);
+    if (writer_rank)
+      spdlog::warn("stopped by {} at step {} of {} (t = {:.6g} s); output up to that step is in {}",
+                   stop_signal_name(), step, c.steps, sys.time(), c.outdir);
     return kExitInterrupted;
   }
   if (!quiet) {
