@@ -278,7 +278,7 @@ TEST(DemMpi, BedWithWallsGravityFrictionLikeOneRank) {
   ASSERT_GT(sc.hp.size(), 150);
   if (world().size() == 1) GTEST_SKIP() << "needs at least two ranks";
   Reference refs;
-  run_against_reference(sc, bed_cut(world().size()), 3000, 1000, nullptr, refs);
+  run_against_reference(sc, bed_cut(world().size()), 2000, 500, nullptr, refs);
 }
 
 // A small cluster drifting through the box: most ranks own no particle for
