@@ -10,10 +10,13 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <exception>
 #include <filesystem>
 #include <limits>
 #include <map>
+#include <optional>
 #include <random>
 #include <sstream>
 
@@ -23,8 +26,10 @@
 #include "core/output.hpp"
 #include "core/progress.hpp"
 #include "core/signals.hpp"
+#include "dem/domain.hpp"
 #include "dem/init.hpp"
 #include "dem/system.hpp"
+#include "halo/comm.hpp"
 
 namespace lbdem {
 
@@ -43,6 +48,7 @@ struct DemCase {
   long output_interval = 0;  // particle snapshots every N steps (0: first and last only)
   long series_interval = 0;  // time-series rows every N steps
   std::vector<std::int64_t> track;  // ids whose position/velocity go into the series
+  std::array<int, 3> decomposition{0, 0, 0};  // ranks per axis ({0, 0, 0}: chosen)
 };
 
 HostParticles read_particles(const Config& pc, const DemParams& p, std::uint64_t& seed_out) {
@@ -177,8 +183,16 @@ DemCase read_case(const Config& root, const RunOptions& opt) {
       p.path = nb->choice("force_path", "particle", {"particle", "pair"}) == "pair" ? dem::ForcePath::Pair
                                                                               : dem::ForcePath::Particle;
       p.neighbour_capacity = static_cast<int>(nb->integer_in("capacity", 0, 0, 4096));
+      // global_id: contacts summed in partner-id order, the same sums on any
+      // number of ranks (the default on several ranks).
+      if (nb->has("contact_order"))
+        p.contact_order = nb->choice("contact_order", {"storage", "global_id"}) == "global_id"
+                              ? dem::ContactOrder::GlobalId
+                              : dem::ContactOrder::Storage;
       nb->finish();
     }
+    if (halo::Comm::world().size() > 1 && !(nb && nb->has("contact_order")))
+      p.contact_order = dem::ContactOrder::GlobalId;
   }
   {
     const Config t = root.section("time");
@@ -208,6 +222,10 @@ DemCase read_case(const Config& root, const RunOptions& opt) {
     }
     o.finish();
   }
+  if (root.has("decomposition")) {
+    const auto d = root.integers("decomposition", 3, 3, 1, 1 << 20);
+    for (std::size_t k = 0; k < 3; ++k) c.decomposition[k] = static_cast<int>(d[k]);
+  }
   root.accept("scene");
   root.finish();
   if (opt.steps) c.steps = *opt.steps;
@@ -220,14 +238,21 @@ DemCase read_case(const Config& root, const RunOptions& opt) {
   return c;
 }
 
-void write_particles(io::ParticleWriter& w, const dem::DemSystem& sys, long step) {
-  const HostParticles h = sys.download();
+// Particles of every rank, in global-id order (collective; written by rank 0).
+void write_particles(io::ParticleWriter* w, const dem::DemSystem& sys, long step) {
+  const HostParticles h = sys.gather();
+  if (!w) return;
   const std::vector<double> frc = cases::interleave(h.f);
-  cases::write_particle_snapshot(w, step, sys.time(), h, {{"force", 3, frc.data()}});
+  cases::write_particle_snapshot(*w, step, sys.time(), h, {{"force", 3, frc.data()}});
 }
 
+// A series row from every rank's particles (collective; the row on rank 0).
+// The sums run in global-id order on several ranks, and with contact_order
+// global_id on one (the same bits on any number of ranks); else in storage order.
 std::vector<double> series_row(const dem::DemSystem& sys, long step, const std::vector<std::int64_t>& track) {
-  const HostParticles h = sys.download();
+  const bool by_id = halo::Comm::world().size() > 1 || sys.params().contact_order == dem::ContactOrder::GlobalId;
+  const HostParticles h = by_id ? sys.gather() : sys.download();
+  if (!halo::Comm::world().root()) return {};
   double ke = 0, kr = 0, vmax = 0;
   std::map<std::int64_t, Index> at;
   for (Index i = 0; i < h.size(); ++i) {
@@ -253,63 +278,99 @@ std::vector<std::string> dem_scene_names() { return {"dem"}; }
 int run_dem_case(const Config& root, const RunOptions& opt) {
   DemCase c = read_case(root, opt);
   const Backend backend = resolve_backend(opt.backend);
+  // Many ranks (mpirun): each owns the particles of its piece of the box;
+  // rank 0 writes every file.
+  const halo::Comm& comm = halo::Comm::world();
+  const dem::DemDomain domain = comm.size() > 1 || c.decomposition[0] > 0
+                                    ? dem::decompose_box(comm, c.params, c.particles, c.decomposition)
+                                    : dem::DemDomain{};
   if (opt.validate_only) return 0;
-  io::prepare_output_dir(c.outdir, opt.overwrite);
-  dem::DemSystem sys(Exec(backend), c.params, c.particles);
+  const bool writer_rank = comm.root();
+  {
+    std::exception_ptr failed;
+    if (writer_rank) {
+      try {
+        io::prepare_output_dir(c.outdir, opt.overwrite);
+      } catch (...) {
+        failed = std::current_exception();
+      }
+    }
+    if (comm.any(failed != nullptr)) {
+      if (failed) std::rethrow_exception(failed);
+      throw Error("rank 0 could not prepare the output directory " + c.outdir);
+    }
+  }
+  dem::DemSystem sys(Exec(backend), c.params, c.particles, domain);
   const DemParams& p = sys.params();
-  if (!opt.quiet) {
+  const Index n_particles = sys.global_size();
+  const bool quiet = opt.quiet || !writer_rank;
+  if (!quiet) {
+    if (domain.decomposed())
+      spdlog::info("scene dem: {} ranks, decomposition {}", comm.size(), domain.dec.describe());
     spdlog::info("scene dem: {} particles, backend {}, {} force path, friction {}, dt = {:.6g} s (t_c/{:.1f}), {} "
                  "steps = {:.6g} s; output in {}",
-                 sys.size(), to_string(backend), dem::to_string(p.path), p.friction ? "on" : "off", p.dt,
+                 n_particles, to_string(backend), dem::to_string(p.path), p.friction ? "on" : "off", p.dt,
                  dem::min_collision_time(p, c.particles) / p.dt, c.steps, c.steps * p.dt, c.outdir);
   }
-  io::ParticleWriter writer(c.outdir, "particles");
+  std::optional<io::ParticleWriter> writer;
+  if (writer_rank) writer.emplace(c.outdir, "particles");
   std::vector<std::string> cols{"step", "time", "kinetic_energy", "rotational_energy", "max_speed", "rebuilds"};
   for (std::int64_t id : c.track)
     for (const char* q : {"x", "y", "z", "vx", "vy", "vz"}) cols.push_back(std::string(q) + "_" + std::to_string(id));
-  io::TimeSeries series(c.outdir + "/series.csv", cols);
-  write_particles(writer, sys, 0);
-  series.append(series_row(sys, 0, c.track));
-  Progress prog("dem", c.steps, 5.0, opt.quiet);
+  std::optional<io::TimeSeries> series;
+  if (writer_rank) series.emplace(c.outdir + "/series.csv", cols);
+  io::ParticleWriter* w = writer ? &*writer : nullptr;
+  write_particles(w, sys, 0);
+  {
+    const std::vector<double> row = series_row(sys, 0, c.track);
+    if (series) series->append(row);
+  }
+  Progress prog("dem", c.steps, 5.0, quiet);
   long step = 0;
   // A stop signal (core/signals.hpp) is honoured between advance() calls: the
   // chunk lengths, and with them the neighbour-list rebuild schedule, stay
-  // those of an uninterrupted run.
-  while (step < c.steps && !stop_requested()) {
+  // those of an uninterrupted run. A signal reaching any rank stops all of
+  // them at the same step.
+  auto stop_now = [&comm] { return comm.any(stop_requested()); };
+  bool stop = stop_now();
+  while (step < c.steps && !stop) {
     long next = std::min(c.steps, (step / c.series_interval + 1) * c.series_interval);
     if (c.output_interval > 0) next = std::min(next, (step / c.output_interval + 1) * c.output_interval);
     sys.advance(next - step);
     step = next;
-    const bool last = step == c.steps || stop_requested();
+    stop = stop_now();
+    const bool last = step == c.steps || stop;
     if (step % c.series_interval == 0 || last) {
       const std::vector<double> row = series_row(sys, step, c.track);
-      series.append(row);
-      if (!std::isfinite(row[2]))
-        throw DivergenceError("scene dem: kinetic energy is " + std::to_string(row[2]) + " at step " +
+      if (series) series->append(row);
+      if (comm.any(series && !std::isfinite(row[2])))
+        throw DivergenceError("scene dem: kinetic energy is " +
+                              (row.empty() ? std::string("not finite") : std::to_string(row[2])) + " at step " +
                               std::to_string(step) + " (t = " + std::to_string(sys.time()) +
                               " s): lower time.dt or check the material and the initial overlaps");
     }
-    if ((c.output_interval > 0 && step % c.output_interval == 0) || last) write_particles(writer, sys, step);
+    if ((c.output_interval > 0 && step % c.output_interval == 0) || last) write_particles(w, sys, step);
     if (prog.due()) {
       sys.synchronize();
-      prog.report(step, sys.time(), static_cast<double>(sys.size()), "particle-steps/s");
+      prog.report(step, sys.time(), static_cast<double>(n_particles), "particle-steps/s");
     }
   }
   const bool interrupted = step < c.steps;
   const auto st = sys.stats();
   std::ostringstream js;
-  js << "{\n  \"scene\": \"dem\",\n  \"particles\": " << sys.size() << ",\n  \"steps\": " << step
+  js << "{\n  \"scene\": \"dem\",\n  \"particles\": " << n_particles << ",\n  \"steps\": " << step
      << ",\n  \"steps_planned\": " << c.steps << ",\n  \"time_s\": " << sys.time()
      << ",\n  \"seconds\": " << prog.elapsed() << ",\n  \"rebuilds\": " << st.rebuilds
      << ",\n  \"backend\": \"" << to_string(backend) << "\",\n  \"interrupted\": " << (interrupted ? "true" : "false")
      << "\n}\n";
-  io::write_text_atomically(c.outdir + "/summary.json", js.str());
+  if (writer_rank) io::write_text_atomically(c.outdir + "/summary.json", js.str());
   if (interrupted) {
-    spdlog::warn("stopped by {} at step {} of {} (t = {:.6g} s); output up to that step is in {}", stop_signal_name(),
-                 step, c.steps, sys.time(), c.outdir);
+    if (writer_rank)
+      spdlog::warn("stopped by {} at step {} of {} (t = {:.6g} s); output up to that step is in {}",
+                   stop_signal_name(), step, c.steps, sys.time(), c.outdir);
     return kExitInterrupted;
   }
-  if (!opt.quiet) {
+  if (!quiet) {
     spdlog::info("done: {} steps in {}, {} neighbour-list rebuilds (every {:.1f} steps), {:.1f} neighbours per "
                  "particle; results: {}/particles.xdmf (ParaView), {}/series.csv",
                  step, format_duration(prog.elapsed()), st.rebuilds,

@@ -10,7 +10,8 @@ namespace lbdem::dem {
 template <bool Friction>
 void force_step(DemSystem::Impl& m) {
   const State s = m.state();
-  const Index n = m.store.size();
+  // Rows of the owned particles (ghosts, behind them, are partners only).
+  const Index n = m.store.owned();
   if (m.p.path == ForcePath::Particle) {
     launch(m.ex, n, ForceParticle<Friction>{s});
     return;

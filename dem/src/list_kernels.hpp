@@ -11,13 +11,17 @@
 namespace lbdem::dem {
 
 // ------------------------------------------------------------------- cell list
+// Ghosts (records from n_owned on) go into a second set of cells, `ghost_off`
+// keys up: the sort then keeps the owned records first.
 struct CellKey {
   const Real4* pos;
   CellGrid g;
   std::uint32_t* key;
   int* idx;
+  Index n_owned;
+  std::uint32_t ghost_off;
   LBDEM_HD void operator()(Index i) const {
-    key[i] = g.cell(pos[i]);
+    key[i] = g.cell(pos[i]) + (i >= n_owned ? ghost_off : 0u);
     idx[i] = static_cast<int>(i);
   }
 };
@@ -50,8 +54,10 @@ struct CellRange {
 // (fewer on thin periodic axes) surrounding cells. With friction, each slot's
 // history is looked up by partner global id in the previous list: in i's own
 // old row, else in the partner's old row (negated, the pair path keeps only
-// the i<j copy).
-template <bool Friction>
+// the i<j copy). `Ghosts` (a decomposed run): each cell's ghosts, in cell +
+// ghost_off, are scanned after its owned particles (a template flag, so the
+// one-rank kernel is the plain one).
+template <bool Friction, bool Ghosts>
 struct BuildList {
   State s;
   CellGrid g;
@@ -63,6 +69,7 @@ struct BuildList {
   const std::int64_t* gid_prev;
   int have_prev;
   int prev_full;  // 1: both copies valid (particle path); 0: only partner old index > own
+  int ghost_off;  // Ghosts: the ghosts of a cell are in cell + ghost_off
 
   LBDEM_HD Vec3d lookup(Index i, Index j) const {
     const Index oi = perm[i], oj = perm[j];
@@ -116,19 +123,21 @@ struct BuildList {
         for (int dx = lo[0]; dx <= hi[0]; ++dx) {
           const int cx = wrap(c[0] + dx, nc0, g.periodic[0]);
           if (cx < 0) continue;
-          const int cell = cx + row;
-          const int e = cend[cell];
-          for (int j = cstart[cell]; j < e; ++j) {
-            if (j == i) continue;
-            const Real4 pj = pos[j];
-            const Vec3d d = box.min_image(xyz(pj) - xi);
-            const double rc = pi.w + pj.w + skin;
-            if (dot(d, d) < rc * rc) {
-              if (cnt < cap) {
-                nbr[cnt * n + i] = j;
-                if constexpr (Friction) s.hist[cnt * n + i] = have_prev ? lookup(i, j) : Vec3d{};
+          // Owned particles of the cell, then (decomposed run) its ghosts.
+          for (int cell = cx + row, pass = 0; pass < (Ghosts ? 2 : 1); ++pass, cell += ghost_off) {
+            const int e = cend[cell];
+            for (int j = cstart[cell]; j < e; ++j) {
+              if (j == i) continue;
+              const Real4 pj = pos[j];
+              const Vec3d d = box.min_image(xyz(pj) - xi);
+              const double rc = pi.w + pj.w + skin;
+              if (dot(d, d) < rc * rc) {
+                if (cnt < cap) {
+                  nbr[cnt * n + i] = j;
+                  if constexpr (Friction) s.hist[cnt * n + i] = have_prev ? lookup(i, j) : Vec3d{};
+                }
+                ++cnt;
               }
-              ++cnt;
             }
           }
         }
@@ -140,6 +149,33 @@ struct BuildList {
       detail::atomic_max(&s.flags[1], cnt);
     }
     s.x0[i] = pi;
+  }
+};
+
+// Sorts each row of the Verlet list by the partners' global ids (insertion
+// sort: rows are short), moving the tangential histories along, so that the
+// force loop sums a particle's contacts in global-id order whatever the
+// storage order and the decomposition (DemParams::contact_order).
+template <bool Friction>
+struct SortRows {
+  State s;
+  LBDEM_HD void operator()(Index i) const {
+    const Index n = s.n;
+    const int cnt = s.ncount[i];
+    for (int a = 1; a < cnt; ++a) {
+      const int j = s.nbr[a * n + i];
+      const std::int64_t g = s.gid[j];
+      Vec3d h{};
+      if constexpr (Friction) h = s.hist[a * n + i];
+      int b = a - 1;
+      while (b >= 0 && s.gid[s.nbr[b * n + i]] > g) {
+        s.nbr[(b + 1) * n + i] = s.nbr[b * n + i];
+        if constexpr (Friction) s.hist[(b + 1) * n + i] = s.hist[b * n + i];
+        --b;
+      }
+      s.nbr[(b + 1) * n + i] = j;
+      if constexpr (Friction) s.hist[(b + 1) * n + i] = h;
+    }
   }
 };
 

@@ -15,6 +15,20 @@ namespace lbdem::dem {
 
 namespace {
 
+// The arguments of BuildList, made into the kernel of each flag combination.
+struct BuildArgs {
+  State s;
+  CellGrid g;
+  const int *cstart, *cend, *perm, *nbr_prev, *ncount_prev;
+  const Vec3d* hist_prev;
+  const std::int64_t* gid_prev;
+  int have_prev, prev_full, ghost_off;
+  template <bool Friction, bool Ghosts>
+  BuildList<Friction, Ghosts> make() const {
+    return {s, g, cstart, cend, perm, nbr_prev, ncount_prev, hist_prev, gid_prev, have_prev, prev_full, ghost_off};
+  }
+};
+
 struct CountAt {
   const int* c;
   LBDEM_HD int operator()(Index i) const { return c[i]; }
@@ -33,6 +47,7 @@ void NeighbourList::set_geometry(const Box& box, const std::vector<double>& r, d
   if (np == 0) rmax = rmin = 1;
   skin = skin_param > 0 ? skin_param : 0.2 * rmin;
   const double rc = 2 * rmax + skin;
+  cutoff = rc;
   for (int k = 0; k < 3; ++k) {
     if (box.periodic[k] && box.len[k] < 2 * rc)
       throw ConfigError(fmtx(("domain: periodic length {} along axis {} is below twice the largest cutoff "
@@ -53,12 +68,17 @@ void NeighbourList::set_geometry(const Box& box, const std::vector<double>& r, d
   }
 }
 
-void NeighbourList::allocate(Backend be, Index np, bool with_history, bool with_pairs, int capacity) {
+void NeighbourList::allocate(Backend be, Index np, bool with_history, bool with_pairs, int capacity,
+                             bool ghost_cells) {
   n = np;
   history = with_history;
   pair_path = with_pairs;
   cap = capacity;
-  const long long total = 1LL * grid.nc[0] * grid.nc[1] * grid.nc[2];
+  long long total = 1LL * grid.nc[0] * grid.nc[1] * grid.nc[2];
+  if (ghost_cells) {
+    ghost_off = static_cast<int>(total);
+    total *= 2;
+  }
   key = Buffer<std::uint32_t>(be, n);
   key_sorted = Buffer<std::uint32_t>(be, n);
   idx = Buffer<int>(be, n);
@@ -74,6 +94,33 @@ void NeighbourList::allocate(Backend be, Index np, bool with_history, bool with_
   coffs = Buffer<int>(be, n + 1);
   flags = Buffer<int>(be, 2);
   flags.fill_zero();
+}
+
+void NeighbourList::resize(Backend be, Index np) {
+  n = np;
+  auto fit = [be](auto& b, Index m) {
+    if (b.size() < m) b.reserve_discard(be, m + m / 4 + 16);
+  };
+  fit(key, n); fit(key_sorted, n); fit(idx, n); fit(perm, n); fit(ncount, n);
+  if (history) fit(ncount_prev, n);
+  fit(ccount, n + 1); fit(coffs, n + 1);
+}
+
+void NeighbourList::load_previous(Backend be, const std::vector<int>& count, const std::vector<int>& nb,
+                                  const std::vector<Vec3d>& hs, int cap_prev) {
+  if (!history) return;
+  const Index slots = n * std::max(cap_prev, 1);
+  nbr_prev.reserve_discard(be, slots);
+  hist_prev.reserve_discard(be, slots);
+  if (n > 0) {
+    ncount_prev.copy_from_host(count.data(), n);
+    if (!nb.empty()) {
+      nbr_prev.copy_from_host(nb.data(), static_cast<Index>(nb.size()));
+      hist_prev.copy_from_host(hs.data(), static_cast<Index>(hs.size()));
+    }
+  }
+  have_prev = true;
+  prev_loaded = true;
 }
 
 void NeighbourList::allocate_lists(Backend be) {
@@ -92,8 +139,10 @@ void NeighbourList::bind(State& s) const {
 }
 
 void NeighbourList::rebuild(const Exec& ex, ParticleStore& store, const State& physics, Scratch& scratch) {
-  // 1. Cell of every particle, then sort by cell.
-  launch(ex, n, CellKey{store.pos.data(), grid, key.data(), idx.data()});
+  rows = store.owned();
+  // 1. Cell of every particle, then sort by cell (ghosts into the second set
+  // of cells when there are ghosts).
+  launch(ex, n, CellKey{store.pos.data(), grid, key.data(), idx.data(), rows, static_cast<std::uint32_t>(ghost_off)});
   const bool host = !ex.on_device();
   if (host) {
     // Host: a stable counting sort by cell (O(N + cells)), which yields the
@@ -120,7 +169,13 @@ void NeighbourList::rebuild(const Exec& ex, ParticleStore& store, const State& p
     // Device: empty the cells of the previous build (its sorted keys are
     // still there: O(N), not O(cells)), then a CUB radix sort over only the
     // bits a cell index can use.
-    if (have_cells) launch(ex, n, ClearCells{key_sorted.data(), cell_start.data(), cell_end.data()});
+    // With ghosts the record count changes from build to build: clear all.
+    if (ghost_off > 0) {
+      cell_start.fill_zero();
+      cell_end.fill_zero();
+    } else if (have_cells) {
+      launch(ex, n, ClearCells{key_sorted.data(), cell_start.data(), cell_end.data()});
+    }
     have_cells = true;
     int bits = 1;
     while (bits < 32 && (Index{1} << bits) < cell_start.size()) ++bits;
@@ -133,24 +188,25 @@ void NeighbourList::rebuild(const Exec& ex, ParticleStore& store, const State& p
   // 3. Cell ranges.
   if (!host) launch(ex, n, CellRange{key_sorted.data(), cell_start.data(), cell_end.data(), n});
   // 4. Verlet list (keeping the previous one for the history hand-over).
-  if (history) {
+  if (history && !prev_loaded) {
     nbr.swap(nbr_prev);
     ncount.swap(ncount_prev);
     hist.swap(hist_prev);
   }
+  prev_loaded = false;
   for (int attempt = 0;; ++attempt) {
     allocate_lists(ex.backend());
     State s = physics;
     store.bind(s);
     bind(s);
+    const BuildArgs a{s, grid, cell_start.data(), cell_end.data(), perm.data(), nbr_prev.data(), ncount_prev.data(),
+                      hist_prev.data(), store.gid_prev(), have_prev ? 1 : 0, pair_path ? 0 : 1, ghost_off};
     if (history) {
-      launch(ex, n, BuildList<true>{s, grid, cell_start.data(), cell_end.data(), perm.data(), nbr_prev.data(),
-                                    ncount_prev.data(), hist_prev.data(), store.gid_prev(), have_prev ? 1 : 0,
-                                    pair_path ? 0 : 1});
+      if (ghost_off > 0) launch(ex, rows, a.make<true, true>());
+      else launch(ex, rows, a.make<true, false>());
     } else {
-      launch(ex, n, BuildList<false>{s, grid, cell_start.data(), cell_end.data(), perm.data(), nbr_prev.data(),
-                                     ncount_prev.data(), hist_prev.data(), store.gid_prev(), have_prev ? 1 : 0,
-                                     pair_path ? 0 : 1});
+      if (ghost_off > 0) launch(ex, rows, a.make<false, true>());
+      else launch(ex, rows, a.make<false, false>());
     }
     // The one blocking read of a build: a list that overflowed must be
     // rebuilt larger before any force uses it. The flags stay zero otherwise.
@@ -161,17 +217,26 @@ void NeighbourList::rebuild(const Exec& ex, ParticleStore& store, const State& p
     cap = ((static_cast<int>(f[1] * 1.25) + 7) / 8) * 8;
     flags.fill_zero();
   }
+  if (gid_order) {
+    State s = physics;
+    store.bind(s);
+    bind(s);
+    if (history) launch(ex, rows, SortRows<true>{s});
+    else launch(ex, rows, SortRows<false>{s});
+  }
   have_prev = history;
+  have_list = true;
 }
 
 bool NeighbourList::fit_capacity(const Exec& ex, Scratch& scratch) {
-  if (n == 0) return false;
-  const int mx = transform_reduce(ex, n, 0, MaxOp{}, CountAt{ncount.data()}, scratch);
+  if (rows == 0) return false;
+  const int mx = transform_reduce(ex, rows, 0, MaxOp{}, CountAt{ncount.data()}, scratch);
   const int fit = ((mx * 3 / 2 + 8 + 7) / 8) * 8;
   if (fit >= cap) return false;
   cap = fit;
   // Drop the previous list: the next build starts afresh.
   have_prev = false;
+  have_list = false;
   nbr = Buffer<int>();
   hist = Buffer<Vec3d>();
   pairs = Buffer<PairIJ>();

@@ -29,11 +29,26 @@ class NeighbourList {
   // Allocates the cell list and the counters for n particles; `history`:
   // tangential histories carried across builds; `pair_path`: keep the
   // compacted pair array of the pair path. `capacity`: list slots per particle.
-  void allocate(Backend be, Index n, bool history, bool pair_path, int capacity);
+  // `ghost_cells`: a decomposed run's store holds ghosts behind the owned
+  // records; they are sorted into a second set of cells (keys offset by the
+  // cell count) so that the cell sort keeps the owned records first.
+  void allocate(Backend be, Index n, bool history, bool pair_path, int capacity, bool ghost_cells = false);
+  // A decomposed run: the arrays for a store of n records (owned and ghosts),
+  // grown where needed before a build.
+  void resize(Backend be, Index n);
+  // A decomposed run: the previous list in the store's current order, from
+  // rows that travelled with migrating particles (count[i] slots of particle
+  // i at [q * n + i]: partner index and tangential history). The next build
+  // looks the histories up in it as in its own previous list.
+  void load_previous(Backend be, const std::vector<int>& count, const std::vector<int>& nbr,
+                     const std::vector<Vec3d>& hist, int cap_prev);
+  // The list of the last build is in place (fit_capacity drops it).
+  bool has_list() const { return have_list; }
   // Sorts the particles by cell, reorders the store into cell order, and
   // builds the Verlet list, growing the capacity on overflow (the one
   // blocking read of a build). `physics`: the set-up constants of the kernel
   // view (the particle and list arrays are bound here, after the reorder).
+  // Rows are built for the owned particles only (ghosts are partners).
   void rebuild(const Exec& ex, ParticleStore& store, const State& physics, Scratch& scratch);
   // Lowers the capacity to what the last build needed (x1.5 + 8, rounded to
   // 8) if that is smaller, releasing the list storage: returns true when it
@@ -44,9 +59,16 @@ class NeighbourList {
 
   CellGrid grid{};
   double skin = 0;  // Verlet skin [m]: the list holds pairs closer than r_i + r_j + skin
+  double cutoff = 0;  // the largest of those distances, 2 r_max + skin [m]
   int cap = 0;      // list slots per particle
-  Index n = 0;
+  Index n = 0;     // records (owned and ghosts): the column stride of the list
+  Index rows = 0;  // particles with a list row (the owned ones at the last build)
   bool history = false, pair_path = false;
+  // Each row sorted by the partners' global ids after the build, so that a
+  // particle sums its contacts in an order independent of storage order (and
+  // of the decomposition): DemParams::contact_order.
+  bool gid_order = false;
+  int ghost_off = 0;  // cell-key offset of ghosts (0: no ghosts)
 
   // Verlet list, column-major: slot s of particle i at [s * n + i].
   Buffer<int> nbr, ncount;
@@ -66,6 +88,8 @@ class NeighbourList {
   Buffer<int> nbr_prev, ncount_prev;
   Buffer<Vec3d> hist_prev;
   bool have_prev = false;
+  bool prev_loaded = false;  // load_previous() filled the previous list for the next build
+  bool have_list = false;
   // flags[0] list overflow, [1] largest neighbour count seen (read at each build).
   Buffer<int> flags;
 };

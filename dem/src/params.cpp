@@ -13,6 +13,7 @@ namespace lbdem::dem {
 
 const char* to_string(ForcePath p) { return p == ForcePath::Particle ? "particle" : "pair"; }
 const char* to_string(RebuildCheck c) { return c == RebuildCheck::Lookahead ? "lookahead" : "every_step"; }
+const char* to_string(ContactOrder o) { return o == ContactOrder::Storage ? "storage" : "global_id"; }
 
 double min_collision_time(const DemParams& p, const HostParticles& hp) {
   if (hp.size() == 0) return std::numeric_limits<double>::infinity();

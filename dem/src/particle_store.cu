@@ -119,15 +119,91 @@ void ParticleStore::reorder(const Exec& ex, const int* perm) {
   whist.swap(whist2);
 }
 
+void HostState::resize(Index count, const StoreLayout& lay) {
+  n = count;
+  const auto c = static_cast<std::size_t>(count);
+  for (auto* v : {&pos, &vel, &omg, &frc, &trq, &frco, &trqo, &vpr}) v->resize(c);
+  wpr.resize(lay.rotation ? c : 0);
+  extf.resize(lay.external_forcing ? c : 0);
+  extt.resize(lay.external_forcing ? c : 0);
+  gid.resize(c);
+  type.resize(c);
+  whist.resize(c * static_cast<std::size_t>(lay.wall_histories));
+}
+
+namespace {
+
+// Grows b (and its reorder twin) to hold n records, with head room so that a
+// run whose particle count per rank drifts does not reallocate at every build.
+template <class T>
+void grow(Buffer<T>& b, Buffer<T>* twin, Backend be, Index n) {
+  const Index want = n + n / 4 + 16;
+  if (b.size() < n || b.backend() != be) b = Buffer<T>(be, want);
+  if (twin && (twin->size() < n || twin->backend() != be)) *twin = Buffer<T>(be, want);
+}
+
+template <class T>
+void put(Buffer<T>& b, const std::vector<T>& v) {
+  if (!v.empty()) b.copy_from_host(v.data(), static_cast<Index>(v.size()));
+}
+
+template <class T>
+void get(const Buffer<T>& b, std::vector<T>& v, Index count) {
+  v.resize(static_cast<std::size_t>(count));
+  if (count > 0) b.copy_to_host(v.data(), count);
+}
+
+}  // namespace
+
+void ParticleStore::load(Backend be, const HostState& h) {
+  n = h.n;
+  n_owned = h.n_owned;
+  grow(pos, &pos2, be, n); grow(vel, &vel2, be, n); grow(omg, &omg2, be, n);
+  grow(frc, &frc2, be, n); grow(trq, &trq2, be, n); grow(frco, &frco2, be, n);
+  grow(trqo, &trqo2, be, n); grow(vpr, &vpr2, be, n); grow(x0, static_cast<Buffer<Real4>*>(nullptr), be, n);
+  grow(gid, &gid2, be, n); grow(type, &type2, be, n);
+  if (layout.rotation) grow(wpr, &wpr2, be, n);
+  if (layout.external_forcing) { grow(extf, &extf2, be, n); grow(extt, &extt2, be, n); }
+  if (layout.wall_histories > 0) grow(whist, &whist2, be, n * layout.wall_histories);
+  put(pos, h.pos); put(vel, h.vel); put(omg, h.omg); put(frc, h.frc); put(trq, h.trq);
+  put(frco, h.frco); put(trqo, h.trqo); put(vpr, h.vpr); put(x0, h.pos);
+  put(gid, h.gid); put(type, h.type);
+  if (layout.rotation) put(wpr, h.wpr);
+  if (layout.external_forcing) { put(extf, h.extf); put(extt, h.extt); }
+  if (layout.wall_histories > 0) put(whist, h.whist);
+}
+
+void ParticleStore::save(HostState& h) const {
+  const Index m = n_owned;
+  h.n = h.n_owned = m;
+  get(pos, h.pos, m); get(vel, h.vel, m); get(omg, h.omg, m); get(frc, h.frc, m); get(trq, h.trq, m);
+  get(frco, h.frco, m); get(trqo, h.trqo, m); get(vpr, h.vpr, m);
+  get(gid, h.gid, m); get(type, h.type, m);
+  if (layout.rotation) get(wpr, h.wpr, m);
+  else h.wpr.clear();
+  if (layout.external_forcing) { get(extf, h.extf, m); get(extt, h.extt, m); }
+  else { h.extf.clear(); h.extt.clear(); }
+  h.whist.clear();
+  const int nw = layout.wall_histories;
+  if (nw > 0 && m > 0) {
+    // Rows of stride n on the store, of stride m on the host.
+    std::vector<Vec3d> all;
+    get(whist, all, n * nw);
+    h.whist.resize(static_cast<std::size_t>(m) * nw);
+    for (int w = 0; w < nw; ++w)
+      std::copy(all.begin() + w * n, all.begin() + w * n + m, h.whist.begin() + w * m);
+  }
+}
+
 HostParticles ParticleStore::download() const {
   HostParticles h;
   std::vector<Real4> p = pos.to_vector(), v = vel.to_vector(), w = omg.to_vector(), f = frc.to_vector(),
                      t = trq.to_vector();
   h.id = gid.to_vector();
   h.type = type.to_vector();
-  h.id.resize(n);
-  h.type.resize(n);
-  for (Index i = 0; i < n; ++i) {
+  h.id.resize(n_owned);
+  h.type.resize(n_owned);
+  for (Index i = 0; i < n_owned; ++i) {
     h.x.push_back(xyz(p[i]));
     h.r.push_back(p[i].w);
     h.v.push_back(xyz(v[i]));

@@ -2,6 +2,7 @@
 // Particle arrays of a DemSystem, resident on one backend (structure of
 // arrays), with the twin of each array that a reorder gathers into.
 #include <cstdint>
+#include <vector>
 
 #include "core/buffer.hpp"
 #include "core/exec.hpp"
@@ -20,6 +21,17 @@ struct StoreLayout {
   int wall_histories = 0;         // tangential histories per particle, one per wall (friction)
 };
 
+// Every array of a store on the host (n records, the first n_owned owned),
+// for the migration and ghost exchange of a decomposed run.
+struct HostState {
+  Index n = 0, n_owned = 0;
+  std::vector<Real4> pos, vel, omg, frc, trq, frco, trqo, vpr, wpr, extf, extt;
+  std::vector<std::int64_t> gid;
+  std::vector<int> type;
+  std::vector<Vec3d> whist;  // [w * n + i]
+  void resize(Index count, const StoreLayout& lay);
+};
+
 // Particles in storage order, which changes at every neighbour-list build
 // (reorder into cell order); the global id names a particle across orders.
 // Owned particles occupy [0, n_owned): those the time step integrates. The
@@ -30,6 +42,11 @@ class ParticleStore {
   // 1/m and 1/I in the w components. Throws ConfigError for a non-positive
   // mass, or ids missing or not unique.
   void upload(Backend be, const HostParticles& hp, const Box& box, const StoreLayout& layout);
+  // A decomposed run's records (owned first, then ghosts): the arrays grow to
+  // hold them (with head room, never shrinking), the contents are replaced.
+  void load(Backend be, const HostState& h);
+  // The owned records (every array) to the host.
+  void save(HostState& h) const;
   // Every array into the order dst[i] = src[perm[i]] (perm over all n records).
   // Afterwards gid_prev() holds the ids of the previous order.
   void reorder(const Exec& ex, const int* perm);

@@ -69,6 +69,27 @@ const StatusRecord& RebuildScheduler::wait_report(int s) {
   return mirror[s];
 }
 
+// One collective per read: each rank puts its four values in its own slots
+// of a zeroed vector and the element-wise sum (exact: one non-zero term per
+// slot) hands every rank all of them; the maxima are then taken locally.
+StatusRecord RebuildScheduler::global(const StatusRecord& r) {
+  if (!comm || comm->size() <= 1) return r;
+  const int nr = comm->size(), me = comm->rank();
+  reduce_buf.assign(static_cast<std::size_t>(4 * nr), 0.0);
+  double* mine = reduce_buf.data() + 4 * me;
+  mine[0] = r.disp2; mine[1] = r.speed2; mine[2] = r.accel2; mine[3] = r.over2;
+  comm->sum(std::span<double>(reduce_buf));
+  StatusRecord g{};
+  for (int q = 0; q < nr; ++q) {
+    const double* v = reduce_buf.data() + 4 * q;
+    g.disp2 = std::max(g.disp2, static_cast<std::uint32_t>(v[0]));
+    g.speed2 = std::max(g.speed2, static_cast<std::uint32_t>(v[1]));
+    g.accel2 = std::max(g.accel2, static_cast<std::uint32_t>(v[2]));
+    g.over2 = std::max(g.over2, static_cast<std::uint32_t>(v[3]));
+  }
+  return g;
+}
+
 RebuildScheduler::Pending RebuildScheduler::pop_front() {
   const Pending p = pending[0];
   for (int k = 1; k < npending; ++k) pending[k - 1] = pending[k];
@@ -92,7 +113,7 @@ std::string RebuildScheduler::stale_message(const Pending& p, std::uint32_t over
 // known state and the report interval it implies.
 void RebuildScheduler::read_front() {
   const Pending p = pop_front();
-  const StatusRecord r = wait_report(p.slot);
+  const StatusRecord r = global(wait_report(p.slot));
   if (r.over2 != 0) {
     stale_error = stale_message(p, r.over2);
     throw DivergenceError(stale_error);
@@ -132,8 +153,17 @@ void RebuildScheduler::take_report(long t, long due) {
   ++reports;
 }
 
+void RebuildScheduler::zero_slot(long q) {
+  ex.synchronize();
+  backend_memset(ex.backend(), slot(q), 0, sizeof(StatusRecord));
+}
+
 void RebuildScheduler::initial_report(const State& st, Index count, long step) {
   launch(ex, count, Report{st, slot(reports), slot(reports + 1)});
+  if (count == 0) {
+    zero_slot(reports);
+    zero_slot(reports + 1);
+  }
   take_report(step, step);
   while (npending > 0) read_front();
 }
@@ -141,7 +171,7 @@ void RebuildScheduler::initial_report(const State& st, Index count, long step) {
 bool RebuildScheduler::exact_check(long t) {
   take_report(t, t);
   const Pending p = pop_front();
-  return wait_report(p.slot).over2 != 0;
+  return global(wait_report(p.slot)).over2 != 0;
 }
 
 // Bound on one particle's motion over the k steps after the known state [m].
@@ -165,7 +195,9 @@ void RebuildScheduler::reset() {
 }
 
 void RebuildScheduler::check_arrived() {
-  if (!lookahead || !stale_error.empty()) return;
+  // A decomposed run learns of a stale list at the next (reduced) read, on
+  // every rank at once: one rank alone must not throw here.
+  if (!lookahead || !stale_error.empty() || (comm && comm->size() > 1)) return;
   for (int k = 0; k < npending; ++k) {
     const std::uint32_t over2 = mirror[pending[k].slot].over2;
     if (over2 != 0) {

@@ -11,6 +11,7 @@
 
 #include "core/buffer.hpp"
 #include "core/exec.hpp"
+#include "halo/comm.hpp"
 #include "report.hpp"
 
 namespace lbdem::dem {
@@ -40,6 +41,9 @@ class RebuildScheduler {
 
   // Device slot of report q (reports are reduced into slot q % kRing).
   StatusRecord* slot(long q) { return status.data() + q % kRing; }
+  // Zeroes slot(q) from the host: what particle 0 of a report kernel does
+  // for the next report, on a rank that owns no particle (decomposed run).
+  void zero_slot(long q);
   // Where reductions go that no report will read (bench hook).
   StatusRecord* sink() { return status.data() + kRing; }
   // Queues the copy of the report just reduced into slot(reports) (device:
@@ -68,6 +72,9 @@ class RebuildScheduler {
   // synchronised) shows a stale list (Lookahead; once).
   void check_arrived();
 
+  // A decomposed run: every report read is reduced over the ranks (largest
+  // values), so all ranks take the same decisions (null on one rank).
+  const halo::Comm* comm = nullptr;
   bool lookahead = true;
   bool known = false;     // a report has been read since the last reset
   int report_every = 1;   // steps between reports inside a call, and their lag
@@ -78,6 +85,9 @@ class RebuildScheduler {
 
  private:
   const StatusRecord& wait_report(int s);
+  // The report over all ranks (comm), else r itself.
+  StatusRecord global(const StatusRecord& r);
+  std::vector<double> reduce_buf;
   Pending pop_front();
   std::string stale_message(const Pending& p, std::uint32_t over2) const;
   void read_front();

@@ -6,6 +6,7 @@
 
 #include "core/algorithms.hpp"
 #include "core/error.hpp"
+#include "domain_exchange.hpp"
 #include "format.hpp"
 #include "kernels.hpp"
 #include "system_impl.hpp"
@@ -72,6 +73,14 @@ void run_forces(DemSystem::Impl& m) {
 // build the Verlet list (carrying histories).
 void rebuild_list(DemSystem::Impl& m) {
   m.sched.on_build(m.steps);
+  if (m.decomposed()) {
+    // Migration and ghosts first: the build sorts and lists owned and ghosts.
+    m.domain->redistribute(m);
+    m.lists.rebuild(m.ex, m.store, m.physics(), m.scratch());
+    m.domain->bind_refresh(m);
+    ++m.rebuilds;
+    return;
+  }
   if (m.store.size() == 0) return;
   m.lists.rebuild(m.ex, m.store, m.physics(), m.scratch());
   ++m.rebuilds;
@@ -82,7 +91,11 @@ void rebuild_list(DemSystem::Impl& m) {
 DemSystem::Impl::Impl() : scratch_ptr(std::make_unique<Scratch>()) {}
 DemSystem::Impl::~Impl() = default;
 
-DemSystem::DemSystem(Exec ex, DemParams params, const HostParticles& hp) : impl_(std::make_unique<Impl>()) {
+DemSystem::DemSystem(Exec ex, DemParams params, const HostParticles& hp)
+    : DemSystem(ex, std::move(params), hp, DemDomain{}) {}
+
+DemSystem::DemSystem(Exec ex, DemParams params, const HostParticles& hp, const DemDomain& domain)
+    : impl_(std::make_unique<Impl>()) {
   Impl& m = *impl_;
   m.ex = ex;
   m.p = std::move(params);
@@ -90,6 +103,10 @@ DemSystem::DemSystem(Exec ex, DemParams params, const HostParticles& hp) : impl_
   const Material& mat = p.material;
   const Backend be = ex.backend();
   validate(p, hp);
+  const bool decomposed = domain.decomposed();
+  if (decomposed && p.path == ForcePath::Pair)
+    throw ConfigError("neighbours.force_path: 'pair' adds each contact force to both particles, and on more than "
+                      "one rank a partner may be a ghost copy; use 'particle' (each owner sums its own contacts)");
   // Geometry: box, walls, contact laws, cell grid and skin.
   m.box = make_box(p);
   m.walls = make_walls(p);
@@ -97,18 +114,34 @@ DemSystem::DemSystem(Exec ex, DemParams params, const HostParticles& hp) : impl_
                           mat.friction);
   m.pw = make_contact_law(mat.wall_stiffness, mat.wall_restitution, mat.tangential_stiffness_ratio,
                           mat.tangential_damping_ratio, mat.wall_friction);
+  // The whole set's radii: the same cell grid and skin on every rank.
   m.lists.set_geometry(m.box, hp.r, p.skin);
-  // Particle store.
-  m.store.upload(be, hp, m.box, StoreLayout{p.friction, p.external_forcing, p.friction ? m.walls.count : 0});
+  // Particle store (a decomposed run keeps the particles of its piece).
+  const StoreLayout layout{p.friction, p.external_forcing, p.friction ? m.walls.count : 0};
+  if (decomposed) {
+    m.comm = domain.comm;
+    m.domain = std::make_unique<DomainExchange>();
+    m.domain->init(domain, m.box, m.lists.cutoff, ex);
+    m.store.upload(be, m.domain->select_owned(hp), m.box, layout);
+  } else {
+    m.store.upload(be, hp, m.box, layout);
+  }
   // Neighbour list.
   m.lists.allocate(be, m.store.size(), p.friction, p.path == ForcePath::Pair,
-                   p.neighbour_capacity > 0 ? p.neighbour_capacity : 32);
+                   p.neighbour_capacity > 0 ? p.neighbour_capacity : 32, decomposed);
+  m.lists.gid_order = p.contact_order == ContactOrder::GlobalId;
   // Rebuild scheduler.
   m.sched.init(ex, p.rebuild_check == RebuildCheck::Lookahead, m.lists.skin, p.dt, p.lookahead_safety);
+  m.sched.comm = m.comm;
   // First build; an estimated capacity is then fitted to what it needed
-  // (list and history memory scale with it), grown again on overflow.
+  // (list and history memory scale with it), grown again on overflow. A
+  // decomposed run rebuilds on every rank if one refits (builds exchange).
   rebuild();
-  if (p.neighbour_capacity == 0 && m.lists.fit_capacity(m.ex, m.scratch())) rebuild();
+  if (p.neighbour_capacity == 0) {
+    bool refit = m.lists.fit_capacity(m.ex, m.scratch());
+    if (decomposed) refit = m.comm->any(refit);
+    if (refit) rebuild();
+  }
   m.rebuilds = 0;  // the initial build is not counted
 }
 
@@ -122,11 +155,12 @@ void DemSystem::rebuild() {
 
 void DemSystem::compute_forces() {
   Impl& m = *impl_;
-  if (m.store.size() == 0) return;
+  if (m.store.size() == 0 && !m.decomposed()) return;
   const State st = m.state();
   const Index n = m.store.owned();
   if (m.p.friction) launch(m.ex, n, SyncPredictor<true>{st});
   else launch(m.ex, n, SyncPredictor<false>{st});
+  if (m.decomposed()) m.domain->refresh(m);
   run_forces(m);
   m.forces_valid = true;
   m.old_valid = false;
@@ -137,18 +171,19 @@ void DemSystem::advance(long steps) {
   RebuildScheduler& r = m.sched;
   if (steps <= 0) return;
   if (!r.stale_error.empty()) throw DivergenceError(r.stale_error);
-  if (m.store.size() == 0) {
+  if (m.store.size() == 0 && !m.decomposed()) {
     m.time += steps * m.p.dt;
     return;
   }
-  const Index n = m.store.owned();
   if (!m.forces_valid) compute_forces();
   const bool ahead = r.lookahead;
-  if (ahead && !r.known) r.initial_report(m.state(), n, m.steps);
+  if (ahead && !r.known) r.initial_report(m.state(), m.store.owned(), m.steps);
   const double dt = m.p.dt;
   const long t_end = m.steps + steps;
   // Closing half kick (velocities synchronised at the state reached).
-  auto close = [&m, n] {
+  // (The owned count changes at a decomposed run's builds: read it per launch.)
+  auto close = [&m] {
+    const Index n = m.store.owned();
     const State st = m.state();
     if (m.p.friction) launch(m.ex, n, Kick<true>{st});
     else launch(m.ex, n, Kick<false>{st});
@@ -171,11 +206,15 @@ void DemSystem::advance(long steps) {
     const long k = r.report_every;
     const bool report = !ahead || t == t_end || (t - r.t_last_report >= k && t + k <= t_end);
     const State st = m.state();
+    const Index n = m.store.owned();
     const int synced = s == 0, extrap = m.old_valid ? 1 : 0;
     StatusRecord *rec = r.slot(r.reports), *next = r.slot(r.reports + 1);
     const int rep = report ? 1 : 0, check = build ? 0 : 1;
     if (m.p.friction) launch(m.ex, n, KickDrift<true>{st, synced, extrap, rec, next, rep, check});
     else launch(m.ex, n, KickDrift<false>{st, synced, extrap, rec, next, rep, check});
+    // A rank without particles reports zeros (a decomposed run; the kernel's
+    // particle 0 zeroes the next slot otherwise).
+    if (n == 0 && report) r.zero_slot(r.reports + 1);
     // The forces just used become the "old" ones of the velocity predictor.
     m.store.frc.swap(m.store.frco);
     if (m.p.friction) m.store.trq.swap(m.store.trqo);
@@ -187,6 +226,7 @@ void DemSystem::advance(long steps) {
       build = r.exact_check(t);
     }
     if (build) rebuild_list(m);
+    else if (m.decomposed()) m.domain->refresh(m);
     run_forces(m);
     m.old_valid = true;
   }
@@ -212,7 +252,11 @@ void DemSystem::synchronize() const {
 }
 
 double DemSystem::time() const { return impl_->time; }
-Index DemSystem::size() const { return impl_->store.size(); }
+Index DemSystem::size() const { return impl_->store.owned(); }
+Index DemSystem::global_size() const {
+  const Impl& m = *impl_;
+  return m.comm ? static_cast<Index>(m.comm->sum(static_cast<long>(m.store.owned()))) : m.store.owned();
+}
 const DemParams& DemSystem::params() const { return impl_->p; }
 Backend DemSystem::backend() const { return impl_->ex.backend(); }
 double DemSystem::cell_size(int axis) const { return 1.0 / impl_->lists.grid.inv_cl[axis]; }

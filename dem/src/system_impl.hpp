@@ -16,6 +16,8 @@ struct Scratch;  // core/algorithms.hpp (kernel TUs only)
 
 namespace lbdem::dem {
 
+class DomainExchange;  // domain_exchange.hpp
+
 struct DemSystem::Impl {
   Impl();
   ~Impl();  // Scratch is complete in system.cu only
@@ -33,6 +35,10 @@ struct DemSystem::Impl {
   bool old_valid = false;  // frco/trqo hold a_{n-1} of the current trajectory
   std::unique_ptr<Scratch> scratch_ptr;  // complete type in the .cu TUs only
   Scratch& scratch() { return *scratch_ptr; }
+  // Migration and ghosts of a decomposed run (null on one rank).
+  std::unique_ptr<DomainExchange> domain;
+  const halo::Comm* comm = nullptr;  // the ranks of a decomposed run (null on one rank)
+  bool decomposed() const { return domain != nullptr; }
 
   // The set-up constants of the kernel view (no arrays bound).
   State physics() const {

@@ -43,11 +43,14 @@ constexpr const char* kLauncherVariables[] = {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE"
   return false;
 }
 
+// Largest tag of exchange() (its messages use MPI tags 2 tag and 2 tag + 1,
+// and MPI guarantees tags up to 32767).
+constexpr int kMaxExchangeTag = 16000;
+
 #if defined(LBDEM_HAVE_MPI)
 // Tags of the messages behind the collectives on the private communicator.
 // exchange() uses 2 * tag (sizes) and 2 * tag + 1 (bytes) below this.
-constexpr int kGatherTag = 32700;
-constexpr int kMaxExchangeTag = (1 << 14) - 1;
+constexpr int kGatherTag = 32766;
 
 MPI_Comm own_comm(void* own) { return *static_cast<MPI_Comm*>(own); }
 
@@ -363,12 +366,10 @@ std::vector<std::vector<std::byte>> Comm::exchange(std::span<const int> peers, s
     if (peers[i] < 0 || peers[i] >= size_)
       throw Error("Comm::exchange: peer " + std::to_string(peers[i]) + " is not a rank (0.." +
                   std::to_string(size_ - 1) + ")");
-#if defined(LBDEM_HAVE_MPI)
     for (int t : {tags[i], recv_tags[i]})
       if (t < 0 || t > kMaxExchangeTag)
         throw Error("Comm::exchange: tag " + std::to_string(t) + " out of range 0.." +
                     std::to_string(kMaxExchangeTag));
-#endif
   }
   std::vector<std::vector<std::byte>> out(m);
   // Messages to this rank itself: matched by tag and copied.

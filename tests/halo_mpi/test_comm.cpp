@@ -195,6 +195,9 @@ TEST(Comm, ExchangeRefusesBadInput) {
   const std::vector<int> bad_peer{c.size()}, zero{0}, two_tags{0, 1};
   EXPECT_THROW(c.exchange(bad_peer, zero, one, zero), Error);
   EXPECT_THROW(c.exchange(zero, two_tags, one, zero), Error);
+  const std::vector<int> too_big{16001}, negative{-1};
+  EXPECT_THROW(c.exchange(zero, too_big, one, zero), Error);
+  EXPECT_THROW(c.exchange(zero, zero, one, negative), Error);
   // A receive from itself that no send to itself matches.
   const std::vector<int> me{c.rank()}, other_tag{5};
   EXPECT_THROW(c.exchange(me, zero, one, other_tag), Error);

@@ -11,6 +11,7 @@
 
 #include "core/exec.hpp"
 #include "dem/contact.hpp"
+#include "dem/domain.hpp"
 #include "dem/geometry.hpp"
 #include "dem/particle_view.hpp"
 #include "dem/particles.hpp"
@@ -22,6 +23,14 @@ enum class ForcePath {
   Pair,      // contacts compacted by a prefix sum, one thread per pair, atomic accumulation (Yu et al. 2024)
 };
 const char* to_string(ForcePath p);
+
+// The order in which a particle sums its contacts (DemParams::contact_order).
+enum class ContactOrder {
+  Storage,   // neighbour-list order, which follows the cell order of the last build (default)
+  GlobalId,  // ascending partner global id: the same sums whatever the storage order and the
+             // decomposition, so a run on N ranks gives the one-rank states bitwise
+};
+const char* to_string(ContactOrder o);
 
 struct Material {
   double stiffness = 0;            // k_n particle-particle [N/m]
@@ -61,6 +70,7 @@ struct DemParams {
   // at up to twice the fastest speed of the report (elastic, light hit by
   // heavy); raise it if a stale-list error is ever reported.
   double lookahead_safety = 2.0;
+  ContactOrder contact_order = ContactOrder::Storage;
 };
 
 // Smallest collision time among particle-particle and particle-wall contacts
@@ -76,11 +86,24 @@ struct DemStats {
   double mean_neighbours = 0;  // at the last build
   long status_reads = 0;  // rebuild-decision reports read by the host
   long status_waits = 0;  // of those, reads that found the device not yet there (CUDA; timing-dependent)
+  // Decomposed run, this rank: particles sent to another rank across a face,
+  // an edge and a corner of its piece (1, 2 and 3 piece coordinates changed,
+  // periodic wrap included), and the ghosts held at the last build.
+  long migrations[3] = {0, 0, 0};
+  long migrations_periodic = 0;  // of those, through a periodic face of the box
+  Index ghosts = 0;
 };
 
 class DemSystem {
  public:
   DemSystem(Exec ex, DemParams params, const HostParticles& particles);
+  // One rank's part of a run decomposed over the ranks of domain.comm
+  // (dem/README.md, "Many ranks"). Every rank passes the same whole particle
+  // set and keeps the particles whose centre lies in its piece. Collective:
+  // every rank constructs, advances, rebuilds and gathers together. Throws
+  // ConfigError for a piece thinner than the ghost width or the pair force
+  // path (it adds forces to partners, which may be ghosts).
+  DemSystem(Exec ex, DemParams params, const HostParticles& particles, const DemDomain& domain);
   ~DemSystem();
   DemSystem(const DemSystem&) = delete;
   DemSystem& operator=(const DemSystem&) = delete;
@@ -96,7 +119,8 @@ class DemSystem {
   void rebuild();
 
   double time() const;
-  Index size() const;
+  Index size() const;         // particles owned here (all of them on one rank)
+  Index global_size() const;  // over all ranks (collective)
   const DemParams& params() const;
   DemStats stats() const;
   Backend backend() const;
@@ -106,7 +130,10 @@ class DemSystem {
   // Particles in the current storage order, with their last forces. Waits for
   // the device; throws DivergenceError if a report that arrived meanwhile
   // shows a stale list (once; advance() keeps refusing).
-  HostParticles download() const;
+  HostParticles download() const;  // the owned particles
+  // Every rank's particles on rank `root`, in ascending global id (empty on
+  // the other ranks; collective). On one rank: download() sorted by id.
+  HostParticles gather(int root = 0) const;
   // Pairs (by global id, a < b) in the Verlet list / currently overlapping.
   std::vector<std::pair<std::int64_t, std::int64_t>> neighbour_pairs() const;
   std::vector<std::pair<std::int64_t, std::int64_t>> contact_pairs() const;

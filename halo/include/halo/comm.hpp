@@ -61,7 +61,7 @@ class Comm {
   // peers[i] with tag recv_tags[i] is returned in result[i]. Sizes need not
   // be known in advance. For particle migration and ghosts. A peer may be
   // this rank (copied locally). Each (peer, tag) is sent at most once; tags
-  // are 0..2^14-1. Blocking: returns when every message has arrived.
+  // are 0..16000. Blocking: returns when every message has arrived.
   std::vector<std::vector<std::byte>> exchange(std::span<const int> peers, std::span<const int> tags,
                                                std::span<const std::vector<std::byte>> sends,
                                                std::span<const int> recv_tags) const;
@@ -73,7 +73,8 @@ class Comm {
   // for the transports: a duplicate of MPI_COMM_WORLD, so their tags never
   // meet the messages of the collectives here. nullptr without MPI.
   void* native() const { return native_; }
-  // "mpi (4 ranks, 2 per node)" / "single rank (built without MPI)".
+  // "mpi (4 ranks, 2 on this node)", "mpi (1 rank)", "single rank (built without MPI)",
+  // "single rank (not started by an MPI launcher)".
   std::string describe() const;
 
  private:

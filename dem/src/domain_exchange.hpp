@@ -1,0 +1,68 @@
+#pragma once
+// Particles of a decomposed DemSystem across ranks (dem/README.md, "Many
+// ranks"): migration of owned particles to the rank whose piece holds their
+// centre and the rebuild of the ghost copies, both at neighbour-list builds;
+// the refresh of the ghosts' positions and predicted velocities before every
+// force evaluation in between.
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "core/buffer.hpp"
+#include "core/exec.hpp"
+#include "dem/domain.hpp"
+#include "dem/geometry.hpp"
+#include "dem/system.hpp"
+#include "halo/transport.hpp"
+#include "particle_store.hpp"
+
+namespace lbdem::dem {
+
+class DomainExchange {
+ public:
+  // Checks every piece against the ghost width `width` [m] (ConfigError: a
+  // thinner piece would need ghosts from beyond its neighbours) and finds
+  // the neighbour ranks (the pieces around this one, across periodic faces
+  // too; each rank once).
+  void init(const DemDomain& d, const Box& box, double width, const Exec& ex);
+  // The particles of a whole set whose centre (wrapped into the box) lies in
+  // this rank's piece.
+  HostParticles select_owned(const HostParticles& hp) const;
+  // At a list build, before the cell sort: the owned particles that left the
+  // piece go to their new owner with their whole state, wall histories and
+  // list row (partner ids and tangential histories); the ghosts are rebuilt
+  // from the owned particles within the ghost width of each neighbour's
+  // piece. Host-staged through Comm::exchange. Fills the store (owned first,
+  // then ghosts) and the previous list the build looks histories up in.
+  void redistribute(DemSystem::Impl& m);
+  // After the build (the store is in cell order): the index lists of the
+  // per-step ghost refresh, and the transport's messages.
+  void bind_refresh(DemSystem::Impl& m);
+  // Positions and predicted velocities (and angular velocities) of the owned
+  // particles to their ghost copies (pack kernel, transport, unpack kernel).
+  void refresh(DemSystem::Impl& m);
+
+  DemDomain dom;
+  long migrations[3] = {0, 0, 0};  // sent across a face, an edge, a corner (DemStats)
+  long migrations_periodic = 0;
+
+ private:
+  bool near_piece(const Vec3d& x, std::size_t k) const;
+
+  Exec ex;
+  Box box;
+  double width = 0;
+  std::vector<int> peers;             // neighbour ranks, ascending
+  std::vector<Vec3d> peer_lo, peer_hi;  // their pieces
+  // Global ids of the ghosts sent to / received from each peer, ascending
+  // (the order of the refresh messages).
+  std::vector<std::vector<std::int64_t>> sent, received;
+  Buffer<int> send_idx, recv_idx;  // store index per refresh record
+  Buffer<Real4> send_buf, recv_buf;
+  Index nsend = 0, nrecv = 0;
+  int per = 2;  // Real4 per refresh record: position, predicted velocity (+ angular velocity)
+  std::unique_ptr<halo::Transport> transport;
+  bool messages = false;
+};
+
+}  // namespace lbdem::dem
