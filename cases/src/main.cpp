@@ -9,7 +9,9 @@
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
+#include <chrono>
 #include <cstdio>
+#include <thread>
 
 #include "cases/scenes.hpp"
 #include "core/exec.hpp"
@@ -26,6 +28,9 @@ namespace {
 int fail(int code, const char* what, bool every_rank_alike) {
   const halo::Comm& comm = halo::Comm::world();
   if (comm.root() || !every_rank_alike) std::fprintf(stderr, "error: %s\n", what);
+  std::fflush(stderr);
+  // Rank 0's abort ends every rank; the others give it time to print first.
+  if (comm.distributed() && !comm.root() && every_rank_alike) std::this_thread::sleep_for(std::chrono::seconds(3));
   if (comm.distributed()) comm.abort(code);
   return code;
 }
