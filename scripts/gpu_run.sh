@@ -10,7 +10,8 @@
 #     scaling [quick]       fluid-only scaling over MPI ranks (scripts/scaling_gpu.sh): $OUT/scaling.jsonl
 #     profile               Nsight Compute per-kernel time and DRAM bytes of 3 coupled suspension steps
 #     pack                  everything in $OUT into $OUT/out.tgz (for a runner that returns few files)
-#   BENCHES selects benchmarks (default: lbm dem imb psm-susp psm-sweep). psm-sweep alone needs two
+#   BENCHES selects benchmarks (default: lbm dem imb psm-susp psm-sweep); SUSP_FRACTIONS the psm-susp fractions
+#   (default: table linear exact). psm-sweep alone needs two
 #   device calls of 10 min: SWEEP_PARTS="small", then SWEEP_PARTS="large" (scripts/psm_sweep_gpu.sh).
 #   LBDEM_COMMIT names the commit in every JSON (default: git rev-parse here; set it where the tree has no .git).
 set -uo pipefail
@@ -38,7 +39,7 @@ run_benches() {
       psm-susp)
         # One JSON per run, then all of them as psm_suspension.json {"runs": [...]}.
         mkdir -p "$OUT/${p}psm_suspension"
-        for prec in fp32 fp64; do for fr in table linear exact; do for pl in fused mapped; do
+        for prec in fp32 fp64; do for fr in ${SUSP_FRACTIONS:-table linear exact}; do for pl in fused mapped; do
           [ "$fr/$pl" = exact/fused ] && continue  # the fused pipeline has no exact fractions
           timeout 60 "$psm" suspension --n 256 --steps 100 --precision $prec --fraction $fr --pipeline $pl \
             --out "$OUT/${p}psm_suspension/${prec}_${fr}_${pl}.json" >> "$OUT/${p}psm_suspension.log" 2>&1
