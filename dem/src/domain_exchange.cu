@@ -396,6 +396,7 @@ void DomainExchange::redistribute(DemSystem::Impl& m) {
 }
 
 void DomainExchange::bind_refresh(DemSystem::Impl& m) {
+  ex.synchronize();  // the build's reorder and row sort are done
   const ParticleStore& st = m.store;
   const Backend be = ex.backend();
   per = st.layout.rotation ? 3 : 2;
