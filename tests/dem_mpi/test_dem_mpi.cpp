@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "core/error.hpp"
+#include "core/grid.hpp"
 #include "dem/domain.hpp"
 #include "dem/init.hpp"
 #include "dem/system.hpp"
@@ -347,6 +348,38 @@ TEST(DemMpi, StorageOrderAgreesToRounding) {
     std::printf("[ dem_mpi ] storage order, %d ranks: largest force difference %.3g of the largest force\n",
                 comm.size(), df / fmax);
   }
+}
+
+// A coupled scene cuts its particles where it cuts its lattice: cut positions
+// at the pieces' first cells, owners by position (uneven split, clamping at
+// closed faces).
+TEST(DemMpi, CutsFollowTheLatticeDecomposition) {
+  DemParams p;
+  p.lo = {-1, 0, 2};
+  p.hi = {9, 7, 7};
+  p.periodic = {true, false, false};
+  const Grid whole = Grid::whole({10, 7, 5}, {true, false, false});
+  const halo::Decomposition dec = halo::decompose(whole, 6, {3, 2, 1});
+  const DemDomain d = domain_from_decomposition(world(), dec, p);
+  // 10 cells in 3 parts: 4, 3, 3 (offsets 0, 4, 7); 7 in 2: 4, 3 (offsets 0, 4).
+  ASSERT_EQ(d.cuts[0].size(), 4u);
+  EXPECT_EQ(d.cuts[0][0], -1.0);
+  EXPECT_EQ(d.cuts[0][1], -1.0 + 10.0 * 4 / 10);
+  EXPECT_EQ(d.cuts[0][2], -1.0 + 10.0 * 7 / 10);
+  EXPECT_EQ(d.cuts[0][3], 9.0);
+  ASSERT_EQ(d.cuts[1].size(), 3u);
+  EXPECT_EQ(d.cuts[1][1], 7.0 * 4 / 7);
+  ASSERT_EQ(d.cuts[2].size(), 2u);
+  EXPECT_EQ(d.owner({-1.0, 0.0, 2.0}), dec.rank_at({0, 0, 0}));
+  EXPECT_EQ(d.owner({3.0, 3.99, 4.0}), dec.rank_at({1, 0, 0}));
+  EXPECT_EQ(d.owner({6.0, 4.0, 4.0}), dec.rank_at({2, 1, 0}));
+  EXPECT_EQ(d.owner({8.5, -0.5, 9.0}), dec.rank_at({2, 0, 0}));  // beyond closed faces: the edge pieces
+  Vec3d lo, hi;
+  d.piece(dec.rank_at({1, 1, 0}), lo, hi);
+  EXPECT_EQ(lo.x, 3.0);
+  EXPECT_EQ(hi.x, 6.0);
+  EXPECT_EQ(lo.y, 4.0);
+  EXPECT_EQ(hi.y, 7.0);
 }
 
 TEST(DemMpi, RefusesPiecesThinnerThanTheGhostWidth) {
