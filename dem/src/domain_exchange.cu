@@ -216,6 +216,20 @@ void DomainExchange::redistribute(DemSystem::Impl& m) {
     }
   }
 
+  // Record u's fixed part (every per-particle array, id, type, row length).
+  auto record = [&h, &rows, &lay](std::size_t u) {
+    Migrant mg{};
+    const Real4 zero{0, 0, 0, 0};
+    const Real4 a[11] = {h.pos[u],  h.vel[u],  h.omg[u],  h.frc[u], h.trq[u], h.frco[u], h.trqo[u], h.vpr[u],
+                         lay.rotation ? h.wpr[u] : zero, lay.external_forcing ? h.extf[u] : zero,
+                         lay.external_forcing ? h.extt[u] : zero};
+    std::copy(a, a + 11, mg.a);
+    mg.gid = h.gid[u];
+    mg.type = h.type[u];
+    mg.nrow = static_cast<int>(rows.off[u + 1] - rows.off[u]);
+    return mg;
+  };
+
   // 2. Migration: each particle whose centre left the piece goes to its owner.
   const std::size_t np = peers.size();
   std::vector<std::vector<std::byte>> out(np);
@@ -248,16 +262,7 @@ void DomainExchange::redistribute(DemSystem::Impl& m) {
     }
     auto& b = out[static_cast<std::size_t>(it - peers.begin())];
     const auto u = static_cast<std::size_t>(i);
-    Migrant mg{};
-    const Real4 zero{0, 0, 0, 0};
-    const Real4 a[11] = {h.pos[u],  h.vel[u],  h.omg[u],  h.frc[u], h.trq[u], h.frco[u], h.trqo[u], h.vpr[u],
-                         lay.rotation ? h.wpr[u] : zero, lay.external_forcing ? h.extf[u] : zero,
-                         lay.external_forcing ? h.extt[u] : zero};
-    std::copy(a, a + 11, mg.a);
-    mg.gid = h.gid[u];
-    mg.type = h.type[u];
-    mg.nrow = static_cast<int>(rows.off[u + 1] - rows.off[u]);
-    append(b, mg);
+    append(b, record(u));
     for (int w = 0; w < nw; ++w) append(b, h.whist[static_cast<std::size_t>(w * no + i)]);
     for (std::size_t e = rows.off[u]; e < rows.off[u + 1]; ++e) append(b, rows.e[e]);
   }
@@ -265,42 +270,28 @@ void DomainExchange::redistribute(DemSystem::Impl& m) {
   const auto in = comm.exchange(peers, tags_m, out, tags_m);
 
   // 3. The new owned set: kept particles (in storage order), then arrivals
-  // (in peer order).
-  struct Owned {
-    Real4 a[11];
-    std::int64_t gid;
-    int type;
-    std::vector<Vec3d> wh;
-    std::vector<RowEntry> row;
-  };
-  std::vector<Owned> own;
+  // (in peer order), in flat arrays: fixed parts, wall histories (nw per
+  // particle) and list rows (entries [ro[i], ro[i + 1])).
+  std::vector<Migrant> own;
+  std::vector<Vec3d> own_wh;
+  std::vector<RowEntry> own_row;
+  std::vector<std::size_t> ro{0};
   own.reserve(kept.size());
   for (Index i : kept) {
     const auto u = static_cast<std::size_t>(i);
-    Owned o;
-    const Real4 zero{0, 0, 0, 0};
-    const Real4 a[11] = {h.pos[u],  h.vel[u],  h.omg[u],  h.frc[u], h.trq[u], h.frco[u], h.trqo[u], h.vpr[u],
-                         lay.rotation ? h.wpr[u] : zero, lay.external_forcing ? h.extf[u] : zero,
-                         lay.external_forcing ? h.extt[u] : zero};
-    std::copy(a, a + 11, o.a);
-    o.gid = h.gid[u];
-    o.type = h.type[u];
-    for (int w = 0; w < nw; ++w) o.wh.push_back(h.whist[static_cast<std::size_t>(w * no + i)]);
-    o.row.assign(rows.e.begin() + static_cast<std::ptrdiff_t>(rows.off[u]),
-                 rows.e.begin() + static_cast<std::ptrdiff_t>(rows.off[u + 1]));
-    own.push_back(std::move(o));
+    own.push_back(record(u));
+    for (int w = 0; w < nw; ++w) own_wh.push_back(h.whist[static_cast<std::size_t>(w * no + i)]);
+    own_row.insert(own_row.end(), rows.e.begin() + static_cast<std::ptrdiff_t>(rows.off[u]),
+                   rows.e.begin() + static_cast<std::ptrdiff_t>(rows.off[u + 1]));
+    ro.push_back(own_row.size());
   }
   for (const auto& b : in) {
     std::size_t at = 0;
     while (at < b.size()) {
-      const Migrant mg = take<Migrant>(b, at);
-      Owned o;
-      std::copy(mg.a, mg.a + 11, o.a);
-      o.gid = mg.gid;
-      o.type = mg.type;
-      for (int w = 0; w < nw; ++w) o.wh.push_back(take<Vec3d>(b, at));
-      for (int e = 0; e < mg.nrow; ++e) o.row.push_back(take<RowEntry>(b, at));
-      own.push_back(std::move(o));
+      own.push_back(take<Migrant>(b, at));
+      for (int w = 0; w < nw; ++w) own_wh.push_back(take<Vec3d>(b, at));
+      for (int e = 0; e < own.back().nrow; ++e) own_row.push_back(take<RowEntry>(b, at));
+      ro.push_back(own_row.size());
     }
   }
   const Index n_own = static_cast<Index>(own.size());
@@ -318,7 +309,7 @@ void DomainExchange::redistribute(DemSystem::Impl& m) {
     out[k].clear();
     sent[k].clear();
     for (const auto& [g, i] : pick[k]) {
-      const Owned& o = own[static_cast<std::size_t>(i)];
+      const Migrant& o = own[static_cast<std::size_t>(i)];
       append(out[k], GhostRecord{o.a[0], o.a[7], o.a[8], o.gid, o.type, 0});
       sent[k].push_back(g);
     }
@@ -345,14 +336,14 @@ void DomainExchange::redistribute(DemSystem::Impl& m) {
   std::fill(s.whist.begin(), s.whist.end(), Vec3d{});
   for (Index i = 0; i < n_own; ++i) {
     const auto u = static_cast<std::size_t>(i);
-    const Owned& o = own[u];
+    const Migrant& o = own[u];
     s.pos[u] = o.a[0]; s.vel[u] = o.a[1]; s.omg[u] = o.a[2]; s.frc[u] = o.a[3]; s.trq[u] = o.a[4];
     s.frco[u] = o.a[5]; s.trqo[u] = o.a[6]; s.vpr[u] = o.a[7];
     if (lay.rotation) s.wpr[u] = o.a[8];
     if (lay.external_forcing) { s.extf[u] = o.a[9]; s.extt[u] = o.a[10]; }
     s.gid[u] = o.gid;
     s.type[u] = o.type;
-    for (int w = 0; w < nw; ++w) s.whist[static_cast<std::size_t>(w * n + i)] = o.wh[static_cast<std::size_t>(w)];
+    for (int w = 0; w < nw; ++w) s.whist[static_cast<std::size_t>(w * n + i)] = own_wh[u * nw + w];
   }
   for (std::size_t k = 0; k < ghosts.size(); ++k) {
     const auto u = static_cast<std::size_t>(n_own) + k;
@@ -376,12 +367,13 @@ void DomainExchange::redistribute(DemSystem::Impl& m) {
     at.reserve(static_cast<std::size_t>(n) * 2);
     for (Index i = 0; i < n; ++i) at.emplace(s.gid[static_cast<std::size_t>(i)], static_cast<int>(i));
     int cap_prev = 1;
-    for (const Owned& o : own) cap_prev = std::max(cap_prev, static_cast<int>(o.row.size()));
+    for (std::size_t u = 0; u + 1 < ro.size(); ++u) cap_prev = std::max(cap_prev, static_cast<int>(ro[u + 1] - ro[u]));
     std::vector<int> cnt(static_cast<std::size_t>(n), 0), nb(static_cast<std::size_t>(n) * cap_prev, 0);
     std::vector<Vec3d> hs(static_cast<std::size_t>(n) * cap_prev);
     for (Index i = 0; i < n_own; ++i) {
       int c = 0;
-      for (const RowEntry& e : own[static_cast<std::size_t>(i)].row) {
+      for (std::size_t q = ro[static_cast<std::size_t>(i)]; q < ro[static_cast<std::size_t>(i) + 1]; ++q) {
+        const RowEntry& e = own_row[q];
         const auto f = at.find(e.gid);
         if (f == at.end()) continue;
         const auto s2 = static_cast<std::size_t>(c * n + i);
@@ -396,6 +388,7 @@ void DomainExchange::redistribute(DemSystem::Impl& m) {
 }
 
 void DomainExchange::bind_refresh(DemSystem::Impl& m) {
+  ex.synchronize();  // the build's reorder and row sort are done
   const ParticleStore& st = m.store;
   const Backend be = ex.backend();
   per = st.layout.rotation ? 3 : 2;

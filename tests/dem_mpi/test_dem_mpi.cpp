@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "core/error.hpp"
+#include "core/grid.hpp"
 #include "dem/domain.hpp"
 #include "dem/init.hpp"
 #include "dem/system.hpp"
@@ -148,7 +149,16 @@ std::array<int, 3> bed_cut(int n) {
   switch (n) {
     case 2: return {1, 1, 2};
     case 4: return {2, 1, 2};
+    case 8: return {2, 2, 2};
     default: return {1, n, 1};
+  }
+}
+// One cut of each rank count for the shorter runs.
+std::array<int, 3> one_cut(int n) {
+  switch (n) {
+    case 4: return {2, 2, 1};
+    case 8: return {2, 2, 2};
+    default: return {n, 1, 1};
   }
 }
 
@@ -298,10 +308,17 @@ TEST(DemMpi, RanksWithoutParticlesLikeOneRank) {
   for (auto& v : sc.hp.v) v.x += 3.0;
   p.dt = min_collision_time(p, sc.hp) / 50;
   p.contact_order = ContactOrder::GlobalId;
-  const int n = world().size();
-  const std::array<int, 3> dims = n == 4 ? std::array<int, 3>{2, 2, 1} : std::array<int, 3>{n, 1, 1};
   Reference refs;
-  run_against_reference(sc, dims, 4000, 500, nullptr, refs);
+  run_against_reference(sc, one_cut(world().size()), 4000, 500, nullptr, refs);
+}
+
+// The exact every-step rebuild test (the reference of the look-ahead) is
+// global too: any rank's excess rebuilds all.
+TEST(DemMpi, EveryStepRebuildCheckLikeOneRank) {
+  Scene sc = gas();
+  sc.p.rebuild_check = RebuildCheck::EveryStep;
+  Reference refs;
+  run_against_reference(sc, one_cut(world().size()), 2000, 1000, nullptr, refs);
 }
 
 // With the default storage order the sums run in an order that depends on
@@ -331,6 +348,38 @@ TEST(DemMpi, StorageOrderAgreesToRounding) {
     std::printf("[ dem_mpi ] storage order, %d ranks: largest force difference %.3g of the largest force\n",
                 comm.size(), df / fmax);
   }
+}
+
+// A coupled scene cuts its particles where it cuts its lattice: cut positions
+// at the pieces' first cells, owners by position (uneven split, clamping at
+// closed faces).
+TEST(DemMpi, CutsFollowTheLatticeDecomposition) {
+  DemParams p;
+  p.lo = {-1, 0, 2};
+  p.hi = {9, 7, 7};
+  p.periodic = {true, false, false};
+  const Grid whole = Grid::whole({10, 7, 5}, {true, false, false});
+  const halo::Decomposition dec = halo::decompose(whole, 6, {3, 2, 1});
+  const DemDomain d = domain_from_decomposition(world(), dec, p);
+  // 10 cells in 3 parts: 4, 3, 3 (offsets 0, 4, 7); 7 in 2: 4, 3 (offsets 0, 4).
+  ASSERT_EQ(d.cuts[0].size(), 4u);
+  EXPECT_EQ(d.cuts[0][0], -1.0);
+  EXPECT_EQ(d.cuts[0][1], -1.0 + 10.0 * 4 / 10);
+  EXPECT_EQ(d.cuts[0][2], -1.0 + 10.0 * 7 / 10);
+  EXPECT_EQ(d.cuts[0][3], 9.0);
+  ASSERT_EQ(d.cuts[1].size(), 3u);
+  EXPECT_EQ(d.cuts[1][1], 7.0 * 4 / 7);
+  ASSERT_EQ(d.cuts[2].size(), 2u);
+  EXPECT_EQ(d.owner({-1.0, 0.0, 2.0}), dec.rank_at({0, 0, 0}));
+  EXPECT_EQ(d.owner({3.0, 3.99, 4.0}), dec.rank_at({1, 0, 0}));
+  EXPECT_EQ(d.owner({6.0, 4.0, 4.0}), dec.rank_at({2, 1, 0}));
+  EXPECT_EQ(d.owner({8.5, -0.5, 9.0}), dec.rank_at({2, 0, 0}));  // beyond closed faces: the edge pieces
+  Vec3d lo, hi;
+  d.piece(dec.rank_at({1, 1, 0}), lo, hi);
+  EXPECT_EQ(lo.x, 3.0);
+  EXPECT_EQ(hi.x, 6.0);
+  EXPECT_EQ(lo.y, 4.0);
+  EXPECT_EQ(hi.y, 7.0);
 }
 
 TEST(DemMpi, RefusesPiecesThinnerThanTheGhostWidth) {
