@@ -660,6 +660,15 @@ void GasSolver::set_velocity(const Vec3d& u) {
   for_each(ex_, g_.cells(), CellFields{v});
 }
 
+void GasSolver::set_inflow(int face, double inflow) {
+  GasParams q = p_;
+  if (face < 0 || face > 5 || q.faces[static_cast<std::size_t>(face)].kind != FaceKind::Inlet)
+    throw ConfigError("gas: face " + std::to_string(face) + " is not an inlet");
+  q.faces[static_cast<std::size_t>(face)].inflow = inflow;
+  validate(q, g_);
+  p_ = q;
+}
+
 void GasSolver::step(const dem::ParticleView& p) {
   if (!initialised_) initialise(p);
   // 1. gas fraction at the particles' new positions.

@@ -8,7 +8,9 @@
 //    laws their own prediction -dp/dz = beta u / eps + rho g (steady, exact
 //    discrete solution: 1e-7 relative); the set I particle forces (drag plus
 //    -V_p grad p) carry the pressure drop across the bed less the gas weight
-//    (the bed edges are smeared over one cell by the face averages: 1 %).
+//    (the momentum balance is exact face by face; the gas weight, integrated
+//    here by the trapezoid rule over cell centres, differs from the faces'
+//    bookkeeping by at most rho g h delta eps = 0.02 Pa of 24 Pa: 1e-3).
 //  * Mass: with particles moving through a walled column fed by a
 //    distributor and a spout patch, every cell's discrete continuity
 //    d(eps)/dt + div(eps u) = 0 holds to the solver tolerance, and the
@@ -230,7 +232,7 @@ TEST_P(Gas, PackedBedPressureDrop) {
     double eps_int = 0;  // integral of eps from the centre of kb to that of kt
     for (int k = kb; k <= kt; ++k) eps_int += e[static_cast<std::size_t>(g.index(0, 0, k))] * h * ((k == kb || k == kt) ? 0.5 : 1.0);
     const double dp_bed = pr[static_cast<std::size_t>(g.index(0, 0, kb))] - pr[static_cast<std::size_t>(g.index(0, 0, kt))];
-    EXPECT_NEAR(fz / area, dp_bed - p.rho * kG * eps_int, 0.01 * dp_bed) << to_string(law);
+    EXPECT_NEAR(fz / area, dp_bed - p.rho * kG * eps_int, 1e-3 * dp_bed) << to_string(law);
   }
 }
 

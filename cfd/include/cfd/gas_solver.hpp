@@ -101,6 +101,9 @@ class GasSolver {
 
   // Uniform initial gas velocity (interstitial) in every interior face.
   void set_velocity(const Vec3d& u);
+  // Changes an inlet's superficial velocity (face 0..5 = x-, x+, y-, y+,
+  // z-, z+) for the following steps; checked like the case file's value.
+  void set_inflow(int face, double inflow);
 
   const GasGridView& grid() const { return g_; }
   const GasParams& params() const { return p_; }
