@@ -41,7 +41,7 @@ class FluidizedBed : public ::testing::TestWithParam<Backend> {};
 TEST_P(FluidizedBed, PressureDropAndMinimumFluidization) {
   const Backend be = GetParam();
   const double d = 1.2e-3, rho_s = 1000, h = 4e-3;
-  const int nx = 3, ny = 3, nz = 16;
+  const int nx = 2, ny = 2, nz = 16;
   const double L = nx * h, H = nz * h;
   // Particles: a loose random packing in the lower part, settled by gravity.
   dem::RandomPackingSpec spec;
@@ -59,10 +59,12 @@ TEST_P(FluidizedBed, PressureDropAndMinimumFluidization) {
   dp.hi = {L, L, H};
   dp.periodic = {true, true, false};
   dp.walls = {dem::Wall{{0, 0, 0}, {0, 0, 1}}, dem::Wall{{0, 0, H}, {0, 0, -1}}};
-  dp.material.stiffness = 800;
+  // Softer than the paper's 800 N/m (fewer DEM sub-steps); the fluidization
+  // threshold does not depend on the contact stiffness.
+  dp.material.stiffness = 200;
   dp.material.restitution = 0.97;
   dp.material.friction = 0.1;
-  dp.material.wall_stiffness = 800;
+  dp.material.wall_stiffness = 200;
   dp.material.wall_restitution = 0.97;
   dp.material.wall_friction = 0.1;
   dp.friction = true;
@@ -107,29 +109,40 @@ TEST_P(FluidizedBed, PressureDropAndMinimumFluidization) {
   for (int n = 0; n < 250; ++n) loop.step();  // settle 0.05 s
   std::printf("np %ld substeps %d settle %.1f s\n", static_cast<long>(np), substeps,
               std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-  // Bed packing after settling: height of the highest particle centre + r.
+  // Bed packing after settling: a bed uniform from the floor to height H has
+  // its centres' mean at H / 2.
   const dem::HostParticles settled = dem.download();
-  double top = 0;
-  for (Index i = 0; i < np; ++i) top = std::max(top, settled.x[static_cast<std::size_t>(i)].z + 0.5 * d);
+  double zsum = 0;
+  for (Index i = 0; i < np; ++i) zsum += settled.x[static_cast<std::size_t>(i)].z;
+  const double top = 2 * zsum / np;
   const double phi_bed = np * kPi * d * d * d / 6 / (L * L * top);
   std::printf("bed height %.4f m phi %.3f\n", top, phi_bed);
 
   // Two fixed-bed points (static: 10 ms to adjust, 10 ms averaged) and one
-  // fluidized (60 ms to expand, 60 ms averaged).
-  const std::vector<double> speeds{0.1, 0.2, 0.6};
+  // fluidized (0.1 s to expand, 0.15 s averaged). A fluidized bed in a narrow
+  // column rises and falls as a slug; the window's momentum change is taken
+  // out: <F> - dP/T is the weight less whatever the walls carry.
+  auto momentum = [&] {
+    const dem::HostParticles now = dem.download();
+    double s = 0;
+    for (Index i = 0; i < np; ++i) s += now.mass[static_cast<std::size_t>(i)] * now.v[static_cast<std::size_t>(i)].z;
+    return s;
+  };
+  const std::vector<double> speeds{0.1, 0.2, 0.45};
   std::vector<double> ratio;
   for (double U : speeds) {
     gas.set_inflow(4, U);
-    const int steps = U < 0.3 ? 50 : 300;
-    for (int n = 0; n < steps; ++n) loop.step();
+    const int relax = U < 0.3 ? 50 : 500, avg = U < 0.3 ? 50 : 750;
+    for (int n = 0; n < relax; ++n) loop.step();
+    const double p0 = momentum();
     double s = 0;
-    const int avg = steps;
     for (int n = 0; n < avg; ++n) {
       loop.step();
       s += fluid_force();
     }
-    ratio.push_back(s / avg / weight);
-    std::printf("U %.3f  F/W %.4f  (%.1f s)\n", U, ratio.back(),
+    const double dpdt = (momentum() - p0) / (avg * gas_dt);
+    ratio.push_back((s / avg - dpdt) / weight);
+    std::printf("U %.3f  F/W %.4f  dP/dt/W %.4f  (%.1f s)\n", U, ratio.back(), dpdt / weight,
                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
   }
   // Fluidized: the bed's weight.
