@@ -99,7 +99,8 @@ class GasSolver {
   // forces into p.ext_force when that is not null.
   void step(const dem::ParticleView& p);
 
-  // Uniform initial gas velocity (interstitial) in every interior face.
+  // Uniform initial gas velocity (interstitial) on every face (boundary faces
+  // take their prescribed values again at the next step).
   void set_velocity(const Vec3d& u);
   // Changes an inlet's superficial velocity (face 0..5 = x-, x+, y-, y+,
   // z-, z+) for the following steps; checked like the case file's value.
