@@ -250,15 +250,25 @@ Prediction Model::predict(const Case& c) const {
           if (dec.dims[a] > 1) face_cells += 2.0 * cells / static_cast<double>(p.local[a]);
         const double ghosts = density * face_cells * su.diameter.value;
         const double migrants = density * face_cells * su.particle_speed.value;
-        const double pbytes = ghosts * su.ghost_bytes.value + migrants * su.migrate_bytes.value;
         int nn_same = 0;
         const int nn = particle_neighbours(dec, rank, nn_same, gpn);
-        const double max_lat = nn_same < nn ? m.lat_ib_s.value : m.lat_mpi_s.value;
-        const double rounds = su.substeps.value + 2;
-        const double bw = nn_same < nn ? ib_gpu : (c.transport == Transport::HostMpi ? m.host_mpi_Bps.value : m.nvlink_Bps.value);
-        t_part = rounds * (m.fixed_device_s.value + 2 * max_lat) + pbytes / bw +
-                 (c.transport == Transport::HostMpi ? 2 * pbytes / m.pcie_Bps.value : 0);
-        (void)nn;
+        const bool off_node = nn_same < nn;
+        const double lat1 = off_node ? m.lat_ib_s.value : m.lat_mpi_s.value;
+        const double bw = off_node ? ib_gpu
+                                   : (c.transport == Transport::HostMpi ? m.host_mpi_Bps.value : m.nvlink_Bps.value);
+        const double stage = c.transport == Transport::HostMpi ? 2 / m.pcie_Bps.value : 0;  // s per byte
+        // DemDomain exchange: a ghost refresh through the transport before
+        // every DEM force evaluation (one message per neighbour); the
+        // hydrodynamic forces of ghosts back to their owners once per step;
+        // migration and ghost rebuild at list builds (host-staged, sizes
+        // then bytes).
+        const double fixed = c.transport == Transport::HostMpi ? m.fixed_host_s.value : m.fixed_device_s.value;
+        const double refresh = su.substeps.value * (fixed + lat1 + ghosts * su.refresh_bytes.value * (1 / bw + stage));
+        const double forces = m.fixed_device_s.value + 2 * lat1 + ghosts * su.force_bytes.value * (1 / bw + 2 / m.pcie_Bps.value);
+        const double migrate = (m.fixed_host_s.value + 2 * lat1 +
+                                migrants * su.rebuild_every.value * su.migrate_bytes.value * (1 / bw + 2 / m.pcie_Bps.value)) /
+                               su.rebuild_every.value;
+        t_part = refresh + forces + migrate;
       }
     }
     q.t_compute = t_c + t_psm_dem;

@@ -78,8 +78,10 @@ struct Suspension {
   Param diameter{10, Source::Measured, "particle diameter in cells"};
   Param clustering{1.25, Source::Assumed, "densest sub-domain / mean particle load, from clustering"};
   Param particle_speed{0.01, Source::Assumed, "particle speed (cells per step): migration flux"};
-  Param ghost_bytes{152, Source::Assumed, "ghost update + force return per ghost particle"};
+  Param refresh_bytes{80, Source::Assumed, "ghost refresh per ghost and DEM substep (position, velocities, id)"};
+  Param force_bytes{56, Source::Assumed, "hydrodynamic force + torque returned per ghost, once per step"};
   Param migrate_bytes{256, Source::Assumed, "a migrating particle with its contact history and id"};
+  Param rebuild_every{10, Source::Assumed, "fluid steps between neighbour-list builds (migration, host-staged)"};
 };
 
 struct Case {
