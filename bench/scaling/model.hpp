@@ -15,6 +15,7 @@
 //             load imbalance, the DEM step, and the ghost / migration /
 //             force-return messages, none of them overlapped.
 // The step of the slowest rank is the step of the run. Plain C++: no GPU.
+// Constants marked Assumed that calibrate() fits become Fitted there.
 #include <array>
 #include <string>
 #include <utility>
@@ -46,15 +47,15 @@ struct Machine {
   Param ib_node_Bps{100e9, Source::DataSheet, "4 x 200 Gb/s InfiniBand per node, per direction"};
   Param pcie_Bps{55e9, Source::DataSheet, "PCIe 5 x16, effective, per direction"};
   Param copy_Bps{3.0e12, Source::Measured, "device copy bandwidth (pack/unpack kernels)"};
-  Param host_mpi_Bps{12e9, Source::Fitted, "MPI between pinned host buffers of one node"};
+  Param host_mpi_Bps{12e9, Source::Assumed, "MPI between pinned host buffers of one node"};
   Param lat_mpi_s{3e-6, Source::Assumed, "MPI message latency, intra-node"};
   Param lat_ib_s{5e-6, Source::Assumed, "MPI / GPUDirect message latency over InfiniBand"};
   Param lat_nccl_s{15e-6, Source::Assumed, "NCCL send/recv per peer (one group per exchange)"};
   Param launch_s{4e-6, Source::Assumed, "one extra kernel launch on the step's critical path"};
-  Param fixed_host_s{0.2e-3, Source::Fitted, "host-staged exchange: stream waits, staging, MPI progress"};
+  Param fixed_host_s{0.2e-3, Source::Assumed, "host-staged exchange: stream waits, staging, MPI progress"};
   Param fixed_device_s{20e-6, Source::Assumed, "device MPI / NCCL exchange: stream wait, group launch"};
-  Param overlap_eff{0.5, Source::Fitted, "fraction of the inner box's compute that hides communication"};
-  Param shared_gpu_penalty{0.2, Source::Fitted, "extra compute when ranks share one GPU (context switches)"};
+  Param overlap_eff{0.5, Source::Assumed, "fraction of the inner box's compute that hides communication"};
+  Param shared_gpu_penalty{0.2, Source::Assumed, "extra compute when ranks share one GPU (context switches)"};
   Param mem_bytes{141e9, Source::DataSheet, "GPU memory (H200 141 GB; H100 80 GB)"};
 };
 
@@ -73,7 +74,7 @@ struct Suspension {
   Param psm_s_per_cell_fp32{0, Source::Measured, "PSM step - fluid step, per cell (phi 0.128, d/l 10)"};
   Param psm_s_per_cell_fp64{0, Source::Measured, ""};
   Param dem_floor_s{70e-6, Source::Measured, "DEM (6 substeps) at 4101 particles: launch-bound"};
-  Param dem_particle_steps_per_s{2.2e9, Source::Measured, "DEM rate at 10^6-10^7 particles (frictional)"};
+  Param dem_particle_steps_per_s{2.2e9, Source::Measured, "DEM particle-steps/s at 10^6-10^7 particles, frictional (dem_h200.json)"};
   Param substeps{6, Source::Measured, "DEM substeps per fluid step"};
   Param diameter{10, Source::Measured, "particle diameter in cells"};
   Param clustering{1.25, Source::Assumed, "densest sub-domain / mean particle load, from clustering"};
