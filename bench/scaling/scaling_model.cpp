@@ -2,10 +2,11 @@
 // on measured scaling points, compared with every one of them, and used to
 // predict strong and weak scaling to 4096 GPUs.
 //
-//   lbdem_scaling_model [--shared FILE.jsonl]... [FILE.jsonl]... [--lbm-h100 F] [--lbm-h200 F]
+//   lbdem_scaling_model [--shared FILE.jsonl]... [FILE.jsonl]... [--rates FILE.jsonl]... [--lbm-h100 F] [--lbm-h200 F]
 //                       [--psm-h100 F] [--psm-h200 F] [--clustering X] [--out-json F] [--out-md F]
 // FILE.jsonl: lines of lbdem_bench_scaling, one rank per GPU; --shared: its
-// multi-rank points ran all ranks on one GPU. Defaults read bench/results.
+// multi-rank points ran all ranks on one GPU; --rates: one-rank lines at
+// several sizes that only set the cell rate R(n). Defaults read bench/results.
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -199,6 +200,7 @@ void read_psm(Model& md, const std::string& path) {
 
 struct Args {
   std::vector<std::pair<std::string, bool>> points;  // file, shared
+  std::vector<std::string> rate_files;               // one-rank lines: cell rates only
   std::string lbm_h100, lbm_h200, psm_h100, psm_h200, out_json, out_md;
   double clustering = 1.25;
 };
@@ -206,7 +208,8 @@ struct Args {
 [[noreturn]] void usage(const std::string& why) {
   std::fprintf(stderr,
                "lbdem_scaling_model: %s\n"
-               "usage: lbdem_scaling_model [--shared FILE.jsonl]... [FILE.jsonl]... [--lbm-h100 F] [--lbm-h200 F]\n"
+               "usage: lbdem_scaling_model [--shared FILE.jsonl]... [FILE.jsonl]... [--rates FILE.jsonl]...\n"
+               "       [--lbm-h100 F] [--lbm-h200 F]\n"
                "       [--psm-h100 F] [--psm-h200 F] [--clustering X (>= 1)] [--out-json F] [--out-md F]\n",
                why.c_str());
   std::exit(2);
@@ -226,6 +229,7 @@ Args parse(int argc, char** argv) {
       return argv[++i];
     };
     if (k == "--shared") a.points.emplace_back(val(), true);
+    else if (k == "--rates") a.rate_files.push_back(val());
     else if (k == "--lbm-h100") a.lbm_h100 = val();
     else if (k == "--lbm-h200") a.lbm_h200 = val();
     else if (k == "--psm-h100") a.psm_h100 = val();
@@ -300,6 +304,14 @@ int main(int argc, char** argv) {
         else if (m.device.find("H200") != std::string::npos) pts200.push_back(m);
         else std::fprintf(stderr, "lbdem_scaling_model: %s: device '%s' is neither H100 nor H200; skipped\n",
                           file.c_str(), m.device.c_str());
+      }
+    // One-rank lines at many sizes: the cell rate R(n) of each device.
+    for (const std::string& file : a.rate_files)
+      for (const Measured& m : read_points(file, false)) {
+        if (m.ranks != 1) throw std::runtime_error(file + ": --rates takes one-rank lines only");
+        const double cells = static_cast<double>(m.grid[0]) * m.grid[1] * m.grid[2];
+        if (m.device.find("H100") != std::string::npos) h100.rates.add(m.fp64, cells, cells / m.t_step);
+        else if (m.device.find("H200") != std::string::npos) h200.rates.add(m.fp64, cells, cells / m.t_step);
       }
     std::vector<std::string> log100 = calibrate(h100, pts100), log200 = calibrate(h200, pts200);
     // Constants of the exchange (host side, overlap) carry over to the H200
