@@ -20,7 +20,7 @@ def main():
     with open(src) as f:
         d = json.load(f)
 
-    fig, axes = plt.subplots(1, 3, figsize=(17, 5.2))
+    fig, axes = plt.subplots(1, 4, figsize=(22, 5.4))
     ax = axes[0]
     pts = d["points"]
     labels, meas, mod = [], [], []
@@ -42,12 +42,16 @@ def main():
     ax.legend(fontsize=8)
 
     styles = {"host_mpi": "o-", "device_mpi": "s--", "nccl": "^:"}
-    for ax, scaling in zip(axes[1:], ("strong", "weak")):
+    panels = (("strong", False), ("weak", False), (None, True))
+    for ax, (scaling, one_host) in zip(axes[1:], panels):
         series = {}
         for r in d["predictions"]:
-            if r["scaling"] != scaling:
+            if r["scene"].startswith("one host") != one_host:
                 continue
-            key = (r["scene"].split(",")[0], r["precision"], r["transport"])
+            if scaling is not None and r["scaling"] != scaling:
+                continue
+            name = r["scene"].split(",")[0].replace("one host: ", "")
+            key = (name + (" " + r["scaling"] if one_host else ""), r["precision"], r["transport"])
             series.setdefault(key, []).append(r)
         for (scene, prec, tp), rows in sorted(series.items()):
             g = [r["gpus"] for r in rows]
@@ -61,7 +65,10 @@ def main():
         ax.set_xlabel("GPUs (H200, 8 per node, NVLink; 4x200 Gb/s IB between nodes)")
         ax.set_ylabel("parallel efficiency (%)")
         ax.set_ylim(0, 105)
-        ax.set_title(f"{scaling} scaling (model); x = does not fit in 141 GB", fontsize=9)
+        if one_host:
+            ax.set_title("one host, 1-8 H200 (model; weak: stacked along z)", fontsize=9)
+        else:
+            ax.set_title(f"{scaling} scaling (model); x = does not fit in 141 GB", fontsize=9)
         ax.legend(fontsize=6, loc="lower left")
     fig.tight_layout()
     fig.savefig(dst, dpi=130)

@@ -235,7 +235,8 @@ Prediction Model::predict(const Case& c) const {
       const Suspension& su = suspension;
       const double np_mean = density * cells;
       double load = 1;
-      if (N > 1) load = std::min<double>(N, su.clustering.value * (1 + 3 / std::sqrt(std::max(np_mean, 1.0))));
+      const double cluster = c.clustering > 0 ? c.clustering : su.clustering.value;
+      if (N > 1) load = std::min<double>(N, cluster * (1 + 3 / std::sqrt(std::max(np_mean, 1.0))));
       const double per_cell = c.fp64 ? su.psm_s_per_cell_fp64.value : su.psm_s_per_cell_fp32.value;
       auto dem = [&](double np) {
         return std::max(su.dem_floor_s.value, su.substeps.value * np / su.dem_particle_steps_per_s.value);

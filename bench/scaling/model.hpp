@@ -94,6 +94,7 @@ struct Case {
   std::array<int, 3> dims{0, 0, 0};       // {0,0,0}: halo::decompose chooses (fewest halo cells)
   std::array<bool, 3> periodic{true, true, true};
   long particles = 0;                     // 0: fluid only
+  double clustering = 0;                  // > 0: overrides Suspension::clustering for this case
 };
 
 // The fluid halo of one rank, link by link, as lbm::halo_links builds it:

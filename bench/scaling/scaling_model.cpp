@@ -364,33 +364,49 @@ int main(int argc, char** argv) {
 
     // ---- predictions (H200 nodes of 8, NVLink inside, 4 x 200 Gb/s IB between) ----
     std::vector<Row> rows;
-    const std::vector<int> counts{1, 8, 64, 512, 4096};
+    const std::vector<int> many{1, 8, 64, 512, 4096}, host{1, 2, 4, 8};
     const Transport tps[] = {Transport::HostMpi, Transport::DeviceMpi, Transport::Nccl};
     struct Scene {
       std::string name;
       bool fp64;
-      std::array<long, 3> strong;
+      std::array<long, 3> strong;  // {0,0,0}: no strong scaling
       long particles;
-      std::array<long, 3> per_gpu;
+      std::array<long, 3> per_gpu;  // {0,0,0}: no weak scaling
       long particles_per_gpu;
+      std::vector<int> counts;
+      bool stack_z;  // weak: per-GPU boxes stacked along z (as lbdem_bench_scaling --per-rank does)
+      double clustering = 0;  // > 0: this scene's clustering factor (else --clustering)
     };
     const std::vector<Scene> scenes{
-        {"suspension 512x2016x512, 129024 particles", false, {512, 2016, 512}, 129024, {256, 256, 256}, 4101},
-        {"fluid 4096^3", false, {4096, 4096, 4096}, 0, {512, 512, 512}, 0},
-        {"fluid 4096^3", true, {4096, 4096, 4096}, 0, {512, 512, 512}, 0},
+        {"suspension 512x2016x512, 129024 particles", false, {512, 2016, 512}, 129024, {256, 256, 256}, 4101, many, false},
+        {"fluid 4096^3", false, {4096, 4096, 4096}, 0, {512, 512, 512}, 0, many, false},
+        {"fluid 4096^3", true, {4096, 4096, 4096}, 0, {512, 512, 512}, 0, many, false},
+        // The sweeps of one host (issues 14 and 20), for holding the model against them.
+        {"one host: fluid 512^3", false, {512, 512, 512}, 0, {512, 512, 512}, 0, host, true},
+        {"one host: fluid 512^3", true, {512, 512, 512}, 0, {512, 512, 512}, 0, host, true},
+        {"one host: fluid 1024^3", false, {1024, 1024, 1024}, 0, {0, 0, 0}, 0, host, true},
+        // The benchmark's suspension is a random homogeneous packing run for
+        // 100 steps: no clusters form, only the Poisson fluctuation remains.
+        {"one host: suspension 256^3 per GPU", false, {0, 0, 0}, 0, {256, 256, 256}, 4101, host, true, 1.0},
     };
     for (const Scene& sc : scenes)
       for (const Transport tp : tps)
         for (const bool weak : {false, true}) {
+          if ((weak ? sc.per_gpu[0] : sc.strong[0]) == 0) continue;
           double t1 = 0;
-          for (const int n : counts) {
+          for (const int n : sc.counts) {
             Case c;
             c.fp64 = sc.fp64;
             c.transport = tp;
             c.ranks = n;
+            c.clustering = sc.clustering;
             if (!weak) {
               c.grid = sc.strong;
               c.particles = sc.particles;
+            } else if (sc.stack_z) {
+              c.grid = {sc.per_gpu[0], sc.per_gpu[1], sc.per_gpu[2] * n};
+              c.dims = {1, 1, n};
+              c.particles = sc.particles_per_gpu * n;
             } else {
               // Per-GPU box times the ranks per axis the decomposition picks
               // for a cube of n such boxes.
@@ -490,7 +506,8 @@ int main(int argc, char** argv) {
       const std::string head = r.scene + ", " + r.precision + ", " + r.scaling + " scaling";
       if (head != last) {
         md << "\n## " << head << "\n\n"
-           << (r.scaling == "weak" ? (r.particles ? "256^3 cells and 4101 particles per GPU. " : "512^3 cells per GPU. ") : "")
+           << (r.scaling == "weak" ? (r.particles ? "256^3 cells and 4101 particles per GPU" : "512^3 cells per GPU") : "")
+           << (r.scaling == "weak" ? (r.scene.rfind("one host", 0) == 0 ? ", stacked along z. " : ". ") : "")
            << "Times in ms per step; efficiency against one GPU (model); memory per GPU (H200 141 GB; * = does not "
               "fit, + = does not fit an 80 GB H100).\n\n"
            << "| transport | GPUs | dims | step | compute | exposed comm (latency) | particles (imbalance) | MLUPS | "
