@@ -19,7 +19,6 @@
 // convert particle centres to storage coordinates through GridView::shift and
 // never assume the grid starts at 0.
 #include <array>
-#include <cmath>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -43,12 +42,14 @@ struct GridView {
   // particle seen by this piece is taken at its image nearest the piece.
   double image[3] = {0, 0, 0};
 
-  // Global coordinate x on axis a moved by whole periods to the image
-  // nearest this piece's storage (unchanged on axes without `image`).
+  // Global coordinate x on axis a moved by one period to the image nearest
+  // this piece's storage (unchanged on axes without `image`). x may lie up to
+  // one period outside the global box (positions are kept wrapped, or nearly).
   LBDEM_HD double nearest_image(int a, double x) const {
-    if (image[a] <= 0) return x;
-    const double centre = shift[a] + 0.5 * extent(a);
-    return x - image[a] * floor((x - centre) / image[a] + 0.5);
+    const double L = image[a];
+    if (L <= 0) return x;
+    const double d = x - (shift[a] + 0.5 * extent(a));
+    return d > 0.5 * L ? x - L : (d < -0.5 * L ? x + L : x);
   }
 
   LBDEM_HD void coords(Index cell, int& x, int& y, int& z) const {
