@@ -204,7 +204,10 @@ void Config::fail(const std::string& key, const std::string& what) const {
   throw ConfigError(msg + ": " + what);
 }
 
-bool Config::has(const std::string& key) const { return static_cast<bool>(node_[key]); }
+bool Config::has(const std::string& key) const {
+  read_->insert(full_key(key));  // a key a scene asks about is one it knows (keys_read), though not read yet
+  return static_cast<bool>(node_[key]);
+}
 
 YAML::Node Config::get_node(const std::string& key) const {
   mark(key);
