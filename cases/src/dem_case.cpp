@@ -97,7 +97,7 @@ HostParticles read_particles(const Config& pc, const DemParams& p, std::uint64_t
     s.density = rho;
     s.seed = static_cast<std::uint64_t>(pc.integer_in("seed", 1, 0, std::numeric_limits<long>::max()));
     s.mc_sweeps = static_cast<int>(pc.integer_in("mc_sweeps", 0, 0, 1000));
-    cases::check_dem_particle_count(pc, cases::random_packing_count(s.lo, s.hi, s.solid_fraction, s.r_max), "solid_fraction");
+    cases::check_dem_random_packing(pc, s.lo, s.hi, s.periodic, s.solid_fraction, s.r_max);
     hp = dem::random_packing(s);
   }
   // Random initial velocities (zero mean), for granular-gas scenes.

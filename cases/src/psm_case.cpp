@@ -242,7 +242,7 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
     rs.r_min = rs.r_max = r;
     rs.density = rho_s;
     rs.seed = static_cast<std::uint64_t>(pc.integer_in("seed", 1, 0, std::numeric_limits<long>::max()));
-    cases::check_particles_memory(root, s, cases::random_packing_count(rs.lo, rs.hi, rs.solid_fraction, r), opt);
+    cases::check_particles_random(root, pc, s, rs.lo, rs.hi, rs.periodic, rs.solid_fraction, r, opt);
     c.particles = dem::random_packing(rs);
     for (Index i = 0; i < c.particles.size(); ++i) {
       c.particles.v[static_cast<std::size_t>(i)] = {v0[0], v0[1], v0[2]};

@@ -323,6 +323,42 @@ double random_packing_count(const std::array<double, 3>& lo, const std::array<do
   return r_max > 0 ? solid_fraction * vol / vp : 0;  // fewest particles: all of the largest radius
 }
 
+void check_random_fill(const Config& pc, const std::array<double, 3>& lo, const std::array<double, 3>& hi,
+                       const std::array<bool, 3>& periodic, double r_max, const std::string& box_key) {
+  for (int a = 0; a < 3; ++a) {
+    const auto k = static_cast<std::size_t>(a);
+    const double L = hi[k] - lo[k];
+    if (!(2 * r_max < L))
+      throw ConfigError(pc.where("radius") + ": key '" + pc.full_key("radius") + "' = " + pc.value_text("radius") +
+                        ": a particle of diameter " + num(2 * r_max) + " does not fit the box along " + axis_name(a) +
+                        " (length " + num(L) + (periodic[k] ? ", periodic" : "") + ", " + box_key +
+                        "); use smaller particles or a larger box");
+  }
+}
+
+void check_dem_random_packing(const Config& pc, const std::array<double, 3>& lo, const std::array<double, 3>& hi,
+                              const std::array<bool, 3>& periodic, double solid_fraction, double r_max) {
+  check_random_fill(pc, lo, hi, periodic, r_max,
+                    pc.has("region_hi") ? "particles.region_hi, domain.lo" : "domain.lo, domain.hi");
+  check_dem_particle_count(pc, random_packing_count(lo, hi, solid_fraction, r_max), "solid_fraction");
+}
+
+void check_particles_random(const Config& root, const Config& pc, const lbm::LbmSetup& fluid,
+                            const std::array<double, 3>& lo, const std::array<double, 3>& hi,
+                            const std::array<bool, 3>& periodic, double solid_fraction, double r,
+                            const RunOptions& opt) {
+  // The key is particles.diameter here.
+  for (int a = 0; a < 3; ++a) {
+    const auto k = static_cast<std::size_t>(a);
+    if (!(2 * r < hi[k] - lo[k]))
+      throw ConfigError(pc.where("diameter") + ": key 'particles.diameter' = " + pc.value_text("diameter") +
+                        ": the particles do not fit the box along " + axis_name(a) + " (" + num(hi[k] - lo[k]) +
+                        " cells" + (periodic[k] ? ", periodic" : "") +
+                        ", domain.cells); use smaller particles or more cells");
+  }
+  check_particles_memory(root, fluid, random_packing_count(lo, hi, solid_fraction, r), opt);
+}
+
 void check_dem_scene(const Config& root, const dem::DemParams& p, const dem::HostParticles& hp, long steps,
                      const RunOptions& opt) {
   const ParticleBox box = particle_box(p, 3, "domain.lo, domain.hi", "walls");

@@ -130,6 +130,12 @@ void check_plan(const Config& root, const RunOptions& opt, double steps, double 
 void check_dem_particle_count(const Config& pc, double count, const std::string& key);
 double random_packing_count(const std::array<double, 3>& lo, const std::array<double, 3>& hi, double solid_fraction,
                             double r_max, int dim = 3);
+// A random packing (dem::random_packing) of the box [lo, hi]: the largest
+// particle fits along every axis, and the particles' host memory.
+void check_random_fill(const Config& pc, const std::array<double, 3>& lo, const std::array<double, 3>& hi,
+                       const std::array<bool, 3>& periodic, double r_max, const std::string& box_key);
+void check_dem_random_packing(const Config& pc, const std::array<double, 3>& lo, const std::array<double, 3>& hi,
+                              const std::array<bool, 3>& periodic, double solid_fraction, double r_max);
 void check_dem_scene(const Config& root, const dem::DemParams& p, const dem::HostParticles& hp, long steps,
                      const RunOptions& opt);
 
@@ -149,6 +155,10 @@ void check_fixed_sphere(const Config& root, int dim, double diameter, double chi
 // anything is built; then, with the particles made, box, walls, overlaps,
 // Mach number and plan.
 void check_particles_memory(const Config& root, const lbm::LbmSetup& fluid, double particles, const RunOptions& opt);
+void check_particles_random(const Config& root, const Config& pc, const lbm::LbmSetup& fluid,
+                            const std::array<double, 3>& lo, const std::array<double, 3>& hi,
+                            const std::array<bool, 3>& periodic, double solid_fraction, double r,
+                            const RunOptions& opt);
 void check_particles_scene(const Config& root, const lbm::LbmSetup& fluid, const dem::DemParams& dem,
                            const dem::HostParticles& p, const std::array<double, 3>& gravity, bool balance,
                            int dem_substeps, long steps, const RunOptions& opt);

@@ -1,6 +1,7 @@
 #include "core/config.hpp"
 
 #include <yaml-cpp/depthguard.h>
+#include <yaml-cpp/eventhandler.h>
 
 #include <algorithm>
 #include <cmath>
@@ -132,49 +133,71 @@ void check_tree(const YAML::Node& n, const std::string& src, const std::string& 
   }
 }
 
+// Counts the documents of a YAML stream, at most two (yaml-cpp 0.7's
+// LoadAll() loops without end, allocating, on some malformed streams such as
+// one starting with ','; this loop is bounded), and where the second starts.
+class DocumentCounter : public YAML::EventHandler {
+ public:
+  YAML::Mark second;
+  void OnDocumentStart(const YAML::Mark& m) override {
+    if (++docs_ == 2) second = m;
+  }
+  void OnDocumentEnd() override {}
+  void OnNull(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnAlias(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnScalar(const YAML::Mark&, const std::string&, YAML::anchor_t, const std::string&) override {}
+  void OnSequenceStart(const YAML::Mark&, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {}
+  void OnSequenceEnd() override {}
+  void OnMapStart(const YAML::Mark&, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {}
+  void OnMapEnd() override {}
+
+ private:
+  int docs_ = 0;
+};
+
+// yaml-cpp's exception as one line: file, line (and column where short enough
+// to help), what.
+[[noreturn]] void syntax_error(const std::string& source_name, const YAML::Exception& e) {
+  std::string where = "line " + std::to_string(e.mark.line + 1);
+  if (e.mark.column >= 0 && e.mark.column < 200) where += ", column " + std::to_string(e.mark.column + 1);
+  throw ConfigError(source_name + ": YAML syntax error at " + where + ": " + printable(e.msg, 120));
+}
+
 }  // namespace
 
 Config Config::from_string(const std::string& yaml, const std::string& source_name) {
-  std::vector<YAML::Node> docs;
+  YAML::Node n;
+  int docs = 0;
+  DocumentCounter counter;
   try {
-    docs = YAML::LoadAll(yaml);
+    n = YAML::Load(yaml);
+    std::istringstream is(yaml);
+    YAML::Parser parser(is);
+    while (docs < 2 && parser.HandleNextDocument(counter)) ++docs;
   } catch (const YAML::DeepRecursion& e) {
     throw ConfigError(source_name + ":" + std::to_string(e.mark.line + 1) +
                       ": brackets or indentation nest more than " + std::to_string(e.depth()) +
                       " levels deep; a case file nests at most " + std::to_string(kMaxDepth));
   } catch (const YAML::Exception& e) {
-    // The column is given only where it helps find the place (a line a
-    // person could read).
-    std::string where = "line " + std::to_string(e.mark.line + 1);
-    if (e.mark.column >= 0 && e.mark.column < 200) where += ", column " + std::to_string(e.mark.column + 1);
-    throw ConfigError(source_name + ": YAML syntax error at " + where + ": " + printable(e.msg, 120));
+    syntax_error(source_name, e);
   }
-  if (docs.size() > 1) {
-    // The line where the second document starts: its first node, or the
-    // second "---" line when that document is empty.
-    int line = docs[1].Mark().is_null() ? -1 : docs[1].Mark().line + 1;
-    if (line < 0) {
-      std::istringstream is(yaml);
-      std::string l;
-      int no = 0, markers = 0;
-      bool content = false;
-      while (std::getline(is, l)) {
-        ++no;
-        if (l.rfind("---", 0) == 0) {
-          if (content || ++markers > 1) { line = no; break; }
-        } else if (!l.empty() && l[0] != '#') {
-          content = true;
-        }
-      }
+  if (!n.IsMap()) {
+    // Name the first line that is not blank, a comment or a document marker.
+    std::istringstream is(yaml);
+    std::string l, where;
+    for (int no = 1; std::getline(is, l); ++no) {
+      const auto p = l.find_first_not_of(" \t\r");
+      if (p == std::string::npos || l[p] == '#' || l.rfind("---", 0) == 0) continue;
+      where = ":" + std::to_string(no) + ": '" + printable(l, kMaxValueChars) + "' is not a 'key: value' line";
+      break;
     }
-    throw ConfigError(source_name + (line > 0 ? ":" + std::to_string(line) : std::string()) + ": the file holds " +
-                      std::to_string(docs.size()) +
-                      " YAML documents (separated by '---'); a case file is one document: remove the '---' line "
-                      "and merge the sections, or split the file");
+    throw ConfigError(source_name + (where.empty() ? ": the file is empty" : where) +
+                      "; the case file must be a YAML mapping of keys (e.g. 'scene: channel')");
   }
-  YAML::Node n = docs.empty() ? YAML::Node() : docs[0];
-  if (!n.IsMap())
-    throw ConfigError(source_name + ": the case file must be a YAML mapping of keys (e.g. 'scene: channel')");
+  if (docs > 1)
+    throw ConfigError(source_name + line_of(counter.second) +
+                      ": the file holds more than one YAML document (separated by '---'); a case file is one "
+                      "document: remove the '---' line and merge the sections, or split the file");
   check_tree(n, source_name, "", 0);
   return Config(n, std::make_shared<std::string>(source_name), "", std::make_shared<std::set<std::string>>());
 }

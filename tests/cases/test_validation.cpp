@@ -233,7 +233,7 @@ TEST_F(Validation, DuplicatedNestedKey) {
 }
 TEST_F(Validation, TwoDocuments) {
   refused(dem_case("{init: list, list: [{position: [0.5, 0.5, 0.5], radius: 0.1}]}") + "---\nscene: channel\n",
-          {"case.yaml:10:", "2 YAML documents"});
+          {"case.yaml:9:", "more than one YAML document"});
 }
 TEST_F(Validation, ComplexKey) {
   refused(dem_case("{init: list, list: [{position: [0.5, 0.5, 0.5], radius: 0.1}]}") + "? [a, b]\n: 1\n",
