@@ -434,7 +434,9 @@ int run_parsed(LbmCase& c, const RunOptions& opt) {
                               ", " + std::to_string(d.max_speed_cell[1]) + ", " + std::to_string(d.max_speed_cell[2]) +
                               ") exceeds diagnostics.max_mach = " + std::to_string(c.max_mach) +
                               ". Output up to the last good step is kept in " + c.outdir +
-                              ". Reduce the time step (tau) or the driving.");
+                              ". Any one of: lower the driving (the scene's velocity or body_acceleration); a "
+                              "smaller time step (collision.tau or time.dt); a finer grid (domain.spacing, with "
+                              "more domain.cells)");
       }
     }
     if (c.out_interval > 0 && step % c.out_interval == 0) {

@@ -389,7 +389,10 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
     if (ma > c.max_mach)
       throw DivergenceError("scene particles: lattice Mach number " + std::to_string(ma) + " at step " +
                             std::to_string(step) + " exceeds fluid.max_mach = " + std::to_string(c.max_mach) +
-                            "; output so far is kept in " + c.outdir + ". Lower the driving (gravity, velocities)");
+                            "; output so far is kept in " + c.outdir +
+                            ". Any one of: lower physics.gravity or particles.velocity; raise fluid.tau (a more "
+                            "viscous fluid settles the particles slower); a finer grid (a larger particles.diameter "
+                            "in cells for the same particle)");
   };
   if (c.output_interval > 0) write_output(0);
   series_row(0);

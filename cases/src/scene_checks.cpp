@@ -120,7 +120,8 @@ void check_particle_overlaps(const Config& root, const dem::HostParticles& p, co
   for (std::size_t i = 0; i < n; ++i) {
     const long c[3] = {cell_of(p.x[i], 0), cell_of(p.x[i], 1), box.dim == 3 ? cell_of(p.x[i], 2) : 0};
     // Neighbour cells, each once (fewer than three cells on an axis would repeat one).
-    std::vector<long> seen;
+    std::array<long, 27> seen{};
+    std::size_t n_seen = 0;
     for (int dz = box.dim == 3 ? -1 : 0; dz <= (box.dim == 3 ? 1 : 0); ++dz)
       for (int dy = -1; dy <= 1; ++dy)
         for (int dx = -1; dx <= 1; ++dx) {
@@ -134,8 +135,9 @@ void check_particle_overlaps(const Config& root, const dem::HostParticles& p, co
           }
           if (skip) continue;
           const long kq = key(q[0], q[1], q[2]);
-          if (std::find(seen.begin(), seen.end(), kq) != seen.end()) continue;
-          seen.push_back(kq);
+          if (std::find(seen.begin(), seen.begin() + static_cast<long>(n_seen), kq) != seen.begin() + static_cast<long>(n_seen))
+            continue;
+          seen[n_seen++] = kq;
           auto it = std::lower_bound(order.begin(), order.end(), std::make_pair(kq, std::size_t{0}));
           for (; it != order.end() && it->first == kq; ++it) {
             const std::size_t j = it->second;
