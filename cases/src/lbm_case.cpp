@@ -184,7 +184,7 @@ LbmCase parse(const Config& root, const RunOptions& opt) {
   if (opt.steps) steps = *opt.steps;
   c.steps = steps;
   if (opt.output) c.outdir = *opt.output;
-  cases::check_fluid_plan(root, opt, c.steps, double(c.fluid_cells[0]) * double(c.fluid_cells[1]) * double(c.fluid_cells[2]));
+  cases::check_fluid_plan(root, opt, has_end && !opt.steps ? t_end / c.units.dt : double(c.steps), double(c.fluid_cells[0]) * double(c.fluid_cells[1]) * double(c.fluid_cells[2]));
 
   // Grid with boundary layers.
   for (int a = 0; a < 3; ++a) c.pad[static_cast<std::size_t>(a)] = closed[static_cast<std::size_t>(a)] ? 1 : 0;

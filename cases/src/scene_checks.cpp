@@ -103,12 +103,12 @@ void check_particle_overlaps(const Config& root, const dem::HostParticles& p, co
   std::array<long, 3> nc{1, 1, 1};
   for (int a = 0; a < box.dim; ++a) {
     const auto k = static_cast<std::size_t>(a);
-    nc[k] = std::clamp(static_cast<long>(std::floor((box.hi[k] - box.lo[k]) / cs)), 1L, 1L << 20);
+    nc[k] = static_cast<long>(std::clamp(std::floor((box.hi[k] - box.lo[k]) / cs), 1.0, double(1L << 20)));
   }
   auto cell_of = [&](const Vec3d& x, int a) {
     const auto k = static_cast<std::size_t>(a);
-    const long c = static_cast<long>(std::floor((x[a] - box.lo[k]) / (box.hi[k] - box.lo[k]) * double(nc[k])));
-    return std::clamp(c, 0L, nc[k] - 1);
+    const double c = std::floor((x[a] - box.lo[k]) / (box.hi[k] - box.lo[k]) * double(nc[k]));
+    return static_cast<long>(std::clamp(c, 0.0, double(nc[k] - 1)));
   };
   auto key = [&](long cx, long cy, long cz) { return (cz * nc[1] + cy) * nc[0] + cx; };
   std::vector<std::pair<long, std::size_t>> order(n);
@@ -296,6 +296,9 @@ void check_memory(const Config& root, Backend b, double device_bytes, double hos
 // ----------------------------------------------------------------- the plan
 void check_plan(const Config& root, const RunOptions& opt, double steps, double cell_updates, double particle_steps,
                 const std::string& steps_key) {
+  if (!(steps < 1e18))  // beyond a 64-bit step counter (and a computer's lifetime)
+    throw ConfigError(root.source() + ": " + steps_key + " plans " + num(steps) +
+                      " steps, more than a 64-bit step counter holds; check those keys");
   if (opt.force) return;
   const double per_step = std::max(kLeastSecondsPerStep, cell_updates / kFastestCellUpdatesPerSecond +
                                                              particle_steps / kFastestParticleStepsPerSecond);
@@ -370,14 +373,16 @@ void check_dem_scene(const Config& root, const dem::DemParams& p, const dem::Hos
   check_memory(root, planned_backend(opt), n * kDemDeviceBytesPerParticle, n * kDemHostBytesPerParticle, "particles",
                num(n) + " particles", "use fewer particles");
   std::string key = "time.steps";
+  double planned = double(steps);
   if (opt.steps) {
     key = "--steps";
   } else if (const auto t = root.optional_section("time"); t && t->has("end_time")) {
     key = "time.end_time = " + t->value_text("end_time") + " s with dt = " + num(p.dt) + " s (" +
           (t->has("dt") ? "time.dt" : "t_c / time.steps_per_collision, t_c from material.stiffness and the radii") +
           ")";
+    planned = t->number("end_time") / p.dt;  // in double: the integer count may have overflowed
   }
-  check_plan(root, opt, double(steps), 0, n, key);
+  check_plan(root, opt, planned, 0, n, key);
 }
 
 void check_fluid_scene(const Config& root, const std::string& scene, const std::string& mode,
@@ -419,11 +424,11 @@ void check_fluid_scene(const Config& root, const std::string& scene, const std::
   check_fluid_mach(root, m);
 }
 
-void check_fluid_plan(const Config& root, const RunOptions& opt, long steps, double fluid_cells) {
+void check_fluid_plan(const Config& root, const RunOptions& opt, double steps, double fluid_cells) {
   std::string key = "time.steps";
   if (opt.steps) key = "--steps";
   else if (const auto t = root.optional_section("time"); t && t->has("end")) key = "time.end / dt";
-  check_plan(root, opt, double(steps), fluid_cells, 0, key);
+  check_plan(root, opt, steps, fluid_cells, 0, key);
 }
 
 void check_fixed_sphere(const Config& root, int dim, double diameter, double chi, lbm::Precision precision,

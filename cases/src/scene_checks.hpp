@@ -145,7 +145,7 @@ void check_fluid_scene(const Config& root, const std::string& scene, const std::
                        const std::vector<long>& cells, const Config& scene_section, double dx, double nu,
                        double u_ref, double max_mach, std::optional<double> tau, std::optional<double> dt);
 // ... and the plan, once the step count is known.
-void check_fluid_plan(const Config& root, const RunOptions& opt, long steps, double fluid_cells);
+void check_fluid_plan(const Config& root, const RunOptions& opt, double steps, double fluid_cells);
 
 // Fixed sphere: the period L = d / chi, memory, plan.
 void check_fixed_sphere(const Config& root, int dim, double diameter, double chi, lbm::Precision precision,
