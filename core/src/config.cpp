@@ -97,6 +97,9 @@ namespace {
 // Nesting deeper than this is refused by the case-file check below; the
 // deepest shipped case file nests 3 levels (particles.list[i].position).
 constexpr int kMaxDepth = 16;
+// Keys longer than this get no did-you-mean suggestion (the edit distance
+// costs their length times the known key's).
+constexpr std::size_t kMaxKeyChars = 256;
 
 std::string line_of(const YAML::Mark& m) {
   std::string s;  // appended piecewise: GCC 12 warns (-Wrestrict, a false positive) on ":" + std::string
@@ -124,7 +127,8 @@ void check_tree(const YAML::Node& n, const std::string& src, const std::string& 
                         "' is a " + (k.IsMap() ? "section" : k.IsSequence() ? "list" : "null value") +
                         "; keys must be plain names such as 'tau'");
     const std::string name = k.Scalar();
-    const std::string full = path.empty() ? printable(name) : path + "." + printable(name);
+    const std::string full = path.empty() ? printable(name, Config::kMaxValueChars)
+                                           : path + "." + printable(name, Config::kMaxValueChars);
     const int line = k.Mark().is_null() ? 0 : k.Mark().line + 1;
     if (auto [pos, fresh] = seen.emplace(name, line); !fresh)
       throw ConfigError(src + line_of(k.Mark()) + ": key '" + full + "' appears twice in one section (first at line " +
@@ -244,7 +248,8 @@ YAML::Node Config::get_node(const std::string& key) const {
       std::string ascii;
       for (char ch : k)
         if (static_cast<unsigned char>(ch) >= 0x20 && static_cast<unsigned char>(ch) < 0x7f) ascii += ch;
-      if (k != key && (ascii == key || edit_distance(k, key) <= std::max<std::size_t>(2, key.size() / 4))) {
+      if (k != key && k.size() <= kMaxKeyChars &&
+          (ascii == key || edit_distance(k, key) <= std::max<std::size_t>(2, key.size() / 4))) {
         near = " (the section has '" + full_key(k) + "' at line " + std::to_string(it->first.Mark().line + 1) +
                (printable(k) != k ? ", with a non-printing character shown escaped: retype it" : ": a typo?") + ")";
         break;
@@ -431,9 +436,11 @@ void Config::finish() const {
     if (used_->count(k)) continue;
     std::string best;
     std::size_t bd = std::numeric_limits<std::size_t>::max();
-    for (auto& u : *used_)
-      if (auto d = edit_distance(k, u); d < bd) { bd = d; best = u; }
-    std::string msg = *source_ + line_of(it->first.Mark()) + ": unknown key '" + full_key(k) + "'";
+    if (k.size() <= kMaxKeyChars)  // a suggestion for a name, not for a pasted paragraph
+      for (auto& u : *used_)
+        if (auto d = edit_distance(k, u); d < bd) { bd = d; best = u; }
+    std::string msg = *source_ + line_of(it->first.Mark()) + ": unknown key '" +
+                      (path_.empty() ? "" : path_ + ".") + printable(k, kMaxValueChars) + "'";
     if (!best.empty() && bd <= std::max<std::size_t>(2, k.size() / 3)) msg += " (did you mean '" + full_key(best) + "'?)";
     std::vector<std::string> known(used_->begin(), used_->end());
     msg += "; known keys here: " + join(known);
