@@ -48,7 +48,9 @@ class Validation : public ::testing::Test {
     EXPECT_FALSE(fs::exists(out)) << "the refused run created its output folder";
     const Result c = run("check " + file + " " + extra);
     EXPECT_EQ(c.code, code) << c.out;
-    EXPECT_EQ(c.out, r.out) << "check and run disagree";
+    // (A memory refusal quotes the free memory, which changes between the two.)
+    if (code != 4) EXPECT_EQ(c.out, r.out) << "check and run disagree";
+    else EXPECT_EQ(c.out.substr(0, c.out.find(" needs")), r.out.substr(0, r.out.find(" needs")));
     for (const auto& m : must) EXPECT_NE(r.out.find(m), std::string::npos) << "missing '" << m << "' in: " << r.out;
     // One line: "error: ...\n".
     EXPECT_EQ(r.out.rfind("error: ", 0), 0u) << r.out;
