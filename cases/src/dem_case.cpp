@@ -22,6 +22,7 @@
 
 #include "cases/particle_output.hpp"
 #include "cases/scenes.hpp"
+#include "scene_checks.hpp"
 #include "core/error.hpp"
 #include "core/output.hpp"
 #include "core/progress.hpp"
@@ -77,6 +78,7 @@ HostParticles read_particles(const Config& pc, const DemParams& p, std::uint64_t
     const Vec3d origin = vec3(pc.numbers("origin", 3, 3));
     const Vec3d spacing = vec3(pc.numbers("spacing", 3, 3));
     const double r = pc.positive("radius");
+    cases::check_dem_particle_count(pc, double(cnt[0]) * double(cnt[1]) * double(cnt[2]), "count");
     hp = dem::lattice_particles(origin, {cnt[0], cnt[1], cnt[2]}, spacing, r, rho);
   } else {
     dem::RandomPackingSpec s;
@@ -101,6 +103,7 @@ HostParticles read_particles(const Config& pc, const DemParams& p, std::uint64_t
     s.density = rho;
     s.seed = static_cast<std::uint64_t>(pc.integer_in("seed", 1, 0, std::numeric_limits<long>::max()));
     s.mc_sweeps = static_cast<int>(pc.integer_in("mc_sweeps", 0, 0, 1000));
+    cases::check_dem_random_packing(pc, s.lo, s.hi, s.periodic, s.solid_fraction, s.r_max);
     hp = dem::random_packing(s);
   }
   // Random initial velocities (zero mean), for granular-gas scenes.
@@ -206,7 +209,7 @@ DemCase read_case(const Config& root, const RunOptions& opt) {
       if (!std::isfinite(tc)) t.fail("steps_per_collision", "no contacts possible: give time.dt");
       p.dt = tc / spc;
     }
-    dem::check_time_step(p, c.particles, t.full_key("dt"));
+    dem::check_time_step(p, c.particles, t.full_key(t.has("dt") ? "dt" : "steps_per_collision"));
     if (t.has("steps") && t.has("end_time")) t.fail("end_time", "give either time.steps or time.end_time, not both");
     if (t.has("end_time")) c.steps = static_cast<long>(std::ceil(t.positive("end_time") / p.dt - 1e-9));
     else c.steps = t.integer_in("steps", 0, std::numeric_limits<long>::max());
@@ -235,6 +238,7 @@ DemCase read_case(const Config& root, const RunOptions& opt) {
     if (std::find(c.particles.id.begin(), c.particles.id.end(), id) == c.particles.id.end())
       throw ConfigError("output.track: particle id " + std::to_string(id) + " does not exist (ids 0.." +
                         std::to_string(c.particles.size() - 1) + ")");
+  cases::check_dem_scene(root, c.params, c.particles, c.steps, opt);
   return c;
 }
 

@@ -11,6 +11,7 @@
 
 #include "cases/parallel.hpp"
 #include "cases/scenes.hpp"
+#include "scene_checks.hpp"
 #include "core/buffer.hpp"
 #include "core/output.hpp"
 #include "core/progress.hpp"
@@ -177,6 +178,7 @@ LbmCase parse(const Config& root, const RunOptions& opt) {
   ur.u_ref = u_ref;
   ur.max_mach = c.max_mach;
   ur.where = root.source();
+  cases::check_fluid_scene(root, c.scene, mode, cells, sc, dx, nu_si, u_ref, c.max_mach, tau, dt);
   c.units = derive_units(ur);
   s.tau = c.units.tau;
   if (s.collision == lbm::CollisionKind::BGK && s.tau < 0.51)
@@ -186,6 +188,7 @@ LbmCase parse(const Config& root, const RunOptions& opt) {
   if (opt.steps) steps = *opt.steps;
   c.steps = steps;
   if (opt.output) c.outdir = *opt.output;
+  cases::check_fluid_plan(root, opt, has_end && !opt.steps ? t_end / c.units.dt : double(c.steps), double(c.fluid_cells[0]) * double(c.fluid_cells[1]) * double(c.fluid_cells[2]));
 
   // Grid with boundary layers.
   for (int a = 0; a < 3; ++a) c.pad[static_cast<std::size_t>(a)] = closed[static_cast<std::size_t>(a)] ? 1 : 0;
@@ -214,7 +217,7 @@ void check_memory(const LbmCase& c, Backend backend) {
   const std::size_t host_have = backend_free_bytes(Backend::Host);
   if (need > have || host_need > host_have) {
     const bool dev = need > have;
-    throw ConfigError("key 'domain.cells': the grid of " + std::to_string(cells) + " cells needs " +
+    throw ResourceError("key 'domain.cells': the grid of " + std::to_string(cells) + " cells needs " +
                       std::to_string((dev ? need : host_need) >> 20) + " MiB of " + (dev ? to_string(backend) : "host") +
                       " memory but " + std::to_string((dev ? have : host_have) >> 20) +
                       " MiB are free; use fewer cells, precision: fp32, or streaming: aa");
@@ -458,7 +461,9 @@ int run_parsed(LbmCase& c, const RunOptions& opt) {
                               ", " + std::to_string(d.max_speed_cell[1]) + ", " + std::to_string(d.max_speed_cell[2]) +
                               ") exceeds diagnostics.max_mach = " + std::to_string(c.max_mach) +
                               ". Output up to the last good step is kept in " + c.outdir +
-                              ". Reduce the time step (tau) or the driving.");
+                              ". Any one of: lower the driving (the scene's velocity or body_acceleration); a "
+                              "smaller time step (collision.tau or time.dt); a finer grid (domain.spacing, with "
+                              "more domain.cells)");
       }
     }
     if (c.out_interval > 0 && step % c.out_interval == 0) {

@@ -1,5 +1,5 @@
 // The `lbdem` command.
-//   lbdem run CASE.yaml [--backend cuda|cpu|auto] [--steps N] [--output DIR] [--overwrite] [--quiet]
+//   lbdem run CASE.yaml [--backend cuda|cpu|auto] [--steps N] [--output DIR] [--overwrite] [--force] [--quiet]
 //   lbdem check CASE.yaml      validate a case file without running it
 //   lbdem info                 build, backends, devices
 // Exit codes: 0 ok, 2 invalid input, 3 diverged, 4 resources (memory, disk full),
@@ -53,10 +53,14 @@ int main(int argc, char** argv) {
   run->add_flag("--overwrite", opt.overwrite,
                 "replace an earlier run's results in the output folder (removes only the files its .lbdem_manifest "
                 "names; refuses if the folder holds anything else)");
+  run->add_flag("--force", opt.force,
+                "start a run even when it is planned to take more than a year of wall time at the fastest speed this "
+                "code reaches");
   run->add_flag("--quiet", opt.quiet, "no progress lines");
 
   auto* check = app.add_subcommand("check", "validate a case file without running it");
   check->add_option("case", case_file, "case file (YAML)")->required();
+  check->add_flag("--force", opt.force, "accept a run planned to take more than a year (as run --force)");
 
   auto* info = app.add_subcommand("info", "build, backends and devices");
 

@@ -23,6 +23,7 @@
 #include "cases/fixed_sphere.hpp"
 #include "cases/particle_output.hpp"
 #include "cases/scenes.hpp"
+#include "scene_checks.hpp"
 #include "core/error.hpp"
 #include "core/output.hpp"
 #include "core/progress.hpp"
@@ -122,6 +123,7 @@ int run_fixed_sphere_case(const Config& root, const RunOptions& opt) {
   root.finish();
   if (opt.output) outdir = *opt.output;
   if (opt.steps) s.max_steps = *opt.steps;
+  cases::check_fixed_sphere(root, s.dim, s.diameter, s.chi, s.precision, s.streaming, s.max_steps, opt);
   const Backend backend = resolve_backend(opt.backend);
   if (opt.validate_only) return 0;
   io::prepare_output_dir(outdir, opt.overwrite);
@@ -200,6 +202,7 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
   read_fluid_common(f, s);
   c.max_mach = f.number_in("max_mach", 0.3, 0.01, 0.5, "largest lattice Mach number |u| sqrt(3) before the run stops");
   f.finish();
+  cases::check_particles_memory(root, s, 0, opt);
   const Config ph = root.section("physics");
   const auto gv = ph.numbers("gravity", {0, 0, 0}, 3, 3);
   c.coupling.gravity = {gv[0], gv[1], gv[2]};
@@ -239,6 +242,7 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
     rs.r_min = rs.r_max = r;
     rs.density = rho_s;
     rs.seed = static_cast<std::uint64_t>(pc.integer_in("seed", 1, 0, std::numeric_limits<long>::max()));
+    cases::check_particles_random(root, pc, s, rs.lo, rs.hi, rs.periodic, rs.solid_fraction, r, opt);
     c.particles = dem::random_packing(rs);
     for (Index i = 0; i < c.particles.size(); ++i) {
       c.particles.v[static_cast<std::size_t>(i)] = {v0[0], v0[1], v0[2]};
@@ -297,6 +301,7 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
   }
   // Refuse up front what would blow up (Mach, cell Reynolds number, light
   // particles, DEM sub-steps, unbalanced weight), naming the key to change.
+  cases::check_particles_scene(root, s, p, c.particles, c.coupling.gravity, c.balance, c.coupling.dem_substeps, c.steps, opt);
   imb::check_coupled_setup(s, p, c.particles, c.coupling);
   return c;
 }
@@ -306,7 +311,7 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
   const Backend backend = resolve_backend(opt.backend);
   const std::size_t need = lbm::lbm_memory_estimate(c.setup);
   if (need > backend_free_bytes(backend))
-    throw ConfigError("key 'domain.cells': the grid needs " + std::to_string(need >> 20) + " MiB but " +
+    throw ResourceError("key 'domain.cells': the grid needs " + std::to_string(need >> 20) + " MiB but " +
                       std::to_string(backend_free_bytes(backend) >> 20) + " MiB are free");
   if (opt.validate_only) return 0;
   io::prepare_output_dir(c.outdir, opt.overwrite);
@@ -384,7 +389,10 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
     if (ma > c.max_mach)
       throw DivergenceError("scene particles: lattice Mach number " + std::to_string(ma) + " at step " +
                             std::to_string(step) + " exceeds fluid.max_mach = " + std::to_string(c.max_mach) +
-                            "; output so far is kept in " + c.outdir + ". Lower the driving (gravity, velocities)");
+                            "; output so far is kept in " + c.outdir +
+                            ". Any one of: lower physics.gravity or particles.velocity; raise fluid.tau (a more "
+                            "viscous fluid settles the particles slower); a finer grid (a larger particles.diameter "
+                            "in cells for the same particle)");
   };
   if (c.output_interval > 0) write_output(0);
   series_row(0);
@@ -434,8 +442,9 @@ std::vector<std::string> psm_scene_names() { return {"fixed_sphere", "particles"
 
 int run_psm_case(const Config& root, const RunOptions& opt) {
   const std::string scene = root.text("scene");
-  if (scene == "fixed_sphere") return run_fixed_sphere_case(root, opt);
-  return run_particles_case(root, opt);
+  return cases::with_user_keys(scene, [&] {
+    return scene == "fixed_sphere" ? run_fixed_sphere_case(root, opt) : run_particles_case(root, opt);
+  });
 }
 
 }  // namespace lbdem

@@ -1,9 +1,14 @@
 #include "core/config.hpp"
 
+#include <yaml-cpp/depthguard.h>
+#include <yaml-cpp/eventhandler.h>
+
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <cstdio>
 #include <limits>
+#include <map>
 #include <sstream>
 
 namespace lbdem {
@@ -42,55 +47,236 @@ Config Config::load_file(const std::string& path) {
   return from_string(ss.str(), path);
 }
 
-Config Config::from_string(const std::string& yaml, const std::string& source_name) {
-  YAML::Node n;
-  try {
-    n = YAML::Load(yaml);
-  } catch (const YAML::Exception& e) {
-    throw ConfigError(source_name + ": YAML syntax error at line " + std::to_string(e.mark.line + 1) +
-                      ", column " + std::to_string(e.mark.column + 1) + ": " + e.msg);
+std::string printable(const std::string& s, std::size_t max_chars) {
+  std::string out;
+  std::size_t shown = 0, i = 0;
+  auto hex = [](unsigned long v, int digits) {
+    char b[16];
+    std::snprintf(b, sizeof b, "%0*lx", digits, v);
+    return std::string(b);
+  };
+  while (i < s.size()) {
+    if (max_chars > 0 && shown >= max_chars) return out.append("... (").append(std::to_string(s.size())).append(" bytes)");
+    const auto c = static_cast<unsigned char>(s[i]);
+    if (c >= 0x20 && c < 0x7f) {
+      out += static_cast<char>(c);
+      ++i;
+    } else if (c < 0x80) {
+      if (c == '\n') out += "\\n";
+      else if (c == '\t') out += "\\t";
+      else if (c == '\r') out += "\\r";
+      else out.append("\\x").append(hex(c, 2));
+      ++i;
+    } else {
+      // A UTF-8 sequence: decoded and shown as \uXXXX (a key or value in an
+      // error message must show characters a terminal would hide, such as
+      // U+200B ZERO WIDTH SPACE or U+00A0 NO-BREAK SPACE).
+      const int len = c >= 0xf0 ? 4 : c >= 0xe0 ? 3 : c >= 0xc0 ? 2 : 1;
+      unsigned long cp = len == 4 ? c & 0x07u : len == 3 ? c & 0x0fu : len == 2 ? c & 0x1fu : c;
+      bool ok = len > 1 && i + static_cast<std::size_t>(len) <= s.size();
+      for (int k = 1; ok && k < len; ++k) {
+        const auto cc = static_cast<unsigned char>(s[i + static_cast<std::size_t>(k)]);
+        ok = (cc & 0xc0u) == 0x80u;
+        cp = (cp << 6) | (cc & 0x3fu);
+      }
+      if (ok) {
+        out.append(cp > 0xffff ? "\\U" : "\\u").append(hex(cp, cp > 0xffff ? 8 : 4));
+        i += static_cast<std::size_t>(len);
+      } else {
+        out.append("\\x").append(hex(c, 2));
+        ++i;
+      }
+    }
+    ++shown;
   }
-  if (!n.IsMap())
-    throw ConfigError(source_name + ": the case file must be a YAML mapping of keys (e.g. 'scene: channel')");
-  return Config(n, std::make_shared<std::string>(source_name), "");
+  return out;
 }
 
-std::string Config::full_key(const std::string& key) const { return path_.empty() ? key : path_ + "." + key; }
+namespace {
+
+// Nesting deeper than this is refused by the case-file check below; the
+// deepest shipped case file nests 3 levels (particles.list[i].position).
+constexpr int kMaxDepth = 16;
+// Keys longer than this get no did-you-mean suggestion (the edit distance
+// costs their length times the known key's).
+constexpr std::size_t kMaxKeyChars = 256;
+
+std::string line_of(const YAML::Mark& m) {
+  std::string s;  // appended piecewise: GCC 12 warns (-Wrestrict, a false positive) on ":" + std::string
+  if (!m.is_null()) s.append(":").append(std::to_string(m.line + 1));
+  return s;
+}
+
+// Structural checks yaml-cpp does not make: every key a plain name (a scalar),
+// no key twice in one section (yaml-cpp keeps both and a lookup returns the
+// first), at most kMaxDepth levels of nesting.
+void check_tree(const YAML::Node& n, const std::string& src, const std::string& path, int depth) {
+  if (depth > kMaxDepth)
+    throw ConfigError(src + line_of(n.Mark()) + ": '" + path + "' nests sections or lists " + std::to_string(depth) +
+                      " levels deep; a case file nests at most " + std::to_string(kMaxDepth));
+  if (n.IsSequence()) {
+    for (std::size_t i = 0; i < n.size(); ++i) check_tree(n[i], src, path + "[" + std::to_string(i) + "]", depth + 1);
+    return;
+  }
+  if (!n.IsMap()) return;
+  std::map<std::string, int> seen;  // key -> line (1-based)
+  for (auto it = n.begin(); it != n.end(); ++it) {
+    const YAML::Node& k = it->first;
+    if (!k.IsScalar())
+      throw ConfigError(src + line_of(k.Mark()) + ": a key in section '" + (path.empty() ? "(top level)" : path) +
+                        "' is a " + (k.IsMap() ? "section" : k.IsSequence() ? "list" : "null value") +
+                        "; keys must be plain names such as 'tau'");
+    const std::string name = k.Scalar();
+    const std::string full = path.empty() ? printable(name, Config::kMaxValueChars)
+                                           : path + "." + printable(name, Config::kMaxValueChars);
+    const int line = k.Mark().is_null() ? 0 : k.Mark().line + 1;
+    if (auto [pos, fresh] = seen.emplace(name, line); !fresh)
+      throw ConfigError(src + line_of(k.Mark()) + ": key '" + full + "' appears twice in one section (first at line " +
+                        std::to_string(pos->second) + "); remove one of them");
+    check_tree(it->second, src, full, depth + 1);
+  }
+}
+
+// Counts the documents of a YAML stream, at most two (yaml-cpp 0.7's
+// LoadAll() loops without end, allocating, on some malformed streams such as
+// one starting with ','; this loop is bounded), and where the second starts.
+class DocumentCounter : public YAML::EventHandler {
+ public:
+  YAML::Mark second;
+  void OnDocumentStart(const YAML::Mark& m) override {
+    if (++docs_ == 2) second = m;
+  }
+  void OnDocumentEnd() override {}
+  void OnNull(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnAlias(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnScalar(const YAML::Mark&, const std::string&, YAML::anchor_t, const std::string&) override {}
+  void OnSequenceStart(const YAML::Mark&, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {}
+  void OnSequenceEnd() override {}
+  void OnMapStart(const YAML::Mark&, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {}
+  void OnMapEnd() override {}
+
+ private:
+  int docs_ = 0;
+};
+
+// yaml-cpp's exception as one line: file, line (and column where short enough
+// to help), what.
+[[noreturn]] void syntax_error(const std::string& source_name, const YAML::Exception& e) {
+  std::string where = "line " + std::to_string(e.mark.line + 1);
+  if (e.mark.column >= 0 && e.mark.column < 200) where += ", column " + std::to_string(e.mark.column + 1);
+  throw ConfigError(source_name + ": YAML syntax error at " + where + ": " + printable(e.msg, 120));
+}
+
+}  // namespace
+
+Config Config::from_string(const std::string& yaml, const std::string& source_name) {
+  YAML::Node n;
+  int docs = 0;
+  DocumentCounter counter;
+  try {
+    n = YAML::Load(yaml);
+    std::istringstream is(yaml);
+    YAML::Parser parser(is);
+    while (docs < 2 && parser.HandleNextDocument(counter)) ++docs;
+  } catch (const YAML::DeepRecursion& e) {
+    throw ConfigError(source_name + ":" + std::to_string(e.mark.line + 1) +
+                      ": brackets or indentation nest more than " + std::to_string(e.depth()) +
+                      " levels deep; a case file nests at most " + std::to_string(kMaxDepth));
+  } catch (const YAML::Exception& e) {
+    syntax_error(source_name, e);
+  }
+  if (!n.IsMap()) {
+    // Name the first line that is not blank, a comment or a document marker.
+    std::istringstream is(yaml);
+    std::string l, where;
+    for (int no = 1; std::getline(is, l); ++no) {
+      const auto p = l.find_first_not_of(" \t\r");
+      if (p == std::string::npos || l[p] == '#' || l.rfind("---", 0) == 0) continue;
+      where = ":" + std::to_string(no) + ": '" + printable(l, kMaxValueChars) + "' is not a 'key: value' line";
+      break;
+    }
+    throw ConfigError(source_name + (where.empty() ? ": the file is empty" : where) +
+                      "; the case file must be a YAML mapping of keys (e.g. 'scene: channel')");
+  }
+  if (docs > 1)
+    throw ConfigError(source_name + line_of(counter.second) +
+                      ": the file holds more than one YAML document (separated by '---'); a case file is one "
+                      "document: remove the '---' line and merge the sections, or split the file");
+  check_tree(n, source_name, "", 0);
+  return Config(n, std::make_shared<std::string>(source_name), "", std::make_shared<std::set<std::string>>());
+}
+
+std::string Config::full_key(const std::string& key) const {
+  return path_.empty() ? printable(key) : path_ + "." + printable(key);
+}
 
 std::string Config::value_text(const std::string& key) const {
   YAML::Node v = node_[key];
   if (!v) return "<missing>";
+  if (v.IsScalar()) return printable(v.Scalar(), kMaxValueChars);
   YAML::Emitter e;
   e << YAML::Flow << v;
-  return e.c_str();
+  return printable(e.c_str(), kMaxValueChars);
+}
+
+std::string Config::where(const std::string& key) const {
+  for (auto it = node_.begin(); it != node_.end(); ++it)
+    if (it->first.IsScalar() && it->first.Scalar() == key) return *source_ + line_of(it->first.Mark());
+  return *source_ + line_of(node_.Mark());
 }
 
 void Config::fail(const std::string& key, const std::string& what) const {
-  std::string msg = *source_ + ": key '" + full_key(key) + "'";
+  std::string msg = where(key) + ": key '" + full_key(key) + "'";
   if (node_[key]) msg += " = " + value_text(key);
   throw ConfigError(msg + ": " + what);
 }
 
-bool Config::has(const std::string& key) const { return static_cast<bool>(node_[key]); }
+bool Config::has(const std::string& key) const {
+  read_->insert(full_key(key));  // a key a scene asks about is one it knows (keys_read), though not read yet
+  return static_cast<bool>(node_[key]);
+}
 
 YAML::Node Config::get_node(const std::string& key) const {
-  used_->insert(key);
+  mark(key);
   YAML::Node v = node_[key];
-  if (!v || v.IsNull())
-    throw ConfigError(*source_ + ": missing required key '" + full_key(key) + "'");
+  if (!v || v.IsNull()) {
+    // A key written with a typo or a character a terminal hides (U+200B,
+    // U+00A0) is named with that character shown.
+    std::string near;
+    for (auto it = node_.begin(); it != node_.end(); ++it) {
+      const std::string k = it->first.Scalar();
+      std::string ascii;
+      for (char ch : k)
+        if (static_cast<unsigned char>(ch) >= 0x20 && static_cast<unsigned char>(ch) < 0x7f) ascii += ch;
+      if (k != key && k.size() <= kMaxKeyChars &&
+          (ascii == key || edit_distance(k, key) <= std::max<std::size_t>(2, key.size() / 4))) {
+        near = " (the section has '" + full_key(k) + "' at line " + std::to_string(it->first.Mark().line + 1) +
+               (printable(k) != k ? ", with a non-printing character shown escaped: retype it" : ": a typo?") + ")";
+        break;
+      }
+    }
+    throw ConfigError(where(key) + ": missing required key '" + full_key(key) + "'" + near);
+  }
   return v;
 }
 
-void Config::accept(const std::string& key) const { used_->insert(key); }
+void Config::accept(const std::string& key) const { mark(key); }
+
+void Config::mark(const std::string& key) const {
+  used_->insert(key);
+  read_->insert(full_key(key));
+}
+
+std::vector<std::string> Config::keys_read() const { return {read_->begin(), read_->end()}; }
 
 Config Config::section(const std::string& key) const {
   YAML::Node v = get_node(key);
   if (!v.IsMap()) fail(key, "must be a section (a mapping of keys)");
-  return Config(v, source_, full_key(key));
+  return Config(v, source_, full_key(key), read_);
 }
 
 std::optional<Config> Config::optional_section(const std::string& key) const {
-  used_->insert(key);
+  mark(key);
   if (!has(key)) return std::nullopt;
   return section(key);
 }
@@ -101,7 +287,7 @@ std::vector<Config> Config::sequence(const std::string& key) const {
   std::vector<Config> out;
   for (std::size_t i = 0; i < v.size(); ++i) {
     if (!v[i].IsMap()) fail(key, "entry " + std::to_string(i) + " must be a section (a mapping of keys)");
-    out.push_back(Config(v[i], source_, full_key(key) + "[" + std::to_string(i) + "]"));
+    out.push_back(Config(v[i], source_, full_key(key) + "[" + std::to_string(i) + "]", read_));
   }
   return out;
 }
@@ -119,7 +305,7 @@ double Config::number(const std::string& key) const {
   return d;
 }
 double Config::number(const std::string& key, double def) const {
-  used_->insert(key);
+  mark(key);
   return has(key) ? number(key) : def;
 }
 
@@ -130,7 +316,7 @@ double Config::number_in(const std::string& key, double lo, double hi, const std
   return d;
 }
 double Config::number_in(const std::string& key, double def, double lo, double hi, const std::string& why) const {
-  used_->insert(key);
+  mark(key);
   return has(key) ? number_in(key, lo, hi, why) : def;
 }
 double Config::positive(const std::string& key) const {
@@ -139,7 +325,7 @@ double Config::positive(const std::string& key) const {
   return d;
 }
 double Config::positive(const std::string& key, double def) const {
-  used_->insert(key);
+  mark(key);
   return has(key) ? positive(key) : def;
 }
 
@@ -156,12 +342,12 @@ long Config::integer_in(const std::string& key, long lo, long hi) const {
   return x;
 }
 long Config::integer_in(const std::string& key, long def, long lo, long hi) const {
-  used_->insert(key);
+  mark(key);
   return has(key) ? integer_in(key, lo, hi) : def;
 }
 
 bool Config::boolean(const std::string& key, bool def) const {
-  used_->insert(key);
+  mark(key);
   if (!has(key)) return def;
   YAML::Node v = get_node(key);
   try {
@@ -178,7 +364,7 @@ std::string Config::text(const std::string& key) const {
   return v.as<std::string>();
 }
 std::string Config::text(const std::string& key, const std::string& def) const {
-  used_->insert(key);
+  mark(key);
   return has(key) ? text(key) : def;
 }
 
@@ -193,7 +379,7 @@ std::string Config::choice(const std::string& key, const std::vector<std::string
   fail(key, "is not one of: " + join(valid) + hint);
 }
 std::string Config::choice(const std::string& key, const std::string& def, const std::vector<std::string>& valid) const {
-  used_->insert(key);
+  mark(key);
   return has(key) ? choice(key, valid) : def;
 }
 
@@ -217,7 +403,7 @@ std::vector<double> Config::numbers(const std::string& key, std::size_t min_len,
 }
 std::vector<double> Config::numbers(const std::string& key, const std::vector<double>& def, std::size_t min_len,
                                     std::size_t max_len) const {
-  used_->insert(key);
+  mark(key);
   return has(key) ? numbers(key, min_len, max_len) : def;
 }
 
@@ -246,13 +432,15 @@ std::vector<long> Config::integers(const std::string& key, std::size_t min_len, 
 
 void Config::finish() const {
   for (auto it = node_.begin(); it != node_.end(); ++it) {
-    const std::string k = it->first.as<std::string>();
+    const std::string k = it->first.Scalar();  // keys are scalars (check_tree)
     if (used_->count(k)) continue;
     std::string best;
     std::size_t bd = std::numeric_limits<std::size_t>::max();
-    for (auto& u : *used_)
-      if (auto d = edit_distance(k, u); d < bd) { bd = d; best = u; }
-    std::string msg = *source_ + ": unknown key '" + full_key(k) + "'";
+    if (k.size() <= kMaxKeyChars)  // a suggestion for a name, not for a pasted paragraph
+      for (auto& u : *used_)
+        if (auto d = edit_distance(k, u); d < bd) { bd = d; best = u; }
+    std::string msg = *source_ + line_of(it->first.Mark()) + ": unknown key '" +
+                      (path_.empty() ? "" : path_ + ".") + printable(k, kMaxValueChars) + "'";
     if (!best.empty() && bd <= std::max<std::size_t>(2, k.size() / 3)) msg += " (did you mean '" + full_key(best) + "'?)";
     std::vector<std::string> known(used_->begin(), used_->end());
     msg += "; known keys here: " + join(known);

@@ -17,6 +17,7 @@ struct RunOptions {
   bool overwrite = false;           // replace an earlier run's files (io::prepare_output_dir)
   bool quiet = false;               // no progress lines (tests)
   bool validate_only = false;       // parse and check everything, then return 0 before any output
+  bool force = false;               // start a run planned to take longer than a year (cases/src/scene_checks.hpp)
 };
 
 // Each family: the scene names it knows and its runner (returns an exit code:

@@ -1,6 +1,11 @@
 #pragma once
 // Validated case files (YAML).
 //
+// Loading refuses what yaml-cpp accepts but a case file must not hold: a
+// second YAML document, a key given twice in one section (yaml-cpp would let
+// the first win), a key that is not a plain name, nesting deeper than a case
+// file needs. Every message starts with "file:line".
+//
 // Every read names its key; a missing key, a wrong type or an out-of-range
 // value throws ConfigError naming the file, the full key path, the value and
 // what would be valid. After a section has been read, finish() rejects keys
@@ -62,19 +67,37 @@ class Config {
 
   // An error about key `key` of this node with the offending value shown.
   [[noreturn]] void fail(const std::string& key, const std::string& what) const;
-  std::string full_key(const std::string& key) const;
+  std::string full_key(const std::string& key) const;  // dotted path, non-printing characters shown as \uXXXX
+  // The value as written (flow style), clipped to kMaxValueChars characters.
   std::string value_text(const std::string& key) const;
+  // "file:line" of `key` in this section (of the section itself when the key is absent).
+  std::string where(const std::string& key) const;
+  static constexpr std::size_t kMaxValueChars = 60;
+
+  // Every key path any Config of this file has asked for so far (sections,
+  // list entries as path[i]), whether present or defaulted: the keys a scene
+  // accepts, for the tests of the error messages.
+  std::vector<std::string> keys_read() const;
 
  private:
-  Config(YAML::Node n, std::shared_ptr<std::string> src, std::string path)
+  Config(YAML::Node n, std::shared_ptr<std::string> src, std::string path,
+         std::shared_ptr<std::set<std::string>> read)
       : node_(std::move(n)), source_(std::move(src)), path_(std::move(path)),
-        used_(std::make_shared<std::set<std::string>>()) {}
+        used_(std::make_shared<std::set<std::string>>()), read_(std::move(read)) {}
   YAML::Node get_node(const std::string& key) const;  // marks used, throws if missing
+  void mark(const std::string& key) const;            // `key` is known here
   YAML::Node node_;
   std::shared_ptr<std::string> source_;
   std::string path_;
   std::shared_ptr<std::set<std::string>> used_;
+  std::shared_ptr<std::set<std::string>> read_;  // shared by every Config of one file
 };
+
+// `s` for an error message: printable ASCII as is; control characters, and
+// every non-ASCII character, as escapes (\n, \x01, \u200b), so that a
+// character a terminal would not show can be seen; with max_chars > 0, cut
+// after that many characters with "... (N bytes)".
+std::string printable(const std::string& s, std::size_t max_chars = 0);
 
 // Levenshtein distance, for suggestions.
 std::size_t edit_distance(const std::string& a, const std::string& b);
