@@ -163,7 +163,6 @@ void fused_launch(const Exec& ex, const FusedArgs& a) {
   k.K = a.K;
   k.tv = a.tv;
   k.tiles = a.tiles;
-  k.own = a.raw->owned;
   k.p = a.p;
   k.frac = Frac{};
   k.frac.linear_normalised = a.opt->map.linear_normalised;

@@ -174,7 +174,9 @@ class SolverImpl final : public LbmSolver {
     r.grid = g_;
     r.owned = owned_;
     r.flags = flags_.data();
-    r.has_boundaries = has_bnd_;
+    // Coupling kernels that run over whole tiles skip the ghost cells of a
+    // piece by their flag.
+    r.has_boundaries = has_bnd_ || !s_.domain.whole_grid();
     r.step = t_;
     r.omega_p = omega_p_;
     r.omega_m = omega_m_;

@@ -76,7 +76,6 @@ struct PsmFusedKernel : PsmLatticeFields<T> {
   int K;  // slots per cell in use (<= kFusedMaxSlots)
   TileView tv;
   CellBox tiles;  // the tiles this launch updates (a box in tile coordinates; PsmCoupling::parts)
-  CellBox own;    // the owned cells (storage coordinates): the cells a step updates
   SphereView p;
   Frac frac;
 
@@ -107,8 +106,9 @@ struct PsmFusedKernel : PsmLatticeFields<T> {
     o[2] = t.iz * kTZ;
   }
 
-  // Cell of thread `tid` in tile `t`; false if it is not an owned cell (the
-  // tile overhangs the grid there, or it is a ghost cell of a cut grid).
+  // Cell of thread `tid` in tile `t`; false if the tile overhangs the grid
+  // there. (Ghost cells of a cut grid are skipped by their flag: a solver on
+  // a piece reports boundaries, LbmRaw::has_boundaries.)
   LBDEM_HD bool coords(const TileId& t, int tid, int& x, int& y, int& z) const {
     int o[3], lx, ly, lz;
     tile_origin(t, o);
@@ -116,9 +116,7 @@ struct PsmFusedKernel : PsmLatticeFields<T> {
     x = o[0] + lx;
     y = o[1] + ly;
     z = o[2] + lz;
-    return static_cast<unsigned>(x - own.lo[0]) < static_cast<unsigned>(own.ext[0]) &&
-           static_cast<unsigned>(y - own.lo[1]) < static_cast<unsigned>(own.ext[1]) &&
-           static_cast<unsigned>(z - own.lo[2]) < static_cast<unsigned>(own.ext[2]);
+    return x < g.nx && y < g.ny && z < g.nz;
   }
 
   LBDEM_HD int candidates(Index tile) const {

@@ -53,7 +53,7 @@ struct LbmRaw {
   GridView grid;
   CellBox owned;         // the cells a step updates (storage coordinates)
   const std::uint8_t* flags = nullptr;
-  bool has_boundaries = false;
+  bool has_boundaries = false;  // read the flags: boundary entries, or ghost cells (a piece of a cut grid)
   long step = 0;         // steps done; AA parity = step & 1
   double omega_p = 1, omega_m = 1;
   std::array<double, 3> body_force{0, 0, 0};
