@@ -121,7 +121,7 @@ void check_tree(const YAML::Node& n, const std::string& src, const std::string& 
   if (!n.IsMap()) return;
   std::map<std::string, int> seen;  // key -> line (1-based)
   for (auto it = n.begin(); it != n.end(); ++it) {
-    const YAML::Node& k = it->first;
+    const YAML::Node k = it->first;  // a copy: the iterator hands out a temporary pair
     if (!k.IsScalar())
       throw ConfigError(src + line_of(k.Mark()) + ": a key in section '" + (path.empty() ? "(top level)" : path) +
                         "' is a " + (k.IsMap() ? "section" : k.IsSequence() ? "list" : "null value") +
