@@ -58,9 +58,40 @@ FixedSphereResult run_fixed_sphere(const FixedSphereSpec& c, Backend b) {
   s.magic = c.magic;
   s.domain.global = s.domain.local = {L, L, d3 ? L : 1};
   s.body_force = {g, 0, 0};
+  // On several ranks each takes its piece of the period (ghost cells flagged)
+  // and exchanges halos; sums over cells (drag, mean velocity) are over ranks.
+  const bool cut = c.comm && c.comm->distributed();
+  halo::Decomposition dec;
+  if (cut) {
+    dec = halo::decompose(s.domain, c.comm->size(), c.parallel.decomposition, "parallel.decomposition");
+    s.domain = dec.piece(s.domain, c.comm->rank());
+  }
   auto solver = lbm::make_lbm_solver(s, b);
-  const auto N = static_cast<std::size_t>(d3 ? L * L * L : L * L);
-  solver->initialize(std::vector<std::uint8_t>(N, 0), std::vector<double>(N, 1.0), std::vector<double>(3 * N, 0.0));
+  const double N = d3 ? double(L) * L * L : double(L) * L;  // cells of the whole period
+  const auto Ns = static_cast<std::size_t>(s.domain.storage_cells());
+  const GridView gv = s.domain.view();
+  const CellBox own = s.domain.owned();
+  std::vector<std::uint8_t> flags(Ns, 0);
+  std::vector<char> owned(Ns, 0);  // owned cells: what this rank adds to the sums
+  for (Index t = 0; t < own.size(); ++t) {
+    int x, y, z;
+    own.coords(t, x, y, z);
+    owned[static_cast<std::size_t>(gv.index(x, y, z))] = 1;
+  }
+  for (std::size_t i = 0; i < Ns; ++i)
+    if (!owned[i]) flags[i] = lbm::kGhostFlag;
+  solver->initialize(flags, std::vector<double>(Ns, 1.0), std::vector<double>(3 * Ns, 0.0));
+  std::unique_ptr<halo::Transport> transport;
+  std::unique_ptr<lbm::FluidHalo> halo;
+  if (cut) {
+    transport = halo::make_transport(c.parallel.transport, *c.comm, b);
+    halo = std::make_unique<lbm::FluidHalo>(*solver, dec, c.comm->rank(), *transport);
+    halo->fill();
+  }
+  auto global_sum = [&](std::vector<double> v) {
+    if (cut) c.comm->sum(v);
+    return v;
+  };
 
   const double ctr = 0.5 * L + c.offset;
   std::vector<double> host = {ctr, ctr, d3 ? ctr : 0.5, a, 0, 0, 0, 0, 0, 0};
@@ -88,12 +119,25 @@ FixedSphereResult run_fixed_sphere(const FixedSphereSpec& c, Backend b) {
     // superficial velocity sum (1 - eps) u / V = U_target.
     const auto eps0 = coupling.slots().total_eps_host();
     double s2 = 0;
-    for (double e : eps0) s2 += (1.0 - std::min(1.0, e)) * (1.0 - std::min(1.0, e));
+    for (std::size_t i = 0; i < Ns; ++i)
+      if (owned[i]) s2 += (1.0 - std::min(1.0, eps0[i])) * (1.0 - std::min(1.0, eps0[i]));
+    s2 = global_sum({s2})[0];
     const double U0 = U_target * V / s2;
-    std::vector<double> u0(3 * N, 0.0);
-    for (std::size_t i = 0; i < N; ++i) u0[3 * i] = U0 * (1.0 - std::min(1.0, eps0[i]));
-    solver->initialize(std::vector<std::uint8_t>(N, 0), std::vector<double>(N, 1.0), u0);
+    std::vector<double> u0(3 * Ns, 0.0);
+    for (std::size_t i = 0; i < Ns; ++i) u0[3 * i] = U0 * (1.0 - std::min(1.0, eps0[i]));
+    solver->initialize(flags, std::vector<double>(Ns, 1.0), u0);
+    if (halo) halo->fill();
   }
+  auto psm_step = [&](const imb::ForceOut& out) {
+    if (halo) coupling.step(p, opt, out, *halo);
+    else coupling.step(p, opt, out);
+  };
+  // A stop signal may reach the ranks at different steps: they agree at the
+  // end of each interval (one rank: after the step in progress).
+  auto stop_now = [&](bool at_interval_end) {
+    if (!cut) return stop_requested();
+    return at_interval_end && c.comm->any(stop_requested());
+  };
 
   // Steady state: the drag approaches its limit like A e^{-t/T}; with the
   // change D over an interval and the ratio r of successive changes, the
@@ -108,15 +152,15 @@ FixedSphereResult run_fixed_sphere(const FixedSphereSpec& c, Backend b) {
     // step of an interval gathers them (a null force skips the gather). A stop
     // signal (core/signals.hpp) ends the loop after the step in progress.
     long done = 0;
-    for (; done + 1 < check && !stop_requested(); ++done) coupling.step(p, opt, imb::ForceOut{});
-    if (stop_requested()) {
+    for (; done + 1 < check && !stop_now(false); ++done) psm_step(imb::ForceOut{});
+    if (stop_now(done + 1 >= check)) {
       step += done;
       interrupted = true;
       break;
     }
-    coupling.step(p, opt, f6.data());
+    psm_step(imb::ForceOut::six(f6.data()));
     step += check;
-    F = f6.to_vector()[0];
+    F = global_sum({f6.to_vector()[0]})[0];
     if (!std::isfinite(F)) throw DivergenceError("fixed_sphere: drag is not finite at step " + std::to_string(step));
     const double delta = std::abs(F - prev);
     if (step >= 4 * check && prev_delta > 0) {
@@ -140,19 +184,24 @@ FixedSphereResult run_fixed_sphere(const FixedSphereSpec& c, Backend b) {
   r.converged = converged;
   r.interrupted = interrupted;
   r.remaining = remaining_rel;
-  r.mlups = double(N) * double(step) / r.seconds / 1e6;
+  r.mlups = N * double(step) / r.seconds / 1e6;
 
   std::vector<double> rho, u;
   solver->macroscopic(rho, u);
   const auto eps = coupling.slots().total_eps_host();
   double usum = 0, fluid_weight = 0, flux = 0;
-  for (std::size_t i = 0; i < N; ++i) {
+  for (std::size_t i = 0; i < Ns; ++i) {
+    if (!owned[i]) continue;
     const double e = std::min(1.0, eps[i]);
     usum += (1.0 - e) * u[3 * i];
     flux += rho[i] * u[3 * i];
     const double B = imb::psm_weight(e, c.tau - 0.5, c.weight);
     fluid_weight += 1.0 - B;
   }
+  const auto sums = global_sum({usum, flux, fluid_weight});
+  usum = sums[0];
+  flux = sums[1];
+  fluid_weight = sums[2];
   r.mean_u = usum / V;
   r.mean_flux = flux / V;
   r.exchange = F;

@@ -5,6 +5,7 @@
 // scene, the tests and the speed-vs-error benchmark.
 #include <string>
 
+#include "cases/parallel.hpp"
 #include "core/exec.hpp"
 #include "imb/fraction_table.hpp"
 #include "imb/psm.hpp"
@@ -51,6 +52,10 @@ struct FixedSphereSpec {
   enum class Start { Rest, Estimate };
   Start start = Start::Estimate;
   bool quiet = true;         // progress lines on stderr
+  // Ranks: null (or one rank) runs the whole grid; several cut it (`parallel`
+  // section: decomposition, transport) and every rank returns the same result.
+  const halo::Comm* comm = nullptr;
+  ParallelOptions parallel;
 };
 
 struct FixedSphereResult {
