@@ -13,7 +13,8 @@
 #   BENCHES selects benchmarks (default: lbm dem imb psm-susp psm-sweep); SUSP_FRACTIONS the psm-susp fractions
 #   (default: table linear exact). psm-sweep alone needs two
 #   device calls of 10 min: SWEEP_PARTS="small", then SWEEP_PARTS="large" (scripts/psm_sweep_gpu.sh).
-#   LBDEM_COMMIT names the commit in every JSON (default: git rev-parse here; set it where the tree has no .git).
+#   LBDEM_COMMIT names the commit in every JSON (default: git rev-parse here). Set it from the caller when the
+#   tree on the GPU machine is a copy whose .git may be stale (it reported an older commit in past runs).
 set -uo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
 export OUT="${OUT:-$here/out}"

@@ -18,6 +18,7 @@
 #include "core/signals.hpp"
 #include "halo/comm.hpp"
 #include "halo/device.hpp"
+#include "halo/transport.hpp"
 
 using namespace lbdem;
 
@@ -73,6 +74,7 @@ int main(int argc, char** argv) {
 
   try {
     if (*info) {
+      if (!halo::Comm::world().root()) return 0;  // under mpirun: one report
       std::printf("lbdem %s\n", LBDEM_VERSION);
       std::printf("backends: cpu (OpenMP, %d threads)%s\n", omp_get_max_threads(),
                   cuda_compiled() ? ", cuda (compiled in)" : " (built without CUDA)");
@@ -82,6 +84,9 @@ int main(int argc, char** argv) {
       } else {
         std::printf("cuda: %s\n", why.c_str());
       }
+      const halo::Comm& comm = halo::Comm::world();
+      std::printf("ranks: %s; transports: host_mpi%s%s\n", comm.describe().c_str(),
+                  halo::mpi_cuda_aware() ? ", device_mpi" : "", halo::nccl_compiled() ? ", nccl" : "");
       std::printf("scenes:");
       for (auto& s : all_scene_names()) std::printf(" %s", s.c_str());
       std::printf("\n");
