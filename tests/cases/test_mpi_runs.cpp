@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "core/exec.hpp"
 #include "run_lbdem.hpp"
 
 namespace lbdem::test {
@@ -43,7 +44,7 @@ struct Case {
   long steps;
   int ranks;
   std::string decomposition;  // "" = chosen
-  std::string transport = "";
+  std::string backend = "cpu";  // cuda: the ranks share the GPUs there are (host-staged halos)
 };
 
 std::string dir_for(const std::string& name, int ranks) {
@@ -56,7 +57,7 @@ Result run_ranks(const Case& c, int ranks, const std::string& outdir) {
   const bool fields = c.yaml.find("scene: fixed_sphere") == std::string::npos;  // that scene writes a summary only
   std::ofstream(file) << c.yaml << "output: {directory: " << outdir << (fields ? ", interval: 0}\n" : "}\n")
                       << (ranks > 1 && !c.decomposition.empty() ? "parallel: {decomposition: " + c.decomposition + "}\n" : "");
-  const std::string args = "run " + file + " --backend cpu --quiet --steps " + std::to_string(c.steps);
+  const std::string args = "run " + file + " --backend " + c.backend + " --quiet --steps " + std::to_string(c.steps);
   if (ranks == 1) return run(args);
   // One OpenMP thread per rank: the ranks share two cores.
   const std::string cmd = std::string("env OMP_NUM_THREADS=1 ") + LBDEM_MPIEXEC + " " + std::to_string(ranks) + " " +
@@ -74,6 +75,7 @@ class MpiRuns : public ::testing::TestWithParam<Case> {};
 TEST_P(MpiRuns, FieldsEqualOneRankBitwise) {
   if (std::string(LBDEM_MPIEXEC).empty()) GTEST_SKIP() << "built without an MPI launcher";
   const Case c = GetParam();
+  if (c.backend == "cuda" && !cuda_unavailable_reason().empty()) GTEST_SKIP() << cuda_unavailable_reason();
   const std::string d1 = dir_for(c.name, 1), dn = dir_for(c.name, c.ranks);
   const Result r1 = run_ranks(c, 1, d1);
   ASSERT_EQ(r1.code, 0) << r1.out;
@@ -127,7 +129,11 @@ INSTANTIATE_TEST_SUITE_P(
     ::testing::Values(Case{"tg2d_2", kTaylorGreen2d, 11, 2, ""}, Case{"tg2d_4", kTaylorGreen2d, 11, 4, "[2, 2, 1]"},
                       Case{"channel_3", kChannel, 9, 3, "[1, 3, 1]"}, Case{"channel_2x", kChannel, 9, 2, "[2, 1, 1]"},
                       Case{"cavity_4", kCavity, 9, 4, "[2, 2, 1]"}, Case{"tg3d_2z", kTaylorGreen3d, 7, 2, "[1, 1, 2]"},
-                      Case{"tg3d_4", kTaylorGreen3d, 8, 4, "[1, 2, 2]"}, Case{"box_3", kBox, 6, 3, ""}),
+                      Case{"tg3d_4", kTaylorGreen3d, 8, 4, "[1, 2, 2]"}, Case{"box_3", kBox, 6, 3, ""},
+                      // The GPU path end to end: streams, pinned staging, ranks sharing a GPU.
+                      Case{"gpu_tg3d_2", kTaylorGreen3d, 9, 2, "[2, 1, 1]", "cuda"},
+                      Case{"gpu_channel_3", kChannel, 9, 3, "[1, 3, 1]", "cuda"},
+                      Case{"gpu_box_4", kBox, 7, 4, "[2, 1, 2]", "cuda"}),
     [](const ::testing::TestParamInfo<Case>& i) { return i.param.name; });
 
 TEST(MpiRunsRefused, DecompositionThatCannotWork) {
