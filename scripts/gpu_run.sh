@@ -9,6 +9,9 @@
 #                           JSON as $OUT/baseline_<bench>.json (commit: $BASELINE_COMMIT, else "baseline")
 #     scaling [quick]       fluid-only scaling over MPI ranks (scripts/scaling_gpu.sh): $OUT/scaling.jsonl
 #     profile               Nsight Compute per-kernel time and DRAM bytes of 3 coupled suspension steps
+#     sanitize              compute-sanitizer over the CUDA tests and every shipped scene
+#                           (scripts/gpu_sanitize.sh; logs and summary.txt in $OUT/sanitize; SANITIZE_TOOLS
+#                           picks the tools, TESTS / FILTER / SCENES / SCENE_STEPS pass through)
 #     pack                  everything in $OUT into $OUT/out.tgz (for a runner that returns few files)
 #   BENCHES selects benchmarks (default: lbm dem imb psm-susp psm-sweep); SUSP_FRACTIONS the psm-susp fractions
 #   (default: table linear exact). psm-sweep alone needs two
@@ -86,6 +89,8 @@ while [ $# -gt 0 ]; do
           --pipeline fused > "$OUT/ncu_suspension_$prec.log" 2>&1
         echo "ncu $prec exit $?"
       done ;;
+    sanitize)
+      OUT="$OUT/sanitize" bash "$here/scripts/gpu_sanitize.sh" ${SANITIZE_TOOLS:-}; echo "sanitize exit $?" ;;
     pack) tar czf /tmp/gpu_run_out.tgz -C "$OUT" . && rm -rf "${OUT:?}"/* && mv /tmp/gpu_run_out.tgz "$OUT/out.tgz" ;;
     *) echo "unknown step $s"; exit 2 ;;
   esac
