@@ -3,6 +3,8 @@
 # 24.04). Idempotent: installs only what is missing. Run as root or with sudo.
 # CUDA is optional: with nvcc on the PATH (or at /usr/local/cuda) the build
 # also has the GPU backend.
+# The fuzz build (scripts/fuzz.sh, tests/fuzz) is optional too and needs clang:
+# apt-get install -y clang (not installed here; CI does not need it).
 set -euo pipefail
 pkgs=(build-essential cmake ninja-build pkg-config
       libopenmpi-dev openmpi-bin libhdf5-dev libeigen3-dev libyaml-cpp-dev

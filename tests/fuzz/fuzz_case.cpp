@@ -1,0 +1,37 @@
+// libFuzzer target for the case loader: the input bytes are read as a case
+// file (Config::from_string) and checked the way `lbdem check` checks it
+// (run_case with validate_only, quiet, the host backend). A clean rejection
+// is an lbdem::Error (ConfigError, ResourceError, ...); anything else (another
+// exception, a crash, an ASan/UBSan report, a leak, a timeout, an allocation
+// past -rss_limit_mb) is a finding.
+#include <cstddef>
+#include <cstdint>
+#include <cstdlib>
+#include <cstdio>
+#include <exception>
+#include <string>
+
+#include "cases/scenes.hpp"
+#include "core/config.hpp"
+#include "core/error.hpp"
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  const std::string text(reinterpret_cast<const char*>(data), size);
+  lbdem::RunOptions opt;
+  opt.backend = "cpu";
+  opt.quiet = true;
+  opt.validate_only = true;
+  try {
+    const lbdem::Config cfg = lbdem::Config::from_string(text, "<fuzz>");
+    (void)lbdem::run_case(cfg, opt);
+  } catch (const lbdem::Error&) {
+    // A clean, typed rejection of bad input.
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "fuzz_case: untyped exception: %s\n", e.what());
+    std::abort();
+  } catch (...) {
+    std::fprintf(stderr, "fuzz_case: unknown exception\n");
+    std::abort();
+  }
+  return 0;
+}
