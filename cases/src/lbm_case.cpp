@@ -508,7 +508,8 @@ int run_parsed(LbmCase& c, const RunOptions& opt) {
   js << "}\n}\n";
   if (root) io::write_text_atomically(c.outdir + "/summary.json", js.str());
   if (interrupted) {
-    spdlog::warn("stopped by {} at step {} of {} (t = {:.6g} s); output up to that step is in {}", stop_signal_name(),
+    if (root)
+      spdlog::warn("stopped by {} at step {} of {} (t = {:.6g} s); output up to that step is in {}", stop_signal_name(),
                  step, c.steps, step * U.dt, c.outdir);
     return kExitInterrupted;
   }
