@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <cstdio>
 #include <string>
 
@@ -100,8 +101,13 @@ CoupledScales coupled_scales(const lbm::LbmSetup& fluid, const dem::DemParams& d
   s.mach = s.u_ref * std::sqrt(3.0);
   s.cell_reynolds = s.nu > 0 ? s.u_ref / s.nu : std::numeric_limits<double>::infinity();
   s.collision_time = dem::min_collision_time(dem, p);
-  if (std::isfinite(s.collision_time) && s.collision_time > 0)
-    s.min_substeps = std::max(1, static_cast<int>(std::ceil(dem.min_steps_per_collision / s.collision_time - 1e-9)));
+  if (std::isfinite(s.collision_time) && s.collision_time > 0) {
+    // In double first: absurdly stiff contacts ask for more sub-steps than an int holds (then refused below).
+    const double need = std::ceil(dem.min_steps_per_collision / s.collision_time - 1e-9);
+    s.min_substeps = need >= static_cast<double>(std::numeric_limits<int>::max())
+                         ? std::numeric_limits<int>::max()
+                         : std::max(1, static_cast<int>(need));
+  }
   return s;
 }
 
