@@ -219,38 +219,34 @@ void Comm::sum(std::span<double> v) const {
 #endif
 }
 
+// One value reduced over the ranks with `op` (in place; identity on one rank).
+#if defined(LBDEM_HAVE_MPI)
+#define LBDEM_COMM_REDUCE(v, type, op) \
+  do {                                  \
+    if (size_ > 1) LBDEM_MPI_CHECK(MPI_Allreduce(MPI_IN_PLACE, &(v), 1, type, op, own_comm(own_))); \
+  } while (0)
+#else
+#define LBDEM_COMM_REDUCE(v, type, op) (void)0
+#endif
+
 long Comm::sum(long v) const {
-#if defined(LBDEM_HAVE_MPI)
-  if (size_ > 1) LBDEM_MPI_CHECK(MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_LONG, MPI_SUM, own_comm(own_)));
-#endif
+  LBDEM_COMM_REDUCE(v, MPI_LONG, MPI_SUM);
   return v;
 }
-
 double Comm::max(double v) const {
-#if defined(LBDEM_HAVE_MPI)
-  if (size_ > 1) LBDEM_MPI_CHECK(MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_DOUBLE, MPI_MAX, own_comm(own_)));
-#endif
+  LBDEM_COMM_REDUCE(v, MPI_DOUBLE, MPI_MAX);
   return v;
 }
-
 double Comm::min(double v) const {
-#if defined(LBDEM_HAVE_MPI)
-  if (size_ > 1) LBDEM_MPI_CHECK(MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_DOUBLE, MPI_MIN, own_comm(own_)));
-#endif
+  LBDEM_COMM_REDUCE(v, MPI_DOUBLE, MPI_MIN);
   return v;
 }
-
 long Comm::max(long v) const {
-#if defined(LBDEM_HAVE_MPI)
-  if (size_ > 1) LBDEM_MPI_CHECK(MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_LONG, MPI_MAX, own_comm(own_)));
-#endif
+  LBDEM_COMM_REDUCE(v, MPI_LONG, MPI_MAX);
   return v;
 }
-
 long Comm::min(long v) const {
-#if defined(LBDEM_HAVE_MPI)
-  if (size_ > 1) LBDEM_MPI_CHECK(MPI_Allreduce(MPI_IN_PLACE, &v, 1, MPI_LONG, MPI_MIN, own_comm(own_)));
-#endif
+  LBDEM_COMM_REDUCE(v, MPI_LONG, MPI_MIN);
   return v;
 }
 
