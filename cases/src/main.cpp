@@ -1,6 +1,8 @@
 // The `lbdem` command.
 //   lbdem run CASE.yaml [--backend cuda|cpu|auto] [--steps N] [--output DIR] [--overwrite] [--force] [--quiet]
-//   lbdem check CASE.yaml      validate a case file without running it
+//   lbdem check CASE.yaml [--memory SIZE]   validate a case file without running it
+//                              (SIZE: check the memory against a machine with
+//                              that much free memory, device and host, e.g. 80GiB)
 //   lbdem info                 build, backends, devices
 // Exit codes: 0 ok, 2 invalid input, 3 diverged, 4 resources (memory, disk full),
 // 5 stopped by SIGINT/SIGTERM (final output written, summary.json says
@@ -9,11 +11,13 @@
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
+#include <cctype>
 #include <chrono>
 #include <cstdio>
 #include <thread>
 
 #include "cases/scenes.hpp"
+#include "core/buffer.hpp"
 #include "core/exec.hpp"
 #include "core/signals.hpp"
 #include "halo/comm.hpp"
@@ -35,6 +39,30 @@ int fail(int code, const char* what, bool every_rank_alike) {
   if (comm.distributed()) comm.abort(code);
   return code;
 }
+
+// A memory size as a user writes it: a number with an optional unit, K/M/G/T
+// (or KiB/MiB/GiB/TiB) in powers of 1024, KB/MB/GB/TB in powers of 1000, B or
+// none for bytes.
+std::size_t parse_memory_size(const std::string& text) {
+  std::size_t used = 0;
+  double v = 0;
+  try {
+    v = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  std::string unit = text.substr(used);
+  for (auto& ch : unit) ch = static_cast<char>(std::toupper(static_cast<unsigned char>(ch)));
+  static const std::pair<const char*, double> units[] = {
+      {"", 1},           {"B", 1},          {"K", 0x1p10},     {"KIB", 0x1p10}, {"KB", 1e3}, {"M", 0x1p20},
+      {"MIB", 0x1p20},   {"MB", 1e6},       {"G", 0x1p30},     {"GIB", 0x1p30}, {"GB", 1e9}, {"T", 0x1p40},
+      {"TIB", 0x1p40},   {"TB", 1e12}};
+  for (const auto& [name, scale] : units)
+    if (used > 0 && unit == name && v * scale >= 1 && v * scale < 0x1p60)
+      return static_cast<std::size_t>(v * scale);
+  throw ConfigError("--memory = '" + text + "': give a positive size such as 80GiB, 512M or 141GB (K/M/G/T and "
+                    "KiB/MiB/GiB/TiB are powers of 1024, KB/MB/GB/TB powers of 1000)");
+}
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -43,7 +71,7 @@ int main(int argc, char** argv) {
   RunOptions opt;
   std::string case_file;
   long steps = -1;
-  std::string output;
+  std::string output, memory;
 
   auto* run = app.add_subcommand("run", "run a case file");
   run->add_option("case", case_file, "case file (YAML)")->required();
@@ -58,10 +86,16 @@ int main(int argc, char** argv) {
                 "start a run even when it is planned to take more than a year of wall time at the fastest speed this "
                 "code reaches");
   run->add_flag("--quiet", opt.quiet, "no progress lines");
+  run->add_option("--memory", memory,
+                  "use at most this much memory (device and host), e.g. 40GiB: the memory checks refuse a case that "
+                  "needs more");
 
   auto* check = app.add_subcommand("check", "validate a case file without running it");
   check->add_option("case", case_file, "case file (YAML)")->required();
   check->add_flag("--force", opt.force, "accept a run planned to take more than a year (as run --force)");
+  check->add_option("--memory", memory,
+                    "check the memory against a machine with this much free memory (device and host), e.g. 80GiB "
+                    "for a case meant for another machine");
 
   auto* info = app.add_subcommand("info", "build, backends and devices");
 
@@ -97,6 +131,7 @@ int main(int argc, char** argv) {
     if (output_opt->count() > 0 && output.empty())
       throw ConfigError("--output was given an empty folder name; give a folder, or leave --output out to use the case "
                         "file's output.directory");
+    if (!memory.empty()) set_memory_limit(parse_memory_size(memory));
     const Config cfg = Config::load_file(case_file);
     if (steps > 0) opt.steps = steps;
     if (output_opt->count() > 0) opt.output = output;

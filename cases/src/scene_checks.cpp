@@ -115,10 +115,31 @@ void check_particle_overlaps(const Config& root, const dem::HostParticles& p, co
   for (std::size_t i = 0; i < n; ++i)
     order[i] = {key(cell_of(p.x[i], 0), cell_of(p.x[i], 1), box.dim == 3 ? cell_of(p.x[i], 2) : 0), i};
   std::sort(order.begin(), order.end());
+  // Keys, positions and radii in cell order: the particles of one cell and of
+  // its neighbours lie close together in memory, and consecutive particles
+  // search nearly the same keys (the check is bound by memory access).
+  std::vector<long> keys(n);
+  std::vector<Vec3d> xs(n);
+  std::vector<double> rs(n);
+  for (std::size_t s = 0; s < n; ++s) {
+    keys[s] = order[s].first;
+    xs[s] = p.x[order[s].second];
+    rs[s] = p.r[order[s].second];
+  }
+  // Where the particles of each cell start, when the cells are not many more
+  // than the particles (memory O(n) still); else a binary search per cell.
+  const long n_cells = nc[0] * nc[1] * nc[2];
+  std::vector<std::size_t> start;
+  if (n_cells <= 8 * static_cast<long>(n)) {
+    start.assign(static_cast<std::size_t>(n_cells) + 1, n);
+    for (std::size_t s = n; s-- > 0;) start[static_cast<std::size_t>(keys[s])] = s;
+    for (long k = n_cells - 1; k >= 0; --k)
+      start[static_cast<std::size_t>(k)] = std::min(start[static_cast<std::size_t>(k)], start[static_cast<std::size_t>(k) + 1]);
+  }
   std::size_t pairs = 0, worst_i = 0, worst_j = 0;
   double worst = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    const long c[3] = {cell_of(p.x[i], 0), cell_of(p.x[i], 1), box.dim == 3 ? cell_of(p.x[i], 2) : 0};
+  for (std::size_t s = 0; s < n; ++s) {
+    const long c[3] = {keys[s] % nc[0], (keys[s] / nc[0]) % nc[1], keys[s] / (nc[0] * nc[1])};
     // Neighbour cells, each once (fewer than three cells on an axis would repeat one).
     std::array<long, 27> seen{};
     std::size_t n_seen = 0;
@@ -138,28 +159,30 @@ void check_particle_overlaps(const Config& root, const dem::HostParticles& p, co
           if (std::find(seen.begin(), seen.begin() + static_cast<long>(n_seen), kq) != seen.begin() + static_cast<long>(n_seen))
             continue;
           seen[n_seen++] = kq;
-          auto it = std::lower_bound(order.begin(), order.end(), std::make_pair(kq, std::size_t{0}));
-          for (; it != order.end() && it->first == kq; ++it) {
-            const std::size_t j = it->second;
-            if (j <= i) continue;
+          // Each unordered pair once: only partners later in cell order.
+          if (kq < keys[s]) continue;
+          std::size_t t = start.empty() ? static_cast<std::size_t>(std::lower_bound(keys.begin(), keys.end(), kq) - keys.begin())
+                                        : start[static_cast<std::size_t>(kq)];
+          for (; t < n && keys[t] == kq; ++t) {
+            if (t <= s) continue;
             double d2 = 0;
             for (int a = 0; a < box.dim; ++a) {
               const auto k = static_cast<std::size_t>(a);
-              double d = p.x[j][a] - p.x[i][a];
+              double d = xs[t][a] - xs[s][a];
               if (box.periodic[k]) {
                 const double L = box.hi[k] - box.lo[k];
                 d -= L * std::round(d / L);
               }
               d2 += d * d;
             }
-            const double overlap = p.r[i] + p.r[j] - std::sqrt(d2);
-            const double rel = overlap / std::min(p.r[i], p.r[j]);
+            const double overlap = rs[s] + rs[t] - std::sqrt(d2);
+            const double rel = overlap / std::min(rs[s], rs[t]);
             if (rel > kMaxInitialOverlap) {
               ++pairs;
               if (rel > worst) {
                 worst = rel;
-                worst_i = i;
-                worst_j = j;
+                worst_i = std::min(order[s].second, order[t].second);
+                worst_j = std::max(order[s].second, order[t].second);
               }
             }
           }

@@ -1,5 +1,6 @@
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <cstring>
 #include <new>
@@ -87,7 +88,10 @@ void backend_memset(Backend b, void* dst, int value, std::size_t bytes) {
   std::memset(dst, value, bytes);
 }
 
-std::size_t backend_free_bytes(Backend b) {
+namespace {
+std::size_t g_memory_limit = 0;
+
+std::size_t free_bytes_of(Backend b) {
   if (b == Backend::Cuda) {
 #if defined(LBDEM_HAVE_CUDA)
     std::size_t free_b = 0, total = 0;
@@ -101,6 +105,14 @@ std::size_t backend_free_bytes(Backend b) {
   const long page = sysconf(_SC_PAGESIZE);
   if (pages <= 0 || page <= 0) return static_cast<std::size_t>(-1);
   return static_cast<std::size_t>(pages) * static_cast<std::size_t>(page);
+}
+}  // namespace
+
+void set_memory_limit(std::size_t bytes) { g_memory_limit = bytes; }
+
+std::size_t backend_free_bytes(Backend b) {
+  const std::size_t have = free_bytes_of(b);
+  return g_memory_limit > 0 ? std::min(have, g_memory_limit) : have;
 }
 
 }  // namespace lbdem

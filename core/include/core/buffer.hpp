@@ -17,8 +17,12 @@ void backend_copy_from_host(Backend b, void* dst, const void* src_host, std::siz
 void backend_copy(Backend b, void* dst, const void* src, std::size_t bytes);
 void backend_memset(Backend b, void* dst, int value, std::size_t bytes);
 // Bytes a new allocation can still take on this backend (device: free memory;
-// host: available physical memory).
+// host: available physical memory), at most the limit set below.
 std::size_t backend_free_bytes(Backend b);
+// Caps what backend_free_bytes reports (both backends): the memory checks then
+// answer for a machine with that much free memory (`lbdem check --memory`).
+// 0 removes the cap.
+void set_memory_limit(std::size_t bytes);
 
 template <class T>
 struct View {
