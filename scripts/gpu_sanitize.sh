@@ -6,7 +6,7 @@
 #   FILTER    gtest filter (default: the CUDA instances, '*/cuda*', without the 10^4-step hard cases
 #             and the resolution sweeps, which take hours under the sanitizer)
 #   SCENES    1 (default) also runs `lbdem run --backend cuda --steps $SCENE_STEPS` on every
-#             cases/*.yaml (SCENE_STEPS default 20); 0 skips them
+#             cases/*.yaml (SCENE_STEPS default 20); 0 skips them; SCENE_GLOB picks some (default '*')
 #   SANITIZER path of compute-sanitizer (default /usr/local/cuda/bin/compute-sanitizer)
 #   OUT       where the logs and the summary go (default ./out/sanitize)
 #   LBDEM_COMMIT  the commit named in the summary (default: git rev-parse here)
@@ -62,7 +62,7 @@ for tool in "${tools[@]}"; do
     sanitize "$tool" "${t}_tests" "0" "$exe" --gtest_filter="$filter"
   done
   if [ "${SCENES:-1}" = 1 ]; then
-    for c in "$here"/cases/*.yaml; do
+    for c in "$here"/cases/${SCENE_GLOB:-*}.yaml; do
       n="$(basename "$c" .yaml)"
       d="$(mktemp -d)"
       ok="0"

@@ -4,6 +4,12 @@
 // is an lbdem::Error (ConfigError, ResourceError, ...); anything else (another
 // exception, a crash, an ASan/UBSan report, a leak, a timeout, an allocation
 // past -rss_limit_mb) is a finding.
+//
+// The memory checks answer for a machine with 512 MiB free (as `lbdem check
+// --memory 512MiB`): every shipped case fits, and the largest grid or particle
+// count an input can ask for stays small enough that validating it (a random
+// packing and its overlap check are linear in the particle count) fits the
+// fuzzer's time limit per input.
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>
@@ -12,10 +18,12 @@
 #include <string>
 
 #include "cases/scenes.hpp"
+#include "core/buffer.hpp"
 #include "core/config.hpp"
 #include "core/error.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  lbdem::set_memory_limit(std::size_t{512} << 20);
   const std::string text(reinterpret_cast<const char*>(data), size);
   lbdem::RunOptions opt;
   opt.backend = "cpu";

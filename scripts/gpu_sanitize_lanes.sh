@@ -1,0 +1,57 @@
+#!/usr/bin/env bash
+# All four compute-sanitizer tools over the CUDA tests and the shipped scenes in one device call:
+# several scripts/gpu_sanitize.sh runs side by side ("lanes"), each with its own tools, tests and
+# gtest filter, started as soon as the executables it needs are built.
+#   scripts/gpu_sanitize_lanes.sh [SECONDS]     wall-time budget of the whole call (default 560)
+#   OUT            logs, per-lane summaries and summary.txt (default ./out/sanitize)
+#   LBDEM_COMMIT   the commit named in the summaries
+# Every sanitizer run has its own time limit (CS_T seconds); a run cut off by it reports "exit 124,
+# no summary" and counts as not covered, not as clean. racecheck checks shared-memory hazards only,
+# so its test lanes cover the kernels that use shared memory (the fused PSM kernel, core/algorithms'
+# block reductions and scans through the DEM neighbour build and the fluid diagnostics); the scenes
+# run every kernel once under it.
+set -uo pipefail
+here="$(cd "$(dirname "$0")/.." && pwd)"
+budget="${1:-560}"
+OUT="${OUT:-$here/out/sanitize}"
+mkdir -p "$OUT"
+t0=$(date +%s)
+left() { echo $((t0 + budget - $(date +%s))); }
+build="$here/build-gpu"
+cs_real="${SANITIZER:-/usr/local/cuda/bin/compute-sanitizer}"
+wrap="$OUT/cs_wrap.sh"
+printf '#!/bin/sh\nexec timeout "${CS_T:-120}" %s "$@"\n' "$cs_real" > "$wrap"
+chmod +x "$wrap"
+export SANITIZER="$wrap" SCENE_STEPS="${SCENE_STEPS:-5}" OMP_NUM_THREADS=1
+S="$here/scripts/gpu_sanitize.sh"
+(cd "$here" && cmake --preset cuda > "$OUT/build.log" 2>&1 &&
+  cmake --build build-gpu -j16 --target lbdem lbm_tests >> "$OUT/build.log" 2>&1)
+echo "build lbdem lbm_tests: exit $? at $(( $(date +%s) - t0 )) s"
+(cd "$here" && cmake --build build-gpu -j12 --target dem_tests imb_tests >> "$OUT/build2.log" 2>&1
+ echo "build dem_tests imb_tests: exit $? at $(( $(date +%s) - t0 )) s" >> "$OUT/build2.log") &
+builder=$!
+lane() {  # lane NAME [VAR=VALUE...] -- TOOL...
+  local name="$1"; shift
+  local env=()
+  while [ "$1" != "--" ]; do env+=("$1"); shift; done
+  shift
+  # Each lane its own TMPDIR: tests write fixed names under the temporary directory.
+  mkdir -p "$OUT/$name/tmp"
+  env "${env[@]}" TMPDIR="$OUT/$name/tmp" OUT="$OUT/$name" timeout "$(left)" bash "$S" "$@" > "$OUT/$name/lane.log" 2>&1
+}
+# Lanes on the fluid: they need only lbdem and lbm_tests.
+lane scenes_init SCENES=1 TESTS=none CS_T=60 -- initcheck &
+lane lbm_init SCENES=0 TESTS=lbm CS_T=300 -- initcheck &
+lane lbm_race SCENES=0 TESTS=lbm CS_T=240 "FILTER=*Conservation.PeriodicBoxD2Q9/cuda*:*StreamingEquivalence*/cuda*" -- racecheck &
+wait $builder
+cat "$OUT/build2.log" | tail -1
+lane imb_dem_mem SCENES=0 "TESTS=imb dem" CS_T=200 -- memcheck &
+lane imb_dem_init SCENES=0 "TESTS=imb dem" CS_T=200 -- initcheck &
+lane imb_race SCENES=0 TESTS=imb CS_T=240 "FILTER=*PsmFused*/cuda*:*PsmParts*:*CellSlots*/cuda*:*PsmPipeline*/cuda*" -- racecheck &
+lane dem_race SCENES=0 TESTS=dem CS_T=200 -- racecheck &
+lane imb_dem_sync SCENES=0 "TESTS=imb dem" CS_T=200 -- synccheck &
+lane disk_race SCENES=1 SCENE_GLOB=fixed_disk TESTS=none CS_T=200 -- racecheck &
+wait
+{ echo "# compute-sanitizer lanes, $(( $(date +%s) - t0 )) s"; cat "$OUT"/*/summary.txt 2>/dev/null; } > "$OUT/summary.txt"
+grep -hE "^(memcheck|racecheck|initcheck|synccheck)" "$OUT/summary.txt" | sort
+rm -rf "$OUT"/*/tmp
