@@ -424,6 +424,12 @@ CellSlots::CellSlots(Backend b, const Grid& grid, int K, int overflow_log)
   log_particle_ = Buffer<int>(b, log_cap_);
   count_.fill_zero();
   flags_.fill_zero();
+  // Slots past a cell's count are never read by a kernel, but the host copies
+  // (particles_host, eps_host, total_eps_host) take whole buffers: defined
+  // contents from the start.
+  particle_.fill_zero();
+  eps_.fill_zero();
+  vel_.fill_zero();
 }
 
 void CellSlots::map(const Exec& ex, const SphereView& particles, const MapOptions& opt) {

@@ -150,6 +150,7 @@ class SolverImpl final : public LbmSolver {
 
   std::vector<double> populations() override {
     Buffer<double> out(ex_.backend(), g_.n * L::Q);
+    out.fill_zero();  // the kernel writes owned cells only; ghost cells read back as 0
     with_parity([&](auto S, auto P) {
       for_each_cell(ex_, g_, owned_,
                     PopulationKernel<L, T, decltype(S)::value, decltype(P)::value>{src_view(), g_, out.data()});
