@@ -3,12 +3,11 @@
 # 24.04). Idempotent: installs only what is missing. Run as root or with sudo.
 # CUDA is optional: with nvcc on the PATH (or at /usr/local/cuda) the build
 # also has the GPU backend.
-# The fuzz build (scripts/fuzz.sh, tests/fuzz) is optional too and needs clang:
-# apt-get install -y clang (not installed here; CI does not need it).
+# clang is for the fuzz build (scripts/fuzz.sh, tests/fuzz), which CI runs briefly.
 set -euo pipefail
 pkgs=(build-essential cmake ninja-build pkg-config
       libopenmpi-dev openmpi-bin libhdf5-dev libeigen3-dev libyaml-cpp-dev
-      libcli11-dev libspdlog-dev libfmt-dev libgtest-dev libgmock-dev libbenchmark-dev)
+      libcli11-dev libspdlog-dev libfmt-dev libgtest-dev libgmock-dev libbenchmark-dev clang)
 missing=()
 for p in "${pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

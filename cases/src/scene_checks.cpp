@@ -92,7 +92,7 @@ void check_particles_in_box(const Config& root, const dem::HostParticles& p, con
 
 void check_particle_overlaps(const Config& root, const dem::HostParticles& p, const ParticleBox& box) {
   const std::size_t n = p.x.size();
-  if (n < 2) return;
+  if (n < 2 || p.apart_by_construction) return;
   double rmax = 0;
   for (double r : p.r) rmax = std::max(rmax, r);
   if (!(rmax > 0)) return;
@@ -136,11 +136,13 @@ void check_particle_overlaps(const Config& root, const dem::HostParticles& p, co
     for (long k = n_cells - 1; k >= 0; --k)
       start[static_cast<std::size_t>(k)] = std::min(start[static_cast<std::size_t>(k)], start[static_cast<std::size_t>(k) + 1]);
   }
+  bool few_cells = false;
+  for (int a = 0; a < box.dim; ++a) few_cells |= nc[static_cast<std::size_t>(a)] < 3;
   std::size_t pairs = 0, worst_i = 0, worst_j = 0;
   double worst = 0;
   for (std::size_t s = 0; s < n; ++s) {
     const long c[3] = {keys[s] % nc[0], (keys[s] / nc[0]) % nc[1], keys[s] / (nc[0] * nc[1])};
-    // Neighbour cells, each once (fewer than three cells on an axis would repeat one).
+    // Neighbour cells, each once (fewer than three cells on an axis repeat one).
     std::array<long, 27> seen{};
     std::size_t n_seen = 0;
     for (int dz = box.dim == 3 ? -1 : 0; dz <= (box.dim == 3 ? 1 : 0); ++dz)
@@ -156,11 +158,13 @@ void check_particle_overlaps(const Config& root, const dem::HostParticles& p, co
           }
           if (skip) continue;
           const long kq = key(q[0], q[1], q[2]);
-          if (std::find(seen.begin(), seen.begin() + static_cast<long>(n_seen), kq) != seen.begin() + static_cast<long>(n_seen))
-            continue;
-          seen[n_seen++] = kq;
           // Each unordered pair once: only partners later in cell order.
           if (kq < keys[s]) continue;
+          if (few_cells) {
+            if (std::find(seen.begin(), seen.begin() + static_cast<long>(n_seen), kq) != seen.begin() + static_cast<long>(n_seen))
+              continue;
+            seen[n_seen++] = kq;
+          }
           std::size_t t = start.empty() ? static_cast<std::size_t>(std::lower_bound(keys.begin(), keys.end(), kq) - keys.begin())
                                         : start[static_cast<std::size_t>(kq)];
           for (; t < n && keys[t] == kq; ++t) {

@@ -286,6 +286,7 @@ HostParticles random_packing(const RandomPackingSpec& s) {
       delta = std::min(delta, s.r_min);
     }
   }
+  hp.apart_by_construction = true;
   return hp;
 }
 

@@ -131,6 +131,27 @@ TEST_F(RunControl, EmptyOutputIsRefused) {
   EXPECT_EQ(names_in(dir_), before);  // nothing created next to the case file
 }
 
+// ----------------------------------------------------------- --memory
+// The memory checks answer for the machine --memory describes: a case that
+// fits this machine is refused for a smaller one (exit 4, the sizes named),
+// and a size that is not one is refused naming --memory (exit 2).
+TEST_F(RunControl, MemoryOptionBoundsTheChecks) {
+  const std::string c = write_case(kChannel);
+  EXPECT_EQ(run("check " + c + " --memory 64GiB").code, 0);
+  const auto small = run("check " + c + " --memory 1KiB");
+  EXPECT_EQ(small.code, 4) << small.out;
+  EXPECT_NE(small.out.find("are free"), std::string::npos) << small.out;
+  for (const char* bad : {"abc", "0", "-5G", "12X"}) {
+    const auto r = run("check " + c + " --memory " + bad);
+    EXPECT_EQ(r.code, 2) << bad << ": " << r.out;
+    EXPECT_NE(r.out.find("--memory"), std::string::npos) << r.out;
+  }
+  const fs::path out = dir_ / "mem";
+  const auto r = run("run " + c + " --backend cpu --quiet --memory 1KiB --output " + out.string());
+  EXPECT_EQ(r.code, 4) << r.out;
+  EXPECT_FALSE(fs::exists(out));  // refused before the output folder is made
+}
+
 // ----------------------------------------------------------------- signals
 // The handler in-process: the first signal sets the flag, the second takes the
 // default action (terminates). Run in a child so the test process survives.

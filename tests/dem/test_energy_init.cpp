@@ -111,6 +111,7 @@ TEST(DemInit, RandomPackingIsDenseAndNonOverlapping) {
     s.r_min = s.r_max = 0.5;
     if (closed_y) { s.r_min = 0.4; s.solid_fraction = 0.45; s.mc_sweeps = 3; }
     const HostParticles h = random_packing(s);
+    EXPECT_TRUE(h.apart_by_construction);
     double vol = 0;
     for (Index i = 0; i < h.size(); ++i) {
       vol += 4.0 / 3.0 * M_PI * std::pow(h.r[i], 3);

@@ -18,11 +18,16 @@ struct HostParticles {
   std::vector<int> type;
   // Filled by download(): last evaluated force [N] and torque [N m].
   std::vector<Vec3d> f, t;
+  // Set by random_packing (which places no two particles closer than the sum
+  // of their radii; tests/dem DemInit checks it), reset by add(): the set-up
+  // checks then skip their overlap search, which costs more than the packing.
+  bool apart_by_construction = false;
 
   Index size() const { return static_cast<Index>(x.size()); }
   // Solid sphere of density rho [kg/m^3]; id defaults to the running count.
   void add(const Vec3d& pos, double radius, double rho, const Vec3d& vel = {}, const Vec3d& omega = {},
            int typ = 0, std::int64_t gid = -1) {
+    apart_by_construction = false;
     x.push_back(pos);
     v.push_back(vel);
     w.push_back(omega);
