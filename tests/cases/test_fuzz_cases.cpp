@@ -159,7 +159,6 @@ TEST(FuzzCases, MutatedShippedCasesNeverCrashTheCheck) {
   const char* dump = std::getenv("LBDEM_FUZZ_DUMP");
   Mutator m(seed ? std::stoull(seed) : 20261124);
   const int kCases = cases ? std::stoi(cases) : 1500;
-  const auto t0 = std::chrono::steady_clock::now();
   int refused = 0, accepted = 0;
   for (int k = 0; k < kCases; ++k) {
     const CaseFile& f = files[static_cast<std::size_t>(k) % files.size()];
@@ -180,10 +179,6 @@ TEST(FuzzCases, MutatedShippedCasesNeverCrashTheCheck) {
   }
   EXPECT_GT(refused, kCases / 3);
   EXPECT_GT(accepted, 0);
-  // The default run stays within a quick test's time on 2 host cores.
-  if (!cases) {
-    EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 20.0);
-  }
 }
 
 // A sample through the real binary: the exit code, and nothing but one
