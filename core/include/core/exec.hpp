@@ -150,13 +150,48 @@ struct BoxCells {
   }
 };
 
+// The host side of for_each_cell: the box's rows along x, the (y, z) rows
+// split over the threads in order (each thread a contiguous stretch of
+// storage, where a parallel first touch placed its pages), no division per
+// cell. Simd: the cells of a row have no dependence between them (each writes
+// only slots no other cell of the step reads or writes), so the compiler may
+// vectorise across x.
+template <bool Simd, class F>
+void for_each_cell_host(const GridView& g, const CellBox& box, const F& f) {
+  if (box.empty()) return;
+  const Index rows = static_cast<Index>(box.ext[1]) * box.ext[2];
+  const int x0 = box.lo[0], nxr = box.ext[0];
+#pragma omp parallel for schedule(static)
+  for (Index r = 0; r < rows; ++r) {
+    const int y = box.lo[1] + static_cast<int>(r % box.ext[1]);
+    const int z = box.lo[2] + static_cast<int>(r / box.ext[1]);
+    const Index base = g.index(x0, y, z);
+    if constexpr (Simd) {
+#pragma omp simd
+      for (int i = 0; i < nxr; ++i) f(base + i, x0 + i, y, z);
+    } else {
+      for (int i = 0; i < nxr; ++i) f(base + i, x0 + i, y, z);
+    }
+  }
+}
+
 template <class F>
 void for_each_cell(const Exec& ex, const GridView& g, const CellBox& box, const F& f) {
+  if (!ex.on_device()) return for_each_cell_host<false>(g, box, f);
+  for_each(ex, box.size(), BoxCells<F>{box, g, f});
+}
+
+// for_each_cell for kernels whose cells are independent within a launch
+// (for_each_cell_host<true>); the same launch on the device.
+template <class F>
+void for_each_cell_independent(const Exec& ex, const GridView& g, const CellBox& box, const F& f) {
+  if (!ex.on_device()) return for_each_cell_host<true>(g, box, f);
   for_each(ex, box.size(), BoxCells<F>{box, g, f});
 }
 
 template <int MinBlocks, class F>
 void for_each_cell_bounded(const Exec& ex, const GridView& g, const CellBox& box, const F& f) {
+  if (!ex.on_device()) return for_each_cell_host<false>(g, box, f);
   for_each_bounded<MinBlocks>(ex, box.size(), BoxCells<F>{box, g, f});
 }
 
