@@ -17,7 +17,8 @@
 //   physics     gravity [m/s^2]
 //   particles   init: list | lattice | random (region_lo, region_hi, solid_fraction or count) | csv | hdf5
 //   material    stiffness [N/m], restitution, friction, wall_*, tangential_*
-//   dem         substeps, or steps_per_collision (default 50); skin [m], force_path
+//   dem         substeps, dt [s] (rounded down to divide gas.dt), or steps_per_collision (default 50);
+//               skin [m], force_path
 //   time        end_time [s] or steps (gas steps)
 //   output      directory, interval (gas steps between field and particle snapshots; 0: first and last),
 //               series_interval, track (particle ids)
@@ -371,10 +372,17 @@ CfdCase read_case(const Config& root, const RunOptions& opt) {
     p.path = dem::ForcePath::Particle;
     const double tc = dem::min_collision_time(p, c.particles);
     std::string key = "dem.steps_per_collision";
+    const int given = (dc && dc->has("substeps")) + (dc && dc->has("dt")) + (dc && dc->has("steps_per_collision"));
+    if (given > 1) dc->fail("substeps", "give one of dem.substeps, dem.dt, dem.steps_per_collision");
     if (dc && dc->has("substeps")) {
       c.substeps = static_cast<int>(dc->integer_in("substeps", 1, 1000000));
       key = "dem.substeps";
-      if (dc->has("steps_per_collision")) dc->fail("steps_per_collision", "give dem.substeps or this, not both");
+    } else if (dc && dc->has("dt")) {
+      // The largest DEM step that divides the gas step and is not above dem.dt.
+      const double n = std::ceil(c.gas.dt / dc->positive("dt") - 1e-9);
+      if (!(n <= 1e6)) dc->fail("dt", "needs more than 1e6 DEM sub-steps per gas step (gas.dt / dem.dt)");
+      c.substeps = static_cast<int>(std::max(1.0, n));
+      key = "dem.dt";
     } else {
       const double spc = dc ? dc->number_in("steps_per_collision", 50.0, 5.0, 1e6) : 50.0;
       p.min_steps_per_collision = std::min(spc, p.min_steps_per_collision);
@@ -393,9 +401,9 @@ CfdCase read_case(const Config& root, const RunOptions& opt) {
     }
     p.dt = c.gas.dt / c.substeps;
     try {
-      dem::check_time_step(p, c.particles, "dem.substeps");
+      dem::check_time_step(p, c.particles, key);
     } catch (const ConfigError& e) {
-      throw ConfigError(root.source() + ": " + e.what() + " (DEM dt = gas.dt / dem.substeps)");
+      throw ConfigError(root.source() + ": " + e.what() + " (DEM dt = gas.dt / sub-steps)");
     }
   }
   {

@@ -192,6 +192,8 @@ TEST_F(CfdScene, BadInputsNameTheirKeys) {
        "gas.boundaries.z_lo.patch.hi"},
       {"count: 190", "count: 1900", "particles.count"},
       {"dem: {steps_per_collision: 50}", "dem: {substeps: 2}", "dem.substeps"},
+      {"dem: {steps_per_collision: 50}", "dem: {dt: 1.0e-4}", "dem.dt"},
+      {"dem: {steps_per_collision: 50}", "dem: {dt: 1.0e-6, substeps: 10}", "dem.substeps"},
       {"stiffness: 100", "stiffness: 0", "material.stiffness"},
       {"start: 0.3, interval: 5", "start: 0.3, interval: 5, profiles: [{quantity: void_fraction, height: 1.0}]",
        "statistics.profiles[0].height"},
