@@ -17,7 +17,8 @@
 #               and on all host cores: bench_cfd.{json,md}
 #     plot      scripts/plot_cfd.py on what is there (needs python3-matplotlib; else it prints tables)
 #   env  CFD_LIMIT (s of wall time per scene, default 500), MULLER_END / LINK_END (simulated s, default 15 / 20),
-#        MULLER_START / LINK_START (s from which averages are taken, default 5), BENCH_ARGS (extra arguments
+#        MULLER_START / LINK_START (s from which averages are taken, default 5), GAS_DT (overrides the case's
+#        gas.dt, e.g. after a watchdog stop: summary.json's "diverged" says why), BENCH_ARGS (extra arguments
 #        of lbdem_bench_cfd), LBDEM_COMMIT (the commit named in the JSON when .git is stale).
 # Typical: call 1 `build test` (or `build` then `test`), call 2 `muller06`, call 3 `muller09`, call 4 `link`,
 # call 5 `bench plot`.
@@ -41,13 +42,13 @@ scene() {
   local name="$1" case="$2" end="$3" start="$4" tmp rc
   tmp="$out/$name.yaml"
   sed -e "s/^time: {end_time: [0-9.e+-]*}/time: {end_time: $end}/" -e "s/^  start: [0-9.e+-]*$/  start: $start/" \
-    "$here/cases/$case" > "$tmp"
+    -e "${GAS_DT:+s/^  dt: [0-9.e+-]*/  dt: $GAS_DT/}" "$here/cases/$case" > "$tmp"
   timeout -s TERM -k 60 "$limit" "$lbdem" run "$tmp" --backend cuda --output "$out/$name" --overwrite \
     > "$out/$name.log" 2>&1
   rc=$?
   echo "scene $name exit $rc (0: done, 5: stopped at the time limit, with its output)"
   tail -2 "$out/$name.log"
-  [ -f "$out/$name/summary.json" ] && grep -E '"(time_s|seconds_per_simulated_second|particle_steps_per_second|mean_pressure_drop_over_weight|max_courant|interrupted)"' "$out/$name/summary.json"
+  [ -f "$out/$name/summary.json" ] && grep -E '"(time_s|seconds_per_simulated_second|particle_steps_per_second|mean_pressure_drop_over_weight|max_courant|interrupted|diverged)"' "$out/$name/summary.json"
 }
 
 for part in "$@"; do

@@ -684,7 +684,47 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
   write_fields(0);
   series_row(0);
   Progress prog("fluidized_bed", c.steps, 5.0, quiet);
+  // The end-of-run files (also when the watchdog stops the run: what was
+  // averaged up to there is kept, and the diagnosis is in summary.json).
   long step = 0;
+  auto write_results = [&](bool interrupted, const std::string& diverged) {
+    ex.synchronize();
+    const double seconds = prog.elapsed();
+    std::string quoted = diverged;
+    for (char& ch : quoted)
+      if (ch == '"' || ch == '\\' || static_cast<unsigned char>(ch) < 0x20) ch = '\'';
+    if (!c.profiles.empty()) {
+      std::ostringstream csv;
+      csv << "quantity,height,x,value,samples\n";
+      for (const Profile& pr : c.profiles)
+        for (int i = 0; i < g.n[0]; ++i) {
+          const double n = pr.count[static_cast<std::size_t>(i)];
+          csv << (pr.quantity == ProfileQuantity::VoidFraction ? "void_fraction" : "particle_velocity_z") << ","
+              << num(pr.height) << "," << num(g.origin[0] + (i + 0.5) * h) << ","
+              << (n > 0 ? num(pr.sum[static_cast<std::size_t>(i)] / n) : std::string("nan")) << "," << num(n) << "\n";
+        }
+      io::write_text_atomically(c.outdir + "/profiles.csv", csv.str());
+    }
+    const double ns = std::max<long>(samples, 1);
+    std::ostringstream js;
+    js << "{\n  \"scene\": \"fluidized_bed\",\n  \"particles\": " << np << ",\n  \"gas_cells\": " << g.cells()
+       << ",\n  \"gas_steps\": " << step << ",\n  \"gas_steps_planned\": " << c.steps
+       << ",\n  \"dem_substeps\": " << c.substeps << ",\n  \"gas_dt\": " << num(c.gas.dt)
+       << ",\n  \"time_s\": " << num(t) << ",\n  \"seconds\": " << num(seconds)
+       << ",\n  \"seconds_per_simulated_second\": " << num(t > 0 ? seconds / t : 0.0)
+       << ",\n  \"particle_steps_per_second\": " << num(seconds > 0 ? double(np) * c.substeps * step / seconds : 0.0)
+       << ",\n  \"backend\": \"" << to_string(backend) << "\",\n  \"drag\": \"" << cfd::to_string(c.gas.drag)
+       << "\",\n  \"void_fraction\": \"" << cfd::to_string(c.gas.deposition)
+       << "\",\n  \"weight_per_area_pa\": " << num(weight_per_area) << ",\n  \"statistics_samples\": " << samples
+       << ",\n  \"mean_pressure_drop_pa\": " << (samples ? num(avg_dp / ns) : "null")
+       << ",\n  \"mean_pressure_drop_over_weight\": " << (samples ? num(avg_ratio / ns) : "null")
+       << ",\n  \"mean_bed_height_m\": " << (samples ? num(avg_height / ns) : "null")
+       << ",\n  \"max_courant\": " << num(max_courant_seen) << ",\n  \"max_mass_imbalance\": " << num(max_imbalance)
+       << ",\n  \"interrupted\": " << (interrupted ? "true" : "false") << ",\n  \"diverged\": "
+       << (diverged.empty() ? std::string("null") : "\"" + quoted + "\"") << "\n}\n";
+    io::write_text_atomically(c.outdir + "/summary.json", js.str());
+    return seconds;
+  };
   bool stop = stop_requested();
   while (step < c.steps && !stop) {
     loop.step();
@@ -692,7 +732,15 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
     t = step * c.gas.dt;
     stop = stop_requested();
     const bool last = step == c.steps || stop;
-    if (step % c.check_interval == 0 || last) watchdog(step);
+    if (step % c.check_interval == 0 || last) {
+      try {
+        watchdog(step);
+      } catch (const DivergenceError& e) {
+        write_fields(step);  // the field the watchdog saw, for the diagnosis
+        write_results(false, e.what());
+        throw;
+      }
+    }
     if (c.stats_interval > 0 && step % c.stats_interval == 0 && t >= c.stats_start - 1e-12) sample();
     if (step % c.series_interval == 0 || last) series_row(step);
     if ((c.output_interval > 0 && step % c.output_interval == 0) || last) write_fields(step);
@@ -701,38 +749,8 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
       prog.report(step, t, static_cast<double>(np) * c.substeps, "particle-steps/s");
     }
   }
-  ex.synchronize();
-  const double seconds = prog.elapsed();
   const bool interrupted = step < c.steps;
-  if (!c.profiles.empty()) {
-    std::ostringstream csv;
-    csv << "quantity,height,x,value,samples\n";
-    for (const Profile& pr : c.profiles)
-      for (int i = 0; i < g.n[0]; ++i) {
-        const double n = pr.count[static_cast<std::size_t>(i)];
-        csv << (pr.quantity == ProfileQuantity::VoidFraction ? "void_fraction" : "particle_velocity_z") << ","
-            << num(pr.height) << "," << num(g.origin[0] + (i + 0.5) * h) << ","
-            << (n > 0 ? num(pr.sum[static_cast<std::size_t>(i)] / n) : std::string("nan")) << "," << num(n) << "\n";
-      }
-    io::write_text_atomically(c.outdir + "/profiles.csv", csv.str());
-  }
-  const double ns = std::max<long>(samples, 1);
-  std::ostringstream js;
-  js << "{\n  \"scene\": \"fluidized_bed\",\n  \"particles\": " << np << ",\n  \"gas_cells\": " << g.cells()
-     << ",\n  \"gas_steps\": " << step << ",\n  \"gas_steps_planned\": " << c.steps
-     << ",\n  \"dem_substeps\": " << c.substeps << ",\n  \"gas_dt\": " << num(c.gas.dt)
-     << ",\n  \"time_s\": " << num(t) << ",\n  \"seconds\": " << num(seconds)
-     << ",\n  \"seconds_per_simulated_second\": " << num(t > 0 ? seconds / t : 0.0)
-     << ",\n  \"particle_steps_per_second\": " << num(seconds > 0 ? double(np) * c.substeps * step / seconds : 0.0)
-     << ",\n  \"backend\": \"" << to_string(backend) << "\",\n  \"drag\": \"" << cfd::to_string(c.gas.drag)
-     << "\",\n  \"void_fraction\": \"" << cfd::to_string(c.gas.deposition)
-     << "\",\n  \"weight_per_area_pa\": " << num(weight_per_area) << ",\n  \"statistics_samples\": " << samples
-     << ",\n  \"mean_pressure_drop_pa\": " << (samples ? num(avg_dp / ns) : "null")
-     << ",\n  \"mean_pressure_drop_over_weight\": " << (samples ? num(avg_ratio / ns) : "null")
-     << ",\n  \"mean_bed_height_m\": " << (samples ? num(avg_height / ns) : "null")
-     << ",\n  \"max_courant\": " << num(max_courant_seen) << ",\n  \"max_mass_imbalance\": " << num(max_imbalance)
-     << ",\n  \"interrupted\": " << (interrupted ? "true" : "false") << "\n}\n";
-  io::write_text_atomically(c.outdir + "/summary.json", js.str());
+  const double seconds = write_results(interrupted, "");
   if (interrupted) {
     spdlog::warn("stopped by {} at gas step {} of {} (t = {:.6g} s); output up to that step is in {}",
                  stop_signal_name(), step, c.steps, t, c.outdir);

@@ -168,6 +168,10 @@ TEST_F(CfdScene, WatchdogStopsAtTheCourantLimitNamingTheKeys) {
     for (const char* k : {"diagnostics.max_courant", "gas.dt", "gas.cell_size", "Courant"})
       EXPECT_NE(m.find(k), std::string::npos) << k << " not in: " << m;
   }
+  // The run's files up to the stop, with the diagnosis.
+  const std::string summary = read_text((dir_ / "summary.json").string());
+  EXPECT_NE(summary.find("\"diverged\": \"case.yaml: the largest Courant number"), std::string::npos) << summary;
+  EXPECT_NE(summary.find("\"gas_steps\": 10,"), std::string::npos) << summary;
 }
 
 TEST_F(CfdScene, BadInputsNameTheirKeys) {
