@@ -2,6 +2,7 @@
 #include "cfd/gas_solver.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <sstream>
 
@@ -671,11 +672,26 @@ void GasSolver::set_inflow(int face, double inflow) {
 
 void GasSolver::step(const dem::ParticleView& p) {
   if (!initialised_) initialise(p);
+  // Phase timing (time_phases): the wall time since the last mark, added to *acc.
+  using Clock = std::chrono::steady_clock;
+  Clock::time_point t0{};
+  if (times_) {
+    ex_.synchronize();
+    t0 = Clock::now();
+  }
+  auto mark = [&](double StepTimes::*acc) {
+    if (!times_) return;
+    ex_.synchronize();
+    const Clock::time_point t1 = Clock::now();
+    times_->*acc += std::chrono::duration<double>(t1 - t0).count();
+    t0 = t1;
+  };
   // 1. gas fraction at the particles' new positions.
   eps_.swap(eps_old_);
   vf_.deposit(p);
   for_each(ex_, g_.cells(), GasFraction{vf_.solid().data(), eps_.data(), p_.min_gas_fraction});
   GasView v = make_view(g_, p_, u_, uh_, af_, eps_, eps_old_, pres_, B_, BV_, uc_, gradp_);
+  mark(&StepTimes::void_fraction);
   // 2. drag coefficients at the particles, deposited.
   gamma_.reserve_discard(ex_.backend(), std::max<Index>(p.n, 1));
   acc_.fill_zero();
@@ -684,6 +700,7 @@ void GasSolver::step(const dem::ParticleView& p) {
                                  gamma_.data(), acc_.data()});
   const Index nc = g_.cells();
   for_each(ex_, nc, DragFields{acc_.data(), B_.data(), BV_[0].data(), BV_[1].data(), BV_[2].data(), nc});
+  mark(&StepTimes::drag);
   // 3. predictor.
   for_each(ex_, face_count(g_, 0), Predictor<0>{v});
   for_each(ex_, face_count(g_, 1), Predictor<1>{v});
@@ -696,8 +713,10 @@ void GasSolver::step(const dem::ParticleView& p) {
   for_each(ex_, face_count(g_, 1), Correct<1>{v});
   for_each(ex_, face_count(g_, 2), Correct<2>{v});
   for_each(ex_, nc, CellFields{v});
+  mark(&StepTimes::gas);
   // 6. forces on the particles.
   if (p.ext_force) for_each(ex_, p.n, ParticleForce{v, p_.deposition, p, gamma_.data()});
+  mark(&StepTimes::drag);
 }
 
 void GasSolver::solve_pressure() {

@@ -30,6 +30,8 @@ std::vector<std::string> dem_scene_names();
 int run_dem_case(const Config& root, const RunOptions& opt);
 std::vector<std::string> psm_scene_names();
 int run_psm_case(const Config& root, const RunOptions& opt);
+std::vector<std::string> cfd_scene_names();
+int run_cfd_case(const Config& root, const RunOptions& opt);
 
 // Looks up `scene` and runs it; unknown scene -> ConfigError with a suggestion.
 int run_case(const Config& root, const RunOptions& opt);

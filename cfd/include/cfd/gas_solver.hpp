@@ -78,6 +78,14 @@ struct GasParams {
 // `prefix` (e.g. "gas.dt"), the value and what is valid.
 void validate(const GasParams& p, const GasGridView& g, const std::string& prefix = "gas");
 
+// Wall time of the phases of step() [s], accumulated when a solver is asked
+// to time them (benchmarks): the void fraction (deposition and gas
+// fraction), the drag (coefficients at the particles, their deposition, the
+// forces on the particles) and the gas (predictor, pressure, correction).
+struct StepTimes {
+  double void_fraction = 0, drag = 0, gas = 0;
+};
+
 struct CgReport {
   int iterations = 0;
   double residual = 0;  // final preconditioned residual over that of the right-hand side
@@ -119,6 +127,10 @@ class GasSolver {
   const VoidFraction& void_fraction() const { return vf_; }
   // Synchronises and reads the last pressure solve's report.
   CgReport last_solve() const;
+  // With t set, step() waits for the device at the end of each phase and adds
+  // the phases' wall times to *t (the waits cost time of their own: for a
+  // split, not for the whole step's speed); nullptr stops it.
+  void time_phases(StepTimes* t) { times_ = t; }
 
  private:
   void solve_pressure();
@@ -135,6 +147,7 @@ class GasSolver {
   // CG
   Buffer<double> rhs_, r_, z_, d_, Ad_, diag_, part1_, part2_, scal_;
   Index parts1_ = 1, parts2_ = 1;
+  StepTimes* times_ = nullptr;
 };
 
 }  // namespace lbdem::cfd

@@ -1,0 +1,766 @@
+// Unresolved CFD-DEM scene driver: `scene: fluidized_bed` (cases/fluidized_bed_*.yaml).
+//
+// Physical units throughout. The gas (cfd::GasSolver: volume-averaged
+// equations, Anderson-Jackson set I, on a coarse MAC grid of cubic cells that
+// fill the box `domain`) and the particles (dem::DemSystem with friction,
+// rotation and walls on every closed face of the box) advance through the
+// shared coupled step (dem::CoupledLoop with cfd::GasDemCoupling): one gas step,
+// then `dem.substeps` DEM steps with the fluid force held.
+//
+// Keys (every one read through Config: range-checked, unknown keys refused):
+//   domain      lo, hi [m]
+//   gas         density [kg/m^3], viscosity [Pa s], cell_size [m], dt [s], drag (gidaspow, wen_yu,
+//               di_felice, beetstra, tenneti), void_fraction (centroid, linear, quadratic),
+//               min_gas_fraction, initial_velocity [m/s], boundaries.{x,y,z}_{lo,hi} (type: periodic,
+//               no_slip, free_slip, inlet (velocity, patch {lo, hi, velocity}), outlet (pressure)),
+//               pressure_solver {tolerance, max_iterations, poll_every}
+//   physics     gravity [m/s^2]
+//   particles   init: list | lattice | random (region_lo, region_hi, solid_fraction or count) | csv | hdf5
+//   material    stiffness [N/m], restitution, friction, wall_*, tangential_*
+//   dem         substeps, dt [s] (rounded down to divide gas.dt), or steps_per_collision (default 50);
+//               skin [m], force_path
+//   time        end_time [s] or steps (gas steps)
+//   output      directory, interval (gas steps between field and particle snapshots; 0: first and last),
+//               series_interval, track (particle ids)
+//   statistics  start [s], interval (gas steps), profiles [{quantity: void_fraction |
+//               particle_velocity_z, height [m]}]: time averages along x at a height
+//   diagnostics check_interval (gas steps), max_courant
+//
+// The time series (series.csv) holds the bed's pressure drop (gas pressure at
+// the inlet face, extrapolated from the two lowest cell layers, less that of
+// the top layer and less the gas's own hydrostatic head), its ratio to the
+// buoyant weight of the particles per unit cross-section, the bed height
+// (twice the mean height of the particle centres above the floor: the height
+// of a uniform bed with those centres), the particles' mean vertical velocity
+// and the gas mass balance (inflow, outflow, storage, relative imbalance).
+// z is taken as the vertical axis for these (gravity along -z).
+//
+// Watchdog: every diagnostics.check_interval gas steps the largest Courant
+// number over the whole field and non-finite values of velocity, pressure and
+// gas fraction (device reductions, a few scalars to the host) stop the run
+// with a diagnosis naming the keys to change.
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <optional>
+#include <sstream>
+
+#include "cases/particle_output.hpp"
+#include "cases/scenes.hpp"
+#include "cfd/coupling.hpp"
+#include "cfd/gas_monitor.hpp"
+#include "core/error.hpp"
+#include "core/output.hpp"
+#include "core/progress.hpp"
+#include "core/signals.hpp"
+#include "dem/init.hpp"
+#include "dem/system.hpp"
+#include "halo/comm.hpp"
+#include "scene_checks.hpp"
+
+namespace lbdem {
+
+namespace {
+
+using cfd::FaceKind;
+
+constexpr double kPi = 3.14159265358979323846;
+const char* const kFaceNames[6] = {"x_lo", "x_hi", "y_lo", "y_hi", "z_lo", "z_hi"};
+
+std::string num(double v) {
+  char b[64];
+  std::snprintf(b, sizeof b, "%.6g", v + 0.0);
+  return b;
+}
+Vec3d vec3(const std::vector<double>& v) { return {v[0], v[1], v[2]}; }
+
+enum class ProfileQuantity { VoidFraction, ParticleVelocityZ };
+struct Profile {
+  ProfileQuantity quantity = ProfileQuantity::VoidFraction;
+  double height = 0;
+  std::vector<double> sum, count;  // per x cell
+};
+
+struct CfdCase {
+  cfd::GasGridView grid;
+  cfd::GasParams gas;
+  Vec3d initial_velocity{};
+  dem::DemParams dem;
+  dem::HostParticles particles;
+  int substeps = 1;
+  long steps = 0;
+  std::string outdir;
+  long output_interval = 0, series_interval = 100;
+  std::vector<std::int64_t> track;
+  double stats_start = 0;
+  long stats_interval = 0;  // 0: no statistics
+  std::vector<Profile> profiles;
+  long check_interval = 100;
+  double max_courant = 0.5;
+};
+
+// A message of the gas solver's own validation in the case file's key names.
+const cases::KeyMap& gas_keys() {
+  static const cases::KeyMap m = {{"gas.rho", "gas.density"},
+                                  {"gas.mu", "gas.viscosity"},
+                                  {"gas.cg_max_iterations", "gas.pressure_solver.max_iterations"},
+                                  {"gas.cg_tolerance", "gas.pressure_solver.tolerance"},
+                                  {"gas.cg_poll_every", "gas.pressure_solver.poll_every"}};
+  return m;
+}
+
+void read_gas(const Config& root, const RunOptions& opt, CfdCase& c, const std::array<double, 3>& lo,
+              const std::array<double, 3>& hi) {
+  const Config gs = root.section("gas");
+  cfd::GasParams& p = c.gas;
+  p.rho = gs.positive("density");
+  p.mu = gs.positive("viscosity");
+  const double h = gs.positive("cell_size");
+  double cells = 1;
+  for (int a = 0; a < 3; ++a) {
+    const double L = hi[static_cast<std::size_t>(a)] - lo[static_cast<std::size_t>(a)];
+    const double n = std::round(L / h);
+    if (!(n >= 1) || !(n < 1e9) || std::fabs(n * h - L) > 1e-6 * L)
+      gs.fail("cell_size", "cubic cells must fill the box: the box is " + num(L) + " m along " +
+                               std::string(1, "xyz"[a]) + " (domain.lo, domain.hi), " + num(L / h) +
+                               " cells of this size; choose a size that divides every side");
+    c.grid.n[a] = static_cast<int>(n);
+    c.grid.origin[a] = lo[static_cast<std::size_t>(a)];
+    cells *= n;
+  }
+  c.grid.h = h;
+  // Device memory of the gas: 3 x 3 face arrays, ~20 cell arrays and the
+  // fixed-point accumulators, in doubles.
+  cases::check_memory(root, cases::planned_backend(opt), cells * 8 * 36, cells * 8 * 8,
+                      gs.full_key("cell_size"), num(cells) + " gas cells", "use larger cells");
+  p.dt = gs.positive("dt");
+  p.drag = cfd::parse_drag_law(gs.full_key("drag"),
+                               gs.choice("drag", "gidaspow", {"gidaspow", "wen_yu", "di_felice", "beetstra", "tenneti"}));
+  p.deposition = cfd::parse_deposition(gs.full_key("void_fraction"),
+                                       gs.choice("void_fraction", "linear", {"centroid", "linear", "quadratic"}));
+  p.min_gas_fraction = gs.number_in("min_gas_fraction", 0.2, 0.01, 0.99,
+                                    "floor of the gas fraction used by the gas equations and the drag");
+  c.initial_velocity = vec3(gs.numbers("initial_velocity", {0, 0, 0}, 3, 3));
+  for (int a = 0; a < 3; ++a)
+    if (!std::isfinite(c.initial_velocity[a]) || std::fabs(c.initial_velocity[a]) * p.dt > 0.5 * h)
+      gs.fail("initial_velocity", "each component must be finite with |u| gas.dt / gas.cell_size <= 1/2");
+  {
+    const Config b = gs.section("boundaries");
+    for (int s = 0; s < 6; ++s) {
+      cfd::FaceBC& f = p.faces[static_cast<std::size_t>(s)];
+      const std::string name = kFaceNames[s];
+      if (!b.has(name)) {
+        f.kind = FaceKind::NoSlipWall;
+        continue;
+      }
+      const Config fc = b.section(name);
+      f.kind = cfd::parse_face_kind(fc.full_key("type"),
+                                    fc.choice("type", {"periodic", "no_slip", "free_slip", "inlet", "outlet"}));
+      if (f.kind == FaceKind::Inlet) {
+        f.inflow = fc.number_in("velocity", 0.0, 1e4, "superficial speed into the domain [m/s]");
+        if (const auto pc = fc.optional_section("patch")) {
+          f.patch = true;
+          const auto plo = pc->numbers("lo", 2, 2), phi = pc->numbers("hi", 2, 2);
+          int t = 0;
+          for (int a = 0; a < 3; ++a) {
+            if (a == s / 2) continue;
+            const auto k = static_cast<std::size_t>(a);
+            if (!(plo[static_cast<std::size_t>(t)] < phi[static_cast<std::size_t>(t)]) ||
+                plo[static_cast<std::size_t>(t)] < lo[k] || phi[static_cast<std::size_t>(t)] > hi[k])
+              pc->fail("hi", "the patch [lo, hi] along the face's two other axes (x, y, z order) must be a non-empty "
+                             "rectangle inside the face (domain.lo, domain.hi)");
+            f.patch_lo[t] = plo[static_cast<std::size_t>(t)];
+            f.patch_hi[t] = phi[static_cast<std::size_t>(t)];
+            ++t;
+          }
+          f.patch_inflow = pc->number_in("velocity", 0.0, 1e4, "superficial speed into the domain [m/s]");
+          // The patch must cover at least one face centre, or it has no effect.
+          int covered = 1;
+          t = 0;
+          for (int a = 0; a < 3; ++a) {
+            if (a == s / 2) continue;
+            int m = 0;
+            for (int i = 0; i < c.grid.n[a] && i < 1000000; ++i) {
+              const double x = lo[static_cast<std::size_t>(a)] + (i + 0.5) * h;
+              if (x >= f.patch_lo[t] && x <= f.patch_hi[t]) ++m;
+            }
+            covered *= m;
+            ++t;
+          }
+          if (covered == 0)
+            pc->fail("hi", "the patch covers no gas-cell face centre (cells of " + num(h) +
+                               " m, gas.cell_size): make it larger or the cells smaller");
+          pc->finish();
+        }
+      } else if (f.kind == FaceKind::Outlet) {
+        f.pressure = fc.number_in("pressure", 0.0, -1e9, 1e9, "gauge pressure at the outlet [Pa]");
+      }
+      fc.finish();
+    }
+    b.finish();
+    for (int a = 0; a < 3; ++a) {
+      const bool plo = p.faces[static_cast<std::size_t>(2 * a)].kind == FaceKind::Periodic;
+      const bool phi = p.faces[static_cast<std::size_t>(2 * a + 1)].kind == FaceKind::Periodic;
+      if (plo != phi)
+        b.fail(plo ? kFaceNames[2 * a + 1] : kFaceNames[2 * a],
+               std::string("a periodic axis needs both faces periodic (") + kFaceNames[2 * a] + " and " +
+                   kFaceNames[2 * a + 1] + ")");
+      c.grid.periodic[a] = plo;
+    }
+  }
+  if (const auto ps = gs.optional_section("pressure_solver")) {
+    p.cg_tolerance = ps->number_in("tolerance", 1e-10, 1e-15, 1e-2, "relative preconditioned residual");
+    p.cg_max_iterations = static_cast<int>(ps->integer_in("max_iterations", 2000, 1, 1000000));
+    p.cg_poll_every = static_cast<int>(ps->integer_in("poll_every", 25, 1, 100000));
+    ps->finish();
+  }
+  gs.finish();
+  try {
+    cfd::validate(p, c.grid, "gas");
+  } catch (const ConfigError& e) {
+    throw ConfigError(root.source() + ": " + cases::user_keys(e.what(), gas_keys()));
+  }
+}
+
+// Mean r^3 of radii uniform in [a, b].
+double mean_r3(double a, double b) { return b > a ? (b * b * b * b - a * a * a * a) / (4 * (b - a)) : a * a * a; }
+
+dem::HostParticles read_particles(const Config& pc, const dem::DemParams& p) {
+  const std::string init = pc.choice("init", {"list", "csv", "hdf5", "lattice", "random"});
+  const double rho = pc.positive("density");
+  dem::HostParticles hp;
+  if (init == "list") {
+    const auto items = pc.sequence("list");
+    if (items.empty()) pc.fail("list", "needs at least one particle");
+    for (const Config& it : items) {
+      const Vec3d x = vec3(it.numbers("position", 3, 3));
+      const double r = it.positive("radius");
+      const Vec3d v = vec3(it.numbers("velocity", {0, 0, 0}, 3, 3));
+      const double d = it.positive("density", rho);
+      hp.add(x, r, d, v, {0, 0, 0});
+      it.finish();
+    }
+  } else if (init == "csv" || init == "hdf5") {
+    std::filesystem::path f = pc.text("file");
+    if (f.is_relative() && std::filesystem::exists(pc.source()))
+      f = std::filesystem::path(pc.source()).parent_path() / f;
+    hp = init == "csv" ? dem::read_particles_csv(f.string(), rho) : dem::read_particles_h5(f.string(), rho);
+  } else if (init == "lattice") {
+    const auto cnt = pc.integers("count", 3, 3, 1, 100000000);
+    const Vec3d origin = vec3(pc.numbers("origin", 3, 3));
+    const Vec3d spacing = vec3(pc.numbers("spacing", 3, 3));
+    const double r = pc.positive("radius");
+    cases::check_dem_particle_count(pc, double(cnt[0]) * double(cnt[1]) * double(cnt[2]), "count");
+    hp = dem::lattice_particles(origin, {cnt[0], cnt[1], cnt[2]}, spacing, r, rho);
+  } else {
+    dem::RandomPackingSpec s;
+    s.lo = p.lo;
+    s.hi = p.hi;
+    s.periodic = p.periodic;
+    // A region of the box (the lower part of a bed) may be filled instead.
+    for (const bool upper : {false, true}) {
+      const std::string key = upper ? "region_hi" : "region_lo";
+      if (!pc.has(key)) continue;
+      const auto v = pc.numbers(key, 3, 3);
+      for (std::size_t k = 0; k < 3; ++k) {
+        if (!(v[k] >= p.lo[k] && v[k] <= p.hi[k])) pc.fail(key, "each component must lie in [domain.lo, domain.hi]");
+        (upper ? s.hi : s.lo)[k] = v[k];
+      }
+    }
+    for (std::size_t k = 0; k < 3; ++k) {
+      if (!(s.hi[k] > s.lo[k])) pc.fail("region_hi", "must exceed particles.region_lo (and domain.lo) on every axis");
+      if (s.lo[k] > p.lo[k] || s.hi[k] < p.hi[k]) s.periodic[k] = false;
+    }
+    const auto r = pc.numbers("radius", 1, 2);
+    s.r_min = r[0];
+    s.r_max = r.size() > 1 ? r[1] : r[0];
+    if (!(s.r_min > 0 && s.r_max >= s.r_min)) pc.fail("radius", "needs 0 < r_min <= r_max");
+    const double vol = (s.hi[0] - s.lo[0]) * (s.hi[1] - s.lo[1]) * (s.hi[2] - s.lo[2]);
+    if (pc.has("count") == pc.has("solid_fraction"))
+      pc.fail("count", "give either particles.count or particles.solid_fraction (of the region), not both or neither");
+    if (pc.has("count")) {
+      const double n = static_cast<double>(pc.integer_in("count", 1, 1000000000));
+      s.solid_fraction = n * 4.0 / 3.0 * kPi * mean_r3(s.r_min, s.r_max) / vol;
+      if (!(s.solid_fraction <= 0.7))
+        pc.fail("count", "fills the region to a solid fraction of " + num(s.solid_fraction) +
+                             "; a random packing reaches at most ~0.7: enlarge particles.region_hi or use fewer");
+    } else {
+      s.solid_fraction = pc.number_in("solid_fraction", 1e-6, 0.7, "random packing reaches at most ~0.7 on a lattice");
+    }
+    s.density = rho;
+    s.seed = static_cast<std::uint64_t>(pc.integer_in("seed", 1, 0, std::numeric_limits<long>::max()));
+    s.mc_sweeps = static_cast<int>(pc.integer_in("mc_sweeps", 0, 0, 1000));
+    cases::check_random_fill(pc, s.lo, s.hi, s.periodic, s.r_max, "particles.region_lo, particles.region_hi");
+    cases::check_dem_particle_count(pc, cases::random_packing_count(s.lo, s.hi, s.solid_fraction, s.r_min),
+                                    pc.has("count") ? "count" : "solid_fraction");
+    hp = dem::random_packing(s);
+  }
+  pc.finish();
+  if (hp.size() == 0) pc.fail("init", "produced no particles");
+  return hp;
+}
+
+CfdCase read_case(const Config& root, const RunOptions& opt) {
+  CfdCase c;
+  std::array<double, 3> lo{}, hi{};
+  {
+    const Config d = root.section("domain");
+    const auto l = d.numbers("lo", 3, 3), u = d.numbers("hi", 3, 3);
+    for (std::size_t k = 0; k < 3; ++k) {
+      lo[k] = l[k];
+      hi[k] = u[k];
+      if (!(hi[k] > lo[k]) || !std::isfinite(hi[k] - lo[k])) d.fail("hi", "each component must exceed domain.lo");
+    }
+    d.finish();
+  }
+  read_gas(root, opt, c, lo, hi);
+  dem::DemParams& p = c.dem;
+  p.lo = lo;
+  p.hi = hi;
+  for (int a = 0; a < 3; ++a) {
+    p.periodic[static_cast<std::size_t>(a)] = c.grid.periodic[a];
+    if (c.grid.periodic[a]) continue;
+    // Particles bounce off every closed face of the gas box (walls, the
+    // distributor, the outlet screen).
+    Vec3d n{0, 0, 0};
+    n[a] = 1;
+    p.walls.push_back(dem::Wall{vec3({lo[0], lo[1], lo[2]}), n});
+    n[a] = -1;
+    p.walls.push_back(dem::Wall{vec3({hi[0], hi[1], hi[2]}), n});
+  }
+  {
+    const Config ph = root.section("physics");
+    p.gravity = vec3(ph.numbers("gravity", {0, 0, -9.80665}, 3, 3));
+    for (int a = 0; a < 3; ++a)
+      if (!(std::fabs(p.gravity[a]) < 1e4)) ph.fail("gravity", "each component must be finite, |g| < 1e4 m/s^2");
+    c.gas.gravity = p.gravity;
+    ph.finish();
+  }
+  {
+    const Config m = root.section("material");
+    dem::Material& mat = p.material;
+    mat.stiffness = m.positive("stiffness");
+    mat.restitution = m.number_in("restitution", 1e-6, 1.0, "restitution coefficient e in (0, 1]");
+    mat.wall_stiffness = m.positive("wall_stiffness", mat.stiffness);
+    mat.wall_restitution =
+        m.number_in("wall_restitution", mat.restitution, 1e-6, 1.0, "restitution coefficient e in (0, 1]");
+    mat.friction = m.number_in("friction", 0.0, 0.0, 10.0);
+    mat.wall_friction = m.number_in("wall_friction", mat.friction, 0.0, 10.0);
+    mat.tangential_stiffness_ratio = m.number_in("tangential_stiffness_ratio", 2.0 / 7.0, 1e-6, 10.0);
+    mat.tangential_damping_ratio = m.number_in("tangential_damping_ratio", 0.5, 0.0, 10.0);
+    p.friction = mat.friction > 0 || mat.wall_friction > 0;
+    m.finish();
+  }
+  p.external_forcing = true;
+  c.particles = read_particles(root.section("particles"), p);
+  double rmin = 1e300, rmax = 0;
+  for (double r : c.particles.r) {
+    rmin = std::min(rmin, r);
+    rmax = std::max(rmax, r);
+  }
+  if (2 * rmax > c.grid.h)
+    throw ConfigError(root.where("gas") + ": key 'gas.cell_size' = " + num(c.grid.h) +
+                      " m is smaller than the largest particle diameter " + num(2 * rmax) +
+                      " m (particles.radius): the unresolved mode needs cells of 1-5 particle diameters");
+  {
+    const auto dc = root.optional_section("dem");
+    p.skin = 0.2 * rmin;
+    p.path = dem::ForcePath::Particle;
+    const double tc = dem::min_collision_time(p, c.particles);
+    std::string key = "dem.steps_per_collision";
+    const int given = (dc && dc->has("substeps")) + (dc && dc->has("dt")) + (dc && dc->has("steps_per_collision"));
+    if (given > 1) dc->fail("substeps", "give one of dem.substeps, dem.dt, dem.steps_per_collision");
+    if (dc && dc->has("substeps")) {
+      c.substeps = static_cast<int>(dc->integer_in("substeps", 1, 1000000));
+      key = "dem.substeps";
+    } else if (dc && dc->has("dt")) {
+      // The largest DEM step that divides the gas step and is not above dem.dt.
+      const double n = std::ceil(c.gas.dt / dc->positive("dt") - 1e-9);
+      if (!(n <= 1e6)) dc->fail("dt", "needs more than 1e6 DEM sub-steps per gas step (gas.dt / dem.dt)");
+      c.substeps = static_cast<int>(std::max(1.0, n));
+      key = "dem.dt";
+    } else {
+      const double spc = dc ? dc->number_in("steps_per_collision", 50.0, 5.0, 1e6) : 50.0;
+      p.min_steps_per_collision = std::min(spc, p.min_steps_per_collision);
+      const double n = std::isfinite(tc) ? std::ceil(c.gas.dt * spc / tc) : 1.0;
+      if (!(n <= 1e6))
+        throw ConfigError(root.source() + ": " + key + ": gas.dt = " + num(c.gas.dt) + " s over t_c / " + num(spc) +
+                          " (t_c = " + num(tc) + " s from material.stiffness and the radii) needs " + num(n) +
+                          " DEM sub-steps per gas step (at most 1e6): lower gas.dt or soften the contacts");
+      c.substeps = static_cast<int>(std::max(1.0, n));
+    }
+    if (dc) {
+      p.skin = dc->positive("skin", p.skin);
+      p.path = dc->choice("force_path", "particle", {"particle", "pair"}) == "pair" ? dem::ForcePath::Pair
+                                                                                 : dem::ForcePath::Particle;
+      dc->finish();
+    }
+    p.dt = c.gas.dt / c.substeps;
+    try {
+      dem::check_time_step(p, c.particles, key);
+    } catch (const ConfigError& e) {
+      throw ConfigError(root.source() + ": " + e.what() + " (DEM dt = gas.dt / sub-steps)");
+    }
+  }
+  {
+    const Config t = root.section("time");
+    if (t.has("steps") == t.has("end_time")) t.fail("end_time", "give either time.steps or time.end_time");
+    double planned = 0;
+    std::string key = "time.steps";
+    if (t.has("end_time")) {
+      const double te = t.positive("end_time");
+      planned = std::ceil(te / c.gas.dt - 1e-9);
+      key = "time.end_time = " + num(te) + " s with gas.dt = " + num(c.gas.dt) + " s";
+    } else {
+      planned = static_cast<double>(t.integer_in("steps", 0, std::numeric_limits<long>::max()));
+    }
+    t.finish();
+    if (opt.steps) {
+      planned = static_cast<double>(*opt.steps);
+      key = "--steps";
+    }
+    const double np = static_cast<double>(c.particles.size());
+    cases::check_plan(root, opt, planned, static_cast<double>(c.grid.cells()), np * c.substeps,
+                      key + " (x dem.substeps DEM steps)");
+    c.steps = static_cast<long>(planned);
+  }
+  {
+    const Config o = root.section("output");
+    c.outdir = o.text("directory");
+    c.output_interval = o.integer_in("interval", 0, 0, std::numeric_limits<long>::max());
+    c.series_interval = o.integer_in("series_interval", 100, 1, std::numeric_limits<long>::max());
+    if (o.has("track"))
+      for (long id : o.integers("track", 1, 64, 0, std::numeric_limits<long>::max())) c.track.push_back(id);
+    o.finish();
+  }
+  if (const auto st = root.optional_section("statistics")) {
+    c.stats_start = st->number_in("start", 0.0, 0.0, 1e9, "simulated time [s] from which averages are taken");
+    c.stats_interval = st->integer_in("interval", 10, 1, std::numeric_limits<long>::max());
+    if (st->has("profiles")) {
+      for (const Config& pc : st->sequence("profiles")) {
+        Profile pr;
+        pr.quantity = pc.choice("quantity", {"void_fraction", "particle_velocity_z"}) == "void_fraction"
+                          ? ProfileQuantity::VoidFraction
+                          : ProfileQuantity::ParticleVelocityZ;
+        pr.height = pc.number_in("height", lo[2], hi[2], "a height inside the box (domain.lo, domain.hi) [m]");
+        pr.sum.assign(static_cast<std::size_t>(c.grid.n[0]), 0.0);
+        pr.count.assign(static_cast<std::size_t>(c.grid.n[0]), 0.0);
+        c.profiles.push_back(pr);
+        pc.finish();
+      }
+    }
+    st->finish();
+  }
+  if (const auto dg = root.optional_section("diagnostics")) {
+    c.check_interval = dg->integer_in("check_interval", 100, 1, std::numeric_limits<long>::max());
+    c.max_courant = dg->number_in("max_courant", 0.5, 1e-3, 1.0,
+                                  "largest |u| gas.dt / gas.cell_size anywhere (upwind convection is monotone up to 1/2)");
+    dg->finish();
+  }
+  root.accept("scene");
+  root.finish();
+  if (opt.output) c.outdir = *opt.output;
+  for (std::int64_t id : c.track)
+    if (std::find(c.particles.id.begin(), c.particles.id.end(), id) == c.particles.id.end())
+      throw ConfigError(root.source() + ": output.track: particle id " + std::to_string(id) + " does not exist (ids 0.." +
+                        std::to_string(c.particles.size() - 1) + ")");
+  // The particles against the box, its closed faces and each other; memory.
+  const cases::ParticleBox box = cases::particle_box(p, 3, "domain.lo, domain.hi", "gas.boundaries (closed faces)");
+  cases::check_particles_in_box(root, c.particles, box);
+  cases::check_particle_overlaps(root, c.particles, box);
+  const double n = static_cast<double>(c.particles.size());
+  cases::check_memory(root, cases::planned_backend(opt), n * cases::kDemDeviceBytesPerParticle,
+                      n * cases::kDemHostBytesPerParticle, "particles", num(n) + " particles", "use fewer particles");
+  return c;
+}
+
+// Whole-bed measures for the series and the statistics.
+struct BedState {
+  double dp = 0, ratio = 0, height = 0, mean_vz = 0, mean_speed = 0, max_speed = 0;
+};
+
+}  // namespace
+
+std::vector<std::string> cfd_scene_names() { return {"fluidized_bed"}; }
+
+int run_cfd_case(const Config& root, const RunOptions& opt) {
+  const halo::Comm& comm = halo::Comm::world();
+  if (comm.distributed())
+    throw ConfigError(root.source() + ": scene 'fluidized_bed' runs on one rank (started here on " +
+                      std::to_string(comm.size()) + " ranks): run it without mpirun");
+  CfdCase c = read_case(root, opt);
+  if (opt.validate_only) return 0;
+  const Backend backend = resolve_backend(opt.backend);
+  io::prepare_output_dir(c.outdir, opt.overwrite);
+  const Exec ex(backend);
+  dem::DemSystem dem(ex, c.dem, c.particles);
+  cfd::GasSolver gas(ex, c.grid, c.gas);
+  gas.set_velocity(c.initial_velocity);
+  cfd::GasDemCoupling coupling(gas);
+  dem::CoupledLoop loop(dem, coupling, c.substeps);
+  gas.initialise(dem.view());
+  cfd::GasMonitor monitor(ex);
+  const cfd::GasGridView& g = c.grid;
+  const double h = g.h;
+  const Index np = dem.size();
+  const bool quiet = opt.quiet;
+
+  // Buoyant weight per unit cross-section: the pressure drop that carries a
+  // fluidized bed (set I: the gas pressure gradient acts on gas and solid).
+  const double gmag = std::fabs(c.gas.gravity[2]);
+  const double area = (g.n[0] * h) * (g.n[1] * h);
+  double weight = 0;
+  for (std::size_t i = 0; i < c.particles.x.size(); ++i) {
+    const double vp = 4.0 / 3.0 * kPi * c.particles.r[i] * c.particles.r[i] * c.particles.r[i];
+    weight += (c.particles.mass[i] - c.gas.rho * vp) * gmag;
+  }
+  const double weight_per_area = weight / area;
+  const double floor_z = g.origin[2];
+  const double top_z = g.origin[2] + g.n[2] * h;
+
+  if (!quiet)
+    spdlog::info("scene fluidized_bed: {} particles, {} x {} x {} gas cells of {:.4g} m, backend {}, drag {}, void "
+                 "fraction {}, gas dt {:.4g} s with {} DEM sub-steps ({:.4g} s), {} steps = {:.6g} s; output in {}",
+                 np, g.n[0], g.n[1], g.n[2], h, to_string(backend), cfd::to_string(c.gas.drag),
+                 cfd::to_string(c.gas.deposition), c.gas.dt, c.substeps, c.dem.dt, c.steps, c.steps * c.gas.dt,
+                 c.outdir);
+
+  io::GridWriter gas_writer(c.outdir, "gas", {g.n[0], g.n[1], g.n[2]}, {g.origin[0], g.origin[1], g.origin[2]},
+                            {h, h, h});
+  io::ParticleWriter particle_writer(c.outdir, "particles");
+  std::vector<std::string> cols{"step",        "time",         "pressure_drop", "pressure_drop_over_weight",
+                                "bed_height",  "mean_vz",      "mean_speed",    "max_speed",
+                                "gas_inflow",  "gas_outflow",  "gas_storage",   "mass_imbalance",
+                                "max_courant", "cg_iterations"};
+  for (std::int64_t id : c.track)
+    for (const char* q : {"x", "y", "z", "vx", "vy", "vz"}) cols.push_back(std::string(q) + "_" + std::to_string(id));
+  io::TimeSeries series(c.outdir + "/series.csv", cols);
+
+  double t = 0;
+  auto measure_bed = [&](const dem::HostParticles& hp, const cfd::GasMeasures& m, double p_second) {
+    BedState b;
+    // Pressure at the inlet face from the two lowest layers (linear), less
+    // the top layer's and the gas's own head between them.
+    const double p_face = 1.5 * m.p_bottom - 0.5 * p_second;
+    b.dp = p_face - m.p_top - c.gas.rho * gmag * (top_z - floor_z - 0.5 * h);
+    b.ratio = b.dp / weight_per_area;
+    double zs = 0, vz = 0, sp = 0;
+    for (Index i = 0; i < hp.size(); ++i) {
+      zs += hp.x[static_cast<std::size_t>(i)].z - floor_z;
+      vz += hp.v[static_cast<std::size_t>(i)].z;
+      const double s = norm(hp.v[static_cast<std::size_t>(i)]);
+      sp += s;
+      b.max_speed = std::max(b.max_speed, s);
+    }
+    const double n = static_cast<double>(std::max<Index>(hp.size(), 1));
+    b.height = 2 * zs / n;
+    b.mean_vz = vz / n;
+    b.mean_speed = sp / n;
+    return b;
+  };
+  // Mean pressure of the second cell layer (for the extrapolation to the inlet face).
+  std::vector<double> pres_host, eps_host, uc_host[3];
+  auto second_layer = [&]() {
+    const Index layer = static_cast<Index>(g.n[0]) * g.n[1];
+    if (g.n[2] < 2) return 0.0;
+    std::vector<double> row(static_cast<std::size_t>(layer));
+    gas.pressure().copy_to_host(row.data(), layer, layer);
+    double s = 0;
+    for (double v : row) s += v;
+    return s / static_cast<double>(layer);
+  };
+  double max_courant_seen = 0, max_imbalance = 0;
+  auto series_row = [&](long step) {
+    ex.synchronize();
+    const cfd::GasMeasures m = monitor.measure(gas);
+    const double p2 = g.n[2] >= 2 ? second_layer() : m.p_bottom;
+    const dem::HostParticles hp = dem.gather();
+    const BedState b = measure_bed(hp, m, p2);
+    const double imb = (m.inflow - m.outflow - m.storage) / std::max({m.inflow, m.outflow, 1e-300});
+    max_courant_seen = std::max(max_courant_seen, m.max_courant);
+    if (step > 0) max_imbalance = std::max(max_imbalance, std::fabs(imb));
+    std::vector<double> row{static_cast<double>(step), t, b.dp, b.ratio, b.height, b.mean_vz, b.mean_speed,
+                            b.max_speed, c.gas.rho * m.inflow, c.gas.rho * m.outflow, c.gas.rho * m.storage, imb,
+                            m.max_courant, static_cast<double>(gas.last_solve().iterations)};
+    for (std::int64_t id : c.track) {
+      const auto i = static_cast<std::size_t>(id);  // gather(): ascending global id
+      for (int k = 0; k < 3; ++k) row.push_back(hp.x[i][k]);
+      for (int k = 0; k < 3; ++k) row.push_back(hp.v[i][k]);
+    }
+    series.append(row);
+    return std::make_pair(b, m);
+  };
+  auto write_fields = [&](long step) {
+    ex.synchronize();
+    eps_host = gas.gas_fraction().to_vector();
+    pres_host = gas.pressure().to_vector();
+    std::vector<double> vel(3 * eps_host.size());
+    for (int a = 0; a < 3; ++a) {
+      uc_host[a] = gas.cell_velocity(a).to_vector();
+      for (std::size_t i = 0; i < eps_host.size(); ++i) vel[3 * i + static_cast<std::size_t>(a)] = uc_host[a][i];
+    }
+    gas_writer.write(step, t, {{"gas_fraction", 1, eps_host.data(), ""},
+                               {"pressure", 1, pres_host.data(), "Pa"},
+                               {"velocity", 3, vel.data(), "m/s"}});
+    const dem::HostParticles hp = dem.gather();
+    cases::write_particle_snapshot(particle_writer, step, t, hp);
+  };
+  // Time averages: the bed's pressure drop and height, and the profiles.
+  double avg_dp = 0, avg_ratio = 0, avg_height = 0;
+  long samples = 0;
+  auto sample = [&]() {
+    ex.synchronize();
+    const cfd::GasMeasures m = monitor.measure(gas);
+    const dem::HostParticles hp = dem.download();
+    const BedState b = measure_bed(hp, m, g.n[2] >= 2 ? second_layer() : m.p_bottom);
+    avg_dp += b.dp;
+    avg_ratio += b.ratio;
+    avg_height += b.height;
+    ++samples;
+    if (c.profiles.empty()) return;
+    eps_host = gas.gas_fraction().to_vector();
+    for (Profile& pr : c.profiles) {
+      if (pr.quantity == ProfileQuantity::VoidFraction) {
+        // Linear in z between the two cell layers around the height, mean over y.
+        const double zc = (pr.height - floor_z) / h - 0.5;
+        const int k0 = std::clamp(static_cast<int>(std::floor(zc)), 0, std::max(g.n[2] - 2, 0));
+        const int k1 = std::min(k0 + 1, g.n[2] - 1);
+        const double w1 = std::clamp(zc - k0, 0.0, 1.0);
+        for (int i = 0; i < g.n[0]; ++i) {
+          double s = 0;
+          for (int j = 0; j < g.n[1]; ++j)
+            s += (1 - w1) * eps_host[static_cast<std::size_t>(g.index(i, j, k0))] +
+                 w1 * eps_host[static_cast<std::size_t>(g.index(i, j, k1))];
+          pr.sum[static_cast<std::size_t>(i)] += s / g.n[1];
+          pr.count[static_cast<std::size_t>(i)] += 1;
+        }
+      } else {
+        // Particles whose centre lies within half a cell of the height, by x cell.
+        for (Index q = 0; q < hp.size(); ++q) {
+          const Vec3d& x = hp.x[static_cast<std::size_t>(q)];
+          if (std::fabs(x.z - pr.height) > 0.5 * h) continue;
+          const int i = std::clamp(static_cast<int>(std::floor((x.x - g.origin[0]) / h)), 0, g.n[0] - 1);
+          pr.sum[static_cast<std::size_t>(i)] += hp.v[static_cast<std::size_t>(q)].z;
+          pr.count[static_cast<std::size_t>(i)] += 1;
+        }
+      }
+    }
+  };
+  auto watchdog = [&](long step) {
+    ex.synchronize();
+    const cfd::GasMeasures m = monitor.measure(gas);
+    const std::string at = " at gas step " + std::to_string(step) + " (t = " + num(t) + " s)";
+    if (m.nonfinite > 0)
+      throw DivergenceError(root.source() + ": the gas field has " + num(m.nonfinite) +
+                            " non-finite values (velocity, pressure or gas fraction)" + at +
+                            ": lower gas.dt, raise dem.substeps (or dem.steps_per_collision) or soften the contacts "
+                            "(material.stiffness), and check gas.min_gas_fraction");
+    if (m.max_courant > c.max_courant)
+      throw DivergenceError(root.source() + ": the largest Courant number |u| dt / h of the gas is " +
+                            num(m.max_courant) + at + ", above diagnostics.max_courant = " + num(c.max_courant) +
+                            ": lower gas.dt (" + num(c.gas.dt) + " s) or use larger cells (gas.cell_size = " + num(h) +
+                            " m); the fastest gas follows the inlet velocities (gas.boundaries.*.velocity)");
+    const cfd::CgReport cg = gas.last_solve();
+    if (!cg.converged && !quiet)
+      spdlog::warn("gas pressure solve did not converge{} ({} iterations, residual {:.3g}): raise "
+                   "gas.pressure_solver.max_iterations or gas.pressure_solver.tolerance",
+                   at, cg.iterations, cg.residual);
+    max_courant_seen = std::max(max_courant_seen, m.max_courant);
+    const dem::HostParticles hp = dem.download();
+    for (Index i = 0; i < hp.size(); ++i) {
+      const Vec3d& v = hp.v[static_cast<std::size_t>(i)];
+      if (!(std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z)))
+        throw DivergenceError(root.source() + ": particle id " + std::to_string(hp.id[static_cast<std::size_t>(i)]) +
+                              " has a non-finite velocity" + at +
+                              ": raise dem.substeps (or dem.steps_per_collision), soften the contacts "
+                              "(material.stiffness) or lower gas.dt");
+    }
+  };
+
+  write_fields(0);
+  series_row(0);
+  Progress prog("fluidized_bed", c.steps, 5.0, quiet);
+  // The end-of-run files (also when the watchdog stops the run: what was
+  // averaged up to there is kept, and the diagnosis is in summary.json).
+  long step = 0;
+  auto write_results = [&](bool interrupted, const std::string& diverged) {
+    ex.synchronize();
+    const double seconds = prog.elapsed();
+    std::string quoted = diverged;
+    for (char& ch : quoted)
+      if (ch == '"' || ch == '\\' || static_cast<unsigned char>(ch) < 0x20) ch = '\'';
+    if (!c.profiles.empty()) {
+      std::ostringstream csv;
+      csv << "quantity,height,x,value,samples\n";
+      for (const Profile& pr : c.profiles)
+        for (int i = 0; i < g.n[0]; ++i) {
+          const double n = pr.count[static_cast<std::size_t>(i)];
+          csv << (pr.quantity == ProfileQuantity::VoidFraction ? "void_fraction" : "particle_velocity_z") << ","
+              << num(pr.height) << "," << num(g.origin[0] + (i + 0.5) * h) << ","
+              << (n > 0 ? num(pr.sum[static_cast<std::size_t>(i)] / n) : std::string("nan")) << "," << num(n) << "\n";
+        }
+      io::write_text_atomically(c.outdir + "/profiles.csv", csv.str());
+    }
+    const double ns = std::max<long>(samples, 1);
+    std::ostringstream js;
+    js << "{\n  \"scene\": \"fluidized_bed\",\n  \"particles\": " << np << ",\n  \"gas_cells\": " << g.cells()
+       << ",\n  \"gas_steps\": " << step << ",\n  \"gas_steps_planned\": " << c.steps
+       << ",\n  \"dem_substeps\": " << c.substeps << ",\n  \"gas_dt\": " << num(c.gas.dt)
+       << ",\n  \"time_s\": " << num(t) << ",\n  \"seconds\": " << num(seconds)
+       << ",\n  \"seconds_per_simulated_second\": " << num(t > 0 ? seconds / t : 0.0)
+       << ",\n  \"particle_steps_per_second\": " << num(seconds > 0 ? double(np) * c.substeps * step / seconds : 0.0)
+       << ",\n  \"backend\": \"" << to_string(backend) << "\",\n  \"drag\": \"" << cfd::to_string(c.gas.drag)
+       << "\",\n  \"void_fraction\": \"" << cfd::to_string(c.gas.deposition)
+       << "\",\n  \"weight_per_area_pa\": " << num(weight_per_area) << ",\n  \"statistics_samples\": " << samples
+       << ",\n  \"mean_pressure_drop_pa\": " << (samples ? num(avg_dp / ns) : "null")
+       << ",\n  \"mean_pressure_drop_over_weight\": " << (samples ? num(avg_ratio / ns) : "null")
+       << ",\n  \"mean_bed_height_m\": " << (samples ? num(avg_height / ns) : "null")
+       << ",\n  \"max_courant\": " << num(max_courant_seen) << ",\n  \"max_mass_imbalance\": " << num(max_imbalance)
+       << ",\n  \"interrupted\": " << (interrupted ? "true" : "false") << ",\n  \"diverged\": "
+       << (diverged.empty() ? std::string("null") : "\"" + quoted + "\"") << "\n}\n";
+    io::write_text_atomically(c.outdir + "/summary.json", js.str());
+    return seconds;
+  };
+  bool stop = stop_requested();
+  while (step < c.steps && !stop) {
+    loop.step();
+    ++step;
+    t = step * c.gas.dt;
+    stop = stop_requested();
+    const bool last = step == c.steps || stop;
+    if (step % c.check_interval == 0 || last) {
+      try {
+        watchdog(step);
+      } catch (const DivergenceError& e) {
+        write_fields(step);  // the field the watchdog saw, for the diagnosis
+        write_results(false, e.what());
+        throw;
+      }
+    }
+    if (c.stats_interval > 0 && step % c.stats_interval == 0 && t >= c.stats_start - 1e-12) sample();
+    if (step % c.series_interval == 0 || last) series_row(step);
+    if ((c.output_interval > 0 && step % c.output_interval == 0) || last) write_fields(step);
+    if (prog.due()) {
+      ex.synchronize();
+      prog.report(step, t, static_cast<double>(np) * c.substeps, "particle-steps/s");
+    }
+  }
+  const bool interrupted = step < c.steps;
+  const double seconds = write_results(interrupted, "");
+  if (interrupted) {
+    spdlog::warn("stopped by {} at gas step {} of {} (t = {:.6g} s); output up to that step is in {}",
+                 stop_signal_name(), step, c.steps, t, c.outdir);
+    return kExitInterrupted;
+  }
+  if (!quiet)
+    spdlog::info("done: {} gas steps in {} ({:.4g} s per simulated second); results: {}/gas.xdmf, "
+                 "{}/particles.xdmf (ParaView), {}/series.csv, {}/summary.json",
+                 step, format_duration(seconds), t > 0 ? seconds / t : 0.0, c.outdir, c.outdir, c.outdir, c.outdir);
+  return 0;
+}
+
+}  // namespace lbdem
