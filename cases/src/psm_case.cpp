@@ -501,6 +501,36 @@ double wen_yu_prediction(const ParticlesCase& c) {
                             mean_net_weight(c));
 }
 
+// One free sphere in a fully periodic cube of side L, its weight balanced:
+// in its own frame the flow through a simple cubic array of spheres. Stokes
+// drag of that array (Sangani & Acrivos 1982, Eq. 60): F = 3 pi mu d U K(d/L),
+// F the force that balances a mean pressure gradient over the whole period,
+// W / (1 - phi) for the weight W that the fluid's body force balances over
+// the fluid volume, and U the superficial velocity, (1 - phi) times the slip.
+// So the terminal slip is W / ((1 - phi)^2 3 pi mu d K). 0 where the scene is
+// not of that kind (accurate for Re_p << 1; the Oseen correction is 3/16 Re_p).
+double periodic_settling_reference(const ParticlesCase& c) {
+  const auto& n = c.setup.domain.global;
+  const auto& per = c.setup.domain.periodic;
+  if (c.dim != 3 || c.particles.size() != 1 || !(per[0] && per[1] && per[2]) || n[0] != n[1] || n[1] != n[2])
+    return 0;
+  if (c.particles.mass[0] > 1e100) return 0;
+  const double chi = c.diameter / double(n[0]);
+  const double W = mean_net_weight(c);
+  if (!(chi <= 0.75) || !(W > 0)) return 0;
+  const double mu = c.coupling.fluid_density * (c.setup.tau - 0.5) / 3.0;
+  const double phi = c.solid_fraction;
+  return W / ((1 - phi) * (1 - phi) * 3 * M_PI * mu * c.diameter * cases::sangani_acrivos_K(chi));
+}
+
+// The last sample's slip along -g (along y without gravity).
+double last_slip_along_gravity(const ParticlesCase& c, const cases::SuspensionSample& s) {
+  const auto& g = c.coupling.gravity;
+  const double gn = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+  if (!(gn > 0)) return s.slip[1];
+  return -(s.slip[0] * g[0] + s.slip[1] * g[1] + s.slip[2] * g[2]) / gn;
+}
+
 std::string json_vec(const std::array<double, 3>& v) {
   std::ostringstream o;
   o.precision(17);
@@ -545,6 +575,14 @@ std::string particles_summary(const ParticlesCase& c, const cases::ParticleSerie
      << ", \"note\": \"slip: fluid velocity over the fluid volume minus the mean particle velocity, along -gravity, "
         "lattice units (cells per step) unless _m_per_s; Wen-Yu: the slip at which the Wen & Yu (1966) drag of a "
         "homogeneous suspension at this solid fraction balances the mean net weight\"}";
+  if (const double ref = periodic_settling_reference(c); ref > 0) {
+    const double w = last_slip_along_gravity(c, last);
+    js << ",\n  \"reference\": {\"what\": \"terminal slip of one sphere in a periodic cube: Stokes drag of a "
+          "simple cubic array, Sangani & Acrivos (1982) Eq. 60\", \"chi\": "
+       << c.diameter / double(n[0]) << ", \"slip\": " << ref << ", \"measured_slip\": " << w
+       << ", \"relative_error\": " << (w - ref) / ref << ", \"re_p\": " << w * c.diameter / ((c.setup.tau - 0.5) / 3.0)
+       << "}";
+  }
   js << "\n}\n";
   return js.str();
 }
@@ -660,6 +698,14 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
                    "drag / net weight {:.4f}",
                    c.steps / 2, step, series.mean_slip(), series.mean_slip() / wen_yu_prediction(c),
                    wen_yu_prediction(c), series.mean_drag_over_weight());
+    if (const double ref = periodic_settling_reference(c); ref > 0) {
+      const double w = last_slip_along_gravity(c, series.last());
+      spdlog::info("check: terminal slip {:.5g} cells/step ({:.5g} m/s) against the Stokes drag of a periodic "
+                   "array (Sangani & Acrivos 1982, d/L = {:.3g}) {:.5g}: error {:+.2f}% (PSM at d/l = {:g}; "
+                   "Re_p = {:.3f})",
+                   w, w * c.units.dx / c.units.dt, c.diameter / double(n[0]), ref, 100 * (w - ref) / ref, c.diameter,
+                   w * c.diameter / ((c.setup.tau - 0.5) / 3.0));
+    }
   }
   return 0;
 }
