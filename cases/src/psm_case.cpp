@@ -249,9 +249,8 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
                                                          "is too large to resolve); use a smaller time step");
     s.tau = U.tau;
     diam = cpd;  // exactly: dx = d / (d/l)
-    if (d.has("cells"))
-      d.fail("cells", "with units: physical the grid follows from domain.size and particles.cells_per_diameter; "
-                      "remove domain.cells");
+    // domain.cells is not a key here (finish() refuses it): the grid follows
+    // from domain.size and particles.cells_per_diameter.
     const auto size = d.numbers("size", 2, 3);
     for (std::size_t a = 0; a < size.size(); ++a) {
       const double n = size[a] / U.dx;
@@ -719,15 +718,17 @@ int run_psm_case(const Config& root, const RunOptions& opt) {
   return cases::with_user_keys(scene, [&] {
     if (scene == "fixed_sphere") return run_fixed_sphere_case(root, opt);
     // A physical-unit file names its SI keys where a check names the lattice one.
+    // (Not a message about a lattice key the user wrote by mistake: that one names it.)
     const bool physical = root.has("units") && root.text("units") == "physical";
+    auto rewrite = [&](const std::string& m) {
+      return physical && m.find("unknown key '") == std::string::npos ? cases::user_keys(m, physical_key_map()) : m;
+    };
     try {
       return run_particles_case(root, opt);
     } catch (const ConfigError& e) {
-      if (physical) throw ConfigError(cases::user_keys(e.what(), physical_key_map()));
-      throw;
+      throw ConfigError(rewrite(e.what()));
     } catch (const ResourceError& e) {
-      if (physical) throw ResourceError(cases::user_keys(e.what(), physical_key_map()));
-      throw;
+      throw ResourceError(rewrite(e.what()));
     }
   });
 }
