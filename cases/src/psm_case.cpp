@@ -671,7 +671,7 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
     if (c.output_interval > 0 && step % c.output_interval == 0) write_output(step);
     if (prog.due()) {
       fluid->synchronize();
-      prog.report(step, double(step), double(N) / 1e6, "MLUPS (coupled)");
+      prog.report(step, double(step) * c.units.dt, double(N) / 1e6, "MLUPS (coupled)");
     }
   }
   fluid->synchronize();
