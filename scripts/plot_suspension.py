@@ -63,7 +63,10 @@ def scales(summary):
 
 
 def read_series(run):
-    with open(os.path.join(run, "series.csv")) as f:
+    path = os.path.join(run, "series.csv")
+    if not os.path.exists(path):
+        return {}
+    with open(path) as f:
         rows = list(csv.reader(f))
     head = rows[0]
     data = np.array([[float(v) for v in r] for r in rows[1:] if len(r) == len(head)])
@@ -120,7 +123,7 @@ def plot_snapshots(run, out, summary, steps, comp):
     ny, nx = panels[0][2].shape
     width = 4.0 * len(panels)
     height = min(12.0, max(3.0, 4.0 * ny / nx))
-    fig, axs = plt.subplots(1, len(panels), figsize=(width, height + 0.8), squeeze=False)
+    fig, axs = plt.subplots(1, len(panels), figsize=(width, height + 0.8), squeeze=False, layout="constrained")
     for ax, (s, t, sl, x, vc, r) in zip(axs[0], panels):
         im = ax.imshow(sl, origin="lower", extent=[0, nx * L, 0, ny * L], cmap="RdBu_r", vmin=-vmax, vmax=vmax,
                        interpolation="nearest")

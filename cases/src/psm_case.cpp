@@ -396,6 +396,14 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
   // DEM in lattice units: the fluid grid's box, walls where the fluid has walls, contact law.
   auto& p = c.dem;
   dem::set_box_from_grid(p, s.domain);
+  if (dim == 2) {
+    // Disks move in the plane z = 0.5: the DEM's z axis is a closed slab a
+    // diameter either side (no walls, no motion along it), not the fluid's
+    // one-cell period, which no contact cutoff fits.
+    p.periodic[2] = false;
+    p.lo[2] = 0.5 - diam;
+    p.hi[2] = 0.5 + diam;
+  }
   for (int a = 0; a < dim; ++a) {
     if (periodic[static_cast<std::size_t>(a)]) continue;
     Vec3d n{}, q{};

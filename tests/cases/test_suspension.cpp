@@ -4,6 +4,7 @@
 // initial velocities, the Wen-Yu slip and the device statistics.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <ctime>
 #include <cmath>
@@ -177,6 +178,35 @@ TEST(SuspensionUnits, DefaultCaseReportsItsReference) {
   EXPECT_NEAR(K, hasimoto, 0.01 * hasimoto);
   EXPECT_TRUE(fs::exists(dir.path / "out" / "fields.xdmf"));
   EXPECT_TRUE(fs::exists(dir.path / "out" / "particles.xdmf"));
+}
+
+// A 2D suspension (random disks, D2Q9) runs: the DEM keeps the disks in their
+// plane (its z axis is no one-cell period), and the series has its statistics.
+TEST(SuspensionUnits, TwoDimensionalRandomSuspensionRuns) {
+  TmpDir dir("lbdem_2d_susp");
+  std::ofstream(dir.path / "case.yaml") << R"(scene: particles
+units: lattice
+domain: {cells: [64, 128], periodic: [1, 1]}
+fluid: {tau: 0.8, collision: trt, magic: 1.0e-3}
+physics: {gravity: [0, -1.0e-6, 0]}
+particles: {init: random, diameter: 8, density_ratio: 50, solid_fraction: 0.1, random_speed: 1.0e-3, seed: 2}
+dem: {stiffness: 20000, restitution: 0.9, substeps: 30}
+psm: {fraction: table}
+time: {steps: 20}
+output: {directory: unused, series_interval: 10}
+)";
+  const auto r = run("run " + (dir.path / "case.yaml").string() + " --backend cpu --quiet --output " +
+                     (dir.path / "out").string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto rows = series_without_time(dir.path / "out" / "series.csv");
+  ASSERT_EQ(rows.size(), 4u);
+  const auto& head = rows[0];
+  const auto col = std::find(head.begin(), head.end(), "var_vx") - head.begin();
+  ASSERT_LT(static_cast<std::size_t>(col), head.size());
+  // 16 disks (0.1 of 64 x 128 over pi 4^2), random speeds 1e-3 in the plane: variance ~ 1e-6 / 2 per axis.
+  EXPECT_GT(std::stod(rows[1][static_cast<std::size_t>(col)]), 1e-7);
+  const auto z = std::find(head.begin(), head.end(), "var_vz") - head.begin();
+  EXPECT_EQ(std::stod(rows[3][static_cast<std::size_t>(z)]), 0.0);
 }
 
 TEST(SuspensionUnits, BoxNotAWholeNumberOfCellsIsRefusedNamingTheKey) {
