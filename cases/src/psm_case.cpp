@@ -486,26 +486,30 @@ cases::SuspensionStatsSpec suspension_stats_spec(const ParticlesCase& c) {
 }
 
 // Net weight (m - rho_f V_p) |g| of the mean particle (lattice units; a
-// disk's mass in 2D), 0 without gravity.
-double mean_net_weight(const ParticlesCase& c) {
+// disk's mass in 2D, or with `sphere` that of a sphere of the same diameter
+// and density), 0 without gravity.
+double mean_net_weight(const ParticlesCase& c, bool sphere = false) {
   const auto& g = c.coupling.gravity;
   const double gn = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
   double w = 0;
   const auto& p = c.particles;
   for (std::size_t i = 0; i < p.r.size(); ++i) {
     const double r = p.r[i], vs = 4.0 / 3.0 * M_PI * r * r * r;
-    const double v = c.dim == 3 ? vs : M_PI * r * r;
+    const double v = c.dim == 3 || sphere ? vs : M_PI * r * r;
     if (p.mass[i] > 1e100) continue;  // held
     w += (p.mass[i] / vs * v - c.coupling.fluid_density * v) * gn;
   }
   return p.r.empty() ? 0.0 : w / double(p.r.size());
 }
 
-// The Wen-Yu homogeneous slip of this suspension (cells per step).
+// The Wen-Yu homogeneous slip of this suspension (cells per step). In 2D, of
+// spheres of the disks' diameter and density at the areal fraction: the first
+// paper's Table 2 gives its 2D and 3D suspensions one (the sphere's) terminal
+// velocity, and compares both with Wen & Yu.
 double wen_yu_prediction(const ParticlesCase& c) {
   const double nu = (c.setup.tau - 0.5) / 3.0;
   return cases::wen_yu_slip(c.solid_fraction, c.diameter, c.coupling.fluid_density, c.coupling.fluid_density * nu,
-                            mean_net_weight(c));
+                            mean_net_weight(c, true));
 }
 
 // One free sphere in a fully periodic cube of side L, its weight balanced:

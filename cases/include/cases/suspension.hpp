@@ -53,9 +53,10 @@ void add_random_velocities(dem::HostParticles& p, int dim, double speed, std::ui
 //   F(w) = 3 pi mu d w (1 - phi)^-2.65 (1 + 0.15 Re^0.687),
 //   Re = (1 - phi) rho_f d w / mu,
 // so in the Stokes limit w = W (1 - phi)^2.65 / (3 pi mu d). Any consistent
-// units (lattice: rho_f = 1, mu = nu). Returns 0 for W <= 0. In 2D the sphere
-// law is evaluated at the areal fraction, as the first paper compares its 2D
-// suspension with Wen & Yu.
+// units (lattice: rho_f = 1, mu = nu). Returns 0 for W <= 0. For a 2D
+// suspension the particles scene evaluates it for spheres of the disks'
+// diameter and density at the areal fraction, as the first paper compares its
+// 2D suspension with Wen & Yu (its Table 2 gives one terminal velocity for both).
 double wen_yu_slip(double phi, double d, double rho_f, double mu, double net_weight);
 double wen_yu_drag(double phi, double d, double rho_f, double mu, double w);
 
