@@ -9,9 +9,16 @@
 //                          sphere settling in a closed box, a periodic
 //                          suspension with the weight balanced by a fluid body force.
 //
-// Units: these scenes take lattice units (cell size 1, fluid time step 1,
-// fluid density 1) and say so (`units: lattice` is required), because the
-// validation cases of the first paper are stated that way (Tables 1-2).
+// Units: fixed_sphere takes lattice units (cell size 1, fluid time step 1,
+// fluid density 1) and says so (`units: lattice` is required), because the
+// validation cases of the first paper are stated that way (Table 1). The
+// particles scene takes lattice units or `units: physical`: SI values
+// (fluid density and kinematic viscosity, particle diameter and density,
+// gravity, box size, stiffness, speeds, times) with the resolution
+// particles.cells_per_diameter (d/l) and fluid.tau or time.dt, converted once
+// at parse time (core/units.hpp) and checked as the fluid scenes are (tau,
+// Mach number, DEM time step). The run itself is in lattice units;
+// summary.json gives the conversion factors dx, dt and dm.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -25,6 +32,8 @@
 #include "halo/comm.hpp"
 #include "halo/decomposition.hpp"
 #include "cases/particle_output.hpp"
+#include "cases/suspension.hpp"
+#include "core/units.hpp"
 #include "cases/scenes.hpp"
 #include "scene_checks.hpp"
 #include "core/error.hpp"
@@ -57,10 +66,10 @@ lbm::CollisionKind read_collision(const Config& f, double& magic, const std::str
 // tau, collision (with Lambda) and precision of a resolved scene's fluid
 // section (FixedSphereSpec and LbmSetup name these fields alike).
 template <class S>
-void read_fluid_common(const Config& f, S& s) {
-  s.tau = f.number_in("tau", 0.52, 0.5001, 5.0, "relaxation time tau > 1/2");
+void read_fluid_common(const Config& f, S& s, bool read_tau = true) {
+  if (read_tau) s.tau = f.number_in("tau", 0.52, 0.5001, 5.0, "relaxation time tau > 1/2");
   s.collision = read_collision(f, s.magic);
-  if (s.collision == lbm::CollisionKind::BGK && s.tau < 0.51)
+  if (read_tau && s.collision == lbm::CollisionKind::BGK && s.tau < 0.51)  // (else: the caller, naming its key)
     f.fail("tau", "BGK needs tau >= 0.51 to stay stable; use collision: trt for smaller tau");
   s.precision = f.choice("precision", "fp64", {"fp32", "fp64"}) == "fp32" ? lbm::Precision::FP32 : lbm::Precision::FP64;
 }
@@ -186,15 +195,78 @@ struct ParticlesCase {
   std::vector<std::int64_t> track;
   std::string outdir;
   double max_mach = 0.3;
+  // units: physical converts the file's SI values with `units` once, here;
+  // in lattice units `units` is the identity (dx = dt = dm = 1).
+  bool physical = false;
+  Units units;
+  double diameter = 1;        // lattice units (cells)
+  double solid_fraction = 0;  // sum of the particle volumes over the fluid box
+  int dim = 3;
+  std::array<long, 3> fluid_lo{0, 0, 0}, fluid_hi{1, 1, 1};
 };
 
+// The particle scene in SI units (units: physical): the keys whose meaning
+// changes, and the SI key a lattice-unit message names instead.
+const cases::KeyMap& physical_key_map() {
+  static const cases::KeyMap m = {{"particles.density_ratio", "particles.density"},
+                                   {"domain.cells", "domain.size"}};
+  return m;
+}
+
 ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
-  require_lattice_units(root);
   ParticlesCase c;
+  c.physical = root.choice("units", {"lattice", "physical"}) == "physical";
   auto& s = c.setup;
+  Units& U = c.units;  // identity in lattice units
   const Config d = root.section("domain");
-  const auto cells = d.integers("cells", 2, 3, 1, 1 << 20);
+  const Config f = root.section("fluid");
+  const Config pc = root.section("particles");
+  const Config t = root.section("time");
+  std::vector<long> cells;
+  double diam = 0;
+  if (c.physical) {
+    // SI in: the cell size follows from the particle diameter and the
+    // resolution d/l, the time step from tau (or dt) and the viscosity.
+    const double d_si = pc.positive("diameter");
+    const double cpd = pc.number_in("cells_per_diameter", 2.0, 1000.0,
+                                    "particle diameter in cells, d/l (the first paper uses 10)");
+    UnitsRequest ur;
+    ur.dx = d_si / cpd;
+    ur.rho = f.positive("density");
+    ur.nu = f.positive("kinematic_viscosity");
+    if (f.has("tau")) ur.tau = f.number("tau");
+    if (t.has("dt")) ur.dt = t.positive("dt");
+    f.accept("tau");
+    t.accept("dt");
+    ur.u_ref = 0;  // the particle speeds are checked against the Mach limit below, in lattice units
+    ur.where = root.source();
+    ur.tau_key = "fluid.tau";
+    ur.dt_key = "time.dt";
+    U = derive_units(ur);
+    if (!(U.tau <= 5.0))
+      (ur.tau ? f : t).fail(ur.tau ? "tau" : "dt", "gives tau = " + std::to_string(U.tau) +
+                                                         ": at most 5 (the lattice viscosity (tau - 1/2)/3 "
+                                                         "is too large to resolve); use a smaller time step");
+    s.tau = U.tau;
+    diam = cpd;  // exactly: dx = d / (d/l)
+    // domain.cells is not a key here (finish() refuses it): the grid follows
+    // from domain.size and particles.cells_per_diameter.
+    const auto size = d.numbers("size", 2, 3);
+    for (std::size_t a = 0; a < size.size(); ++a) {
+      const double n = size[a] / U.dx;
+      const double nr = std::round(n);
+      if (!(size[a] > 0) || !(nr >= 1) || !(nr <= double(1 << 20)) || std::abs(n - nr) > 1e-6 * nr)
+        d.fail("size", "must be a whole number of cells of dx = particles.diameter / particles.cells_per_diameter = " +
+                           std::to_string(U.dx) + " m along each axis (" + std::to_string(n) + " cells along " +
+                           std::string(1, char('x' + a)) + "; e.g. " + std::to_string(std::max(1.0, nr) * U.dx) +
+                           " m), 1 to 2^20 cells");
+      cells.push_back(static_cast<long>(nr));
+    }
+  } else {
+    cells = d.integers("cells", 2, 3, 1, 1 << 20);
+  }
   const int dim = cells.size() == 2 ? 2 : 3;
+  c.dim = dim;
   s.lattice = dim == 2 ? lbm::LatticeKind::D2Q9 : lbm::LatticeKind::D3Q19;
   const auto per = d.integers("periodic", static_cast<std::size_t>(dim), 3, 0, 1);
   std::array<bool, 3> periodic{per[0] != 0, per[1] != 0, dim == 3 ? per[2] != 0 : true};
@@ -203,6 +275,11 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
   std::array<long, 3> ext{cells[0], cells[1], dim == 3 ? cells[2] : 1};
   for (int a = 0; a < dim; ++a)
     if (!periodic[static_cast<std::size_t>(a)]) ext[static_cast<std::size_t>(a)] += 2;
+  for (int a = 0; a < 3; ++a) {
+    const auto k = static_cast<std::size_t>(a);
+    c.fluid_lo[k] = a < dim && !periodic[k] ? 1 : 0;
+    c.fluid_hi[k] = c.fluid_lo[k] + (a < dim ? cells[k] : 1);
+  }
   s.domain = Grid::whole(ext, periodic);
   bool any_wall = false;
   for (int a = 0; a < dim; ++a) any_wall |= !periodic[static_cast<std::size_t>(a)];
@@ -211,61 +288,122 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
     s.boundaries.kind[0] = lbm::BoundaryKind::Wall;
     s.boundaries.rho[0] = 1.0;
   }
-  const Config f = root.section("fluid");
-  read_fluid_common(f, s);
+  read_fluid_common(f, s, !c.physical);
+  if (c.physical && s.collision == lbm::CollisionKind::BGK && s.tau < 0.51)
+    (f.has("tau") ? f : t).fail(f.has("tau") ? "tau" : "dt", "gives tau = " + std::to_string(s.tau) +
+                                                                  ": BGK needs tau >= 0.51 to stay stable; use "
+                                                                  "collision: trt for smaller tau");
   c.max_mach = f.number_in("max_mach", 0.3, 0.01, 0.5, "largest lattice Mach number |u| sqrt(3) before the run stops");
   f.finish();
   cases::check_particles_memory(root, s, 0, opt);
   const Config ph = root.section("physics");
   const auto gv = ph.numbers("gravity", {0, 0, 0}, 3, 3);
-  c.coupling.gravity = {gv[0], gv[1], gv[2]};
+  c.coupling.gravity = {U.to_lattice_acceleration(gv[0]), U.to_lattice_acceleration(gv[1]),
+                        U.to_lattice_acceleration(gv[2])};
   const bool all_periodic = periodic[0] && periodic[1] && periodic[2];
   c.balance = ph.boolean("balance_weight", all_periodic);
   if (c.balance && !all_periodic)
     ph.fail("balance_weight", "only a fully periodic domain needs a fluid body force to balance the particles' weight");
   c.coupling.buoyancy = ph.boolean("buoyancy", true);
   ph.finish();
-  const Config pc = root.section("particles");
-  c.density_ratio = pc.number_in("density_ratio", 1.0, 1e-3, 1e6, "solid / fluid density");
-  const double diam = pc.number_in("diameter", 1.0, 1e4, "particle diameter in cells");
+  c.density_ratio = c.physical ? U.to_lattice_density(pc.positive("density"))
+                               : pc.number_in("density_ratio", 1.0, 1e-3, 1e6, "solid / fluid density");
+  if (c.physical && !(c.density_ratio >= 1e-3 && c.density_ratio <= 1e6))
+    pc.fail("density", "gives a solid / fluid density ratio of " + std::to_string(c.density_ratio) +
+                           " (fluid.density " + std::to_string(U.rho) + " kg/m^3): valid 1e-3 to 1e6");
+  if (!c.physical) diam = pc.number_in("diameter", 1.0, 1e4, "particle diameter in cells");
+  c.diameter = diam;
   const auto v0 = pc.numbers("velocity", {0, 0, 0}, 3, 3);
   const auto w0 = pc.numbers("angular_velocity", {0, 0, 0}, 3, 3);
+  const Vec3d v0l{U.to_lattice_velocity(v0[0]), U.to_lattice_velocity(v0[1]), U.to_lattice_velocity(v0[2])};
+  const Vec3d w0l{U.to_lattice_angular_velocity(w0[0]), U.to_lattice_angular_velocity(w0[1]),
+                  U.to_lattice_angular_velocity(w0[2])};
   const bool held = pc.boolean("held", false);  // position and rotation prescribed (infinite mass)
   const std::string init = pc.choice("init", {"list", "random"});
+  const auto seed = static_cast<std::uint64_t>(pc.integer_in("seed", 1, 0, std::numeric_limits<long>::max()));
+  // Random initial velocities of this magnitude (the first paper's v_s0, Sec. 2).
+  const double random_speed = U.to_lattice_velocity(pc.number_in("random_speed", 0.0, 0.0, 1e300));
+  if (random_speed * std::sqrt(3.0) > c.max_mach)
+    pc.fail("random_speed", "is " + std::to_string(random_speed) + " cells per step, a lattice Mach number of " +
+                                std::to_string(random_speed * std::sqrt(3.0)) + " above fluid.max_mach = " +
+                                std::to_string(c.max_mach) + "; use a smaller speed (the first paper: 5e-3 in lattice units)");
   const double r = 0.5 * diam;
   // Mass of a solid sphere of density rho_s (lattice units: fluid density 1).
   const double rho_s = held ? 1e300 : c.density_ratio;
+  // SI positions are measured from the fluid box's corner; the lattice ones
+  // from the grid's, whose closed axes start with a wall layer.
+  auto position = [&](double x, int a) {
+    return c.physical ? U.to_lattice_length(x) + double(c.fluid_lo[static_cast<std::size_t>(a)]) : x;
+  };
   if (init == "list") {
     for (const Config& it : pc.sequence("list")) {
       const auto x = it.numbers("position", dim, 3);
-      c.particles.add({x[0], x[1], dim == 3 ? x[2] : 0.5}, r, held ? 1e300 / (4.0 / 3.0 * M_PI * r * r * r) : rho_s,
-                      {v0[0], v0[1], v0[2]}, {w0[0], w0[1], w0[2]});
+      c.particles.add({position(x[0], 0), position(x[1], 1), dim == 3 ? position(x[2], 2) : 0.5}, r,
+                      held ? 1e300 / (4.0 / 3.0 * M_PI * r * r * r) : rho_s, v0l, w0l);
       it.finish();
     }
   } else {
-    if (dim != 3) pc.fail("init", "random packing is 3D only; give a list in 2D");
     dem::RandomPackingSpec rs;
     for (int a = 0; a < 3; ++a) {
-      const bool wa = !periodic[static_cast<std::size_t>(a)];
-      rs.lo[static_cast<std::size_t>(a)] = wa ? 1.0 : 0.0;
-      rs.hi[static_cast<std::size_t>(a)] = double(cells[static_cast<std::size_t>(a)]) + (wa ? 1.0 : 0.0);
+      const auto k = static_cast<std::size_t>(a);
+      rs.lo[k] = double(c.fluid_lo[k]);
+      rs.hi[k] = double(c.fluid_hi[k]);
     }
     rs.periodic = periodic;
-    rs.solid_fraction = pc.number_in("solid_fraction", 1e-4, 0.6, "solid volume fraction of the box");
+    double box = 1;
+    for (int a = 0; a < dim; ++a) box *= double(cells[static_cast<std::size_t>(a)]);
+    const double vp = dim == 3 ? 4.0 / 3.0 * M_PI * r * r * r : M_PI * r * r;
+    if (pc.has("count") == pc.has("solid_fraction"))
+      pc.fail(pc.has("count") ? "count" : "solid_fraction",
+              "give exactly one of particles.solid_fraction (of the box) or particles.count");
+    long count = 0;
+    if (pc.has("count")) {
+      count = pc.integer_in("count", 1, 1000000000L);
+      rs.solid_fraction = double(count) * vp / box;  // lround(phi V / V_p) gives count back
+      if (!(rs.solid_fraction <= 0.6))
+        pc.fail("count", "fills " + std::to_string(rs.solid_fraction) + " of the box; at most 0.6");
+    } else {
+      rs.solid_fraction = pc.number_in("solid_fraction", 1e-4, 0.6, "solid volume fraction of the box");
+      count = std::lround(rs.solid_fraction * box / vp);
+    }
     rs.r_min = rs.r_max = r;
     rs.density = rho_s;
-    rs.seed = static_cast<std::uint64_t>(pc.integer_in("seed", 1, 0, std::numeric_limits<long>::max()));
-    cases::check_particles_random(root, pc, s, rs.lo, rs.hi, rs.periodic, rs.solid_fraction, r, opt);
-    c.particles = dem::random_packing(rs);
+    rs.seed = seed;
+    if (dim == 3) {
+      cases::check_particles_random(root, pc, s, rs.lo, rs.hi, rs.periodic, rs.solid_fraction, r, opt);
+      c.particles = dem::random_packing(rs);
+    } else {
+      cases::check_particles_memory(root, s, double(count), opt);
+      c.particles = cases::random_disks(rs.lo, rs.hi, rs.periodic, count, r, rho_s, seed,
+                                        pc.full_key(pc.has("count") ? "count" : "solid_fraction"));
+    }
     for (Index i = 0; i < c.particles.size(); ++i) {
-      c.particles.v[static_cast<std::size_t>(i)] = {v0[0], v0[1], v0[2]};
-      c.particles.w[static_cast<std::size_t>(i)] = {w0[0], w0[1], w0[2]};
+      c.particles.v[static_cast<std::size_t>(i)] = v0l;
+      c.particles.w[static_cast<std::size_t>(i)] = w0l;
     }
   }
+  cases::add_random_velocities(c.particles, dim, random_speed, seed);
   pc.finish();
+  {
+    double vol = 0, box = 1;
+    for (Index i = 0; i < c.particles.size(); ++i) {
+      const double ri = c.particles.r[static_cast<std::size_t>(i)];
+      vol += dim == 3 ? 4.0 / 3.0 * M_PI * ri * ri * ri : M_PI * ri * ri;
+    }
+    for (int a = 0; a < dim; ++a) box *= double(cells[static_cast<std::size_t>(a)]);
+    c.solid_fraction = vol / box;
+  }
   // DEM in lattice units: the fluid grid's box, walls where the fluid has walls, contact law.
   auto& p = c.dem;
   dem::set_box_from_grid(p, s.domain);
+  if (dim == 2) {
+    // Disks move in the plane z = 0.5: the DEM's z axis is a closed slab a
+    // diameter either side (no walls, no motion along it), not the fluid's
+    // one-cell period, which no contact cutoff fits.
+    p.periodic[2] = false;
+    p.lo[2] = 0.5 - diam;
+    p.hi[2] = 0.5 + diam;
+  }
   for (int a = 0; a < dim; ++a) {
     if (periodic[static_cast<std::size_t>(a)]) continue;
     Vec3d n{}, q{};
@@ -280,9 +418,10 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
   p.external_forcing = true;
   p.friction = true;  // rotation under hydrodynamic torque; friction coefficient as given (0: none)
   const Config dm = root.section("dem");
-  p.material.stiffness = dm.positive("stiffness");
+  p.material.stiffness = U.to_lattice_stiffness(dm.positive("stiffness"));
   p.material.restitution = dm.number_in("restitution", 0.9, 1e-6, 1.0, "restitution coefficient e in (0, 1]");
-  p.material.wall_stiffness = dm.positive("wall_stiffness", p.material.stiffness);
+  p.material.wall_stiffness = dm.has("wall_stiffness") ? U.to_lattice_stiffness(dm.positive("wall_stiffness"))
+                                                       : p.material.stiffness;
   p.material.wall_restitution = dm.number_in("wall_restitution", p.material.restitution, 1e-6, 1.0, "e in (0, 1]");
   p.material.friction = dm.number_in("friction", 0.0, 0.0, 10.0);
   p.material.wall_friction = dm.number_in("wall_friction", p.material.friction, 0.0, 10.0);
@@ -295,8 +434,20 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
     ps->finish();
   }
   c.coupling.psm.map.max_radius = r;
-  const Config t = root.section("time");
-  c.steps = t.integer_in("steps", 0, std::numeric_limits<long>::max());
+  if (c.physical) {
+    // time.steps, or time.end in seconds.
+    if (t.has("steps") == t.has("end"))
+      t.fail(t.has("steps") ? "end" : "steps", "give exactly one of 'time.steps' (a step count) or 'time.end' (seconds)");
+    if (t.has("steps")) {
+      c.steps = t.integer_in("steps", 0, std::numeric_limits<long>::max());
+    } else {
+      const double steps = U.to_lattice_time(t.positive("end"));
+      if (!(steps < 1e15)) t.fail("end", "is " + std::to_string(steps) + " time steps of " + std::to_string(U.dt) + " s; at most 1e15");
+      c.steps = std::max<long>(1, std::lround(steps));
+    }
+  } else {
+    c.steps = t.integer_in("steps", 0, std::numeric_limits<long>::max());
+  }
   t.finish();
   const Config o = root.section("output");
   c.outdir = o.text("directory");
@@ -317,6 +468,134 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
   cases::check_particles_scene(root, s, p, c.particles, c.coupling.gravity, c.balance, c.coupling.dem_substeps, c.steps, opt);
   imb::check_coupled_setup(s, p, c.particles, c.coupling);
   return c;
+}
+
+// What the suspension statistics need of the scene.
+cases::SuspensionStatsSpec suspension_stats_spec(const ParticlesCase& c) {
+  cases::SuspensionStatsSpec sp;
+  sp.dim = c.dim;
+  sp.fluid_lo = c.fluid_lo;
+  sp.fluid_hi = c.fluid_hi;
+  sp.periodic = c.setup.domain.periodic;
+  sp.gravity = c.coupling.gravity;
+  sp.body_force = c.setup.body_force;
+  sp.fluid_density = c.coupling.fluid_density;
+  sp.buoyancy = c.coupling.buoyancy;
+  sp.diameter = c.diameter;
+  return sp;
+}
+
+// Net weight (m - rho_f V_p) |g| of the mean particle (lattice units; a
+// disk's mass in 2D, or with `sphere` that of a sphere of the same diameter
+// and density), 0 without gravity.
+double mean_net_weight(const ParticlesCase& c, bool sphere = false) {
+  const auto& g = c.coupling.gravity;
+  const double gn = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+  double w = 0;
+  const auto& p = c.particles;
+  for (std::size_t i = 0; i < p.r.size(); ++i) {
+    const double r = p.r[i], vs = 4.0 / 3.0 * M_PI * r * r * r;
+    const double v = c.dim == 3 || sphere ? vs : M_PI * r * r;
+    if (p.mass[i] > 1e100) continue;  // held
+    w += (p.mass[i] / vs * v - c.coupling.fluid_density * v) * gn;
+  }
+  return p.r.empty() ? 0.0 : w / double(p.r.size());
+}
+
+// The Wen-Yu homogeneous slip of this suspension (cells per step). In 2D, of
+// spheres of the disks' diameter and density at the areal fraction: the first
+// paper's Table 2 gives its 2D and 3D suspensions one (the sphere's) terminal
+// velocity, and compares both with Wen & Yu.
+double wen_yu_prediction(const ParticlesCase& c) {
+  const double nu = (c.setup.tau - 0.5) / 3.0;
+  return cases::wen_yu_slip(c.solid_fraction, c.diameter, c.coupling.fluid_density, c.coupling.fluid_density * nu,
+                            mean_net_weight(c, true));
+}
+
+// One free sphere in a fully periodic cube of side L, its weight balanced:
+// in its own frame the flow through a simple cubic array of spheres. Stokes
+// drag of that array (Sangani & Acrivos 1982, Eq. 60): F = 3 pi mu d U K(d/L),
+// F the force that balances a mean pressure gradient over the whole period,
+// W / (1 - phi) for the weight W that the fluid's body force balances over
+// the fluid volume, and U the superficial velocity, (1 - phi) times the slip.
+// So the terminal slip is W / ((1 - phi)^2 3 pi mu d K). 0 where the scene is
+// not of that kind (accurate for Re_p << 1; the Oseen correction is 3/16 Re_p).
+double periodic_settling_reference(const ParticlesCase& c) {
+  const auto& n = c.setup.domain.global;
+  const auto& per = c.setup.domain.periodic;
+  if (c.dim != 3 || c.particles.size() != 1 || !(per[0] && per[1] && per[2]) || n[0] != n[1] || n[1] != n[2])
+    return 0;
+  if (c.particles.mass[0] > 1e100) return 0;
+  const double chi = c.diameter / double(n[0]);
+  const double W = mean_net_weight(c);
+  if (!(chi <= 0.75) || !(W > 0)) return 0;
+  const double mu = c.coupling.fluid_density * (c.setup.tau - 0.5) / 3.0;
+  const double phi = c.solid_fraction;
+  return W / ((1 - phi) * (1 - phi) * 3 * M_PI * mu * c.diameter * cases::sangani_acrivos_K(chi));
+}
+
+// The last sample's slip along -g (along y without gravity).
+double last_slip_along_gravity(const ParticlesCase& c, const cases::SuspensionSample& s) {
+  const auto& g = c.coupling.gravity;
+  const double gn = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+  if (!(gn > 0)) return s.slip[1];
+  return -(s.slip[0] * g[0] + s.slip[1] * g[1] + s.slip[2] * g[2]) / gn;
+}
+
+std::string json_vec(const std::array<double, 3>& v) {
+  std::ostringstream o;
+  o.precision(17);
+  o << "[" << v[0] << ", " << v[1] << ", " << v[2] << "]";
+  return o.str();
+}
+
+// summary.json of a particle scene: the run, its units and conversion
+// factors, the lattice parameters it ran with (17 digits: a physical-unit case
+// and its lattice-unit twin compare exactly), the statistics against Wen-Yu.
+std::string particles_summary(const ParticlesCase& c, const cases::ParticleSeries& series, Index particles, long step,
+                              double secs, double cells, Backend backend, bool interrupted) {
+  const Units& U = c.units;
+  const auto& n = c.setup.domain.global;
+  const double wy = wen_yu_prediction(c);
+  const double v_si = U.dx / U.dt;  // m/s per cell per step
+  const auto& last = series.last();
+  std::ostringstream js;
+  js.precision(17);
+  js << "{\n  \"scene\": \"particles\",\n  \"particles\": " << particles << ",\n  \"steps\": " << step
+     << ",\n  \"steps_planned\": " << c.steps << ",\n  \"seconds\": " << secs << ",\n  \"coupled_mlups\": "
+     << cells * step / std::max(secs, 1e-12) / 1e6 << ",\n  \"backend\": \"" << to_string(backend)
+     << "\",\n  \"interrupted\": " << (interrupted ? "true" : "false");
+  js << ",\n  \"units\": \"" << (c.physical ? "physical" : "lattice") << "\""
+     << ",\n  \"conversion\": {\"dx_m\": " << U.dx << ", \"dt_s\": " << U.dt << ", \"dm_kg\": " << U.dm()
+     << ", \"note\": \"series.csv, fields and particle positions are in lattice units: length x dx_m, time x dt_s, "
+        "mass x dm_kg, velocity x dx_m/dt_s, force x dm_kg dx_m/dt_s^2; the series' time column and the snapshots' "
+        "times are in seconds in a physical-unit scene\"}";
+  js << ",\n  \"lattice\": {\"cells\": [" << n[0] << ", " << n[1] << ", " << n[2] << "], \"tau\": " << c.setup.tau
+     << ", \"nu\": " << (c.setup.tau - 0.5) / 3.0 << ", \"diameter\": " << c.diameter
+     << ", \"density_ratio\": " << c.density_ratio << ", \"gravity\": " << json_vec(c.coupling.gravity)
+     << ", \"body_force\": " << json_vec(c.setup.body_force) << ", \"stiffness\": " << c.dem.material.stiffness
+     << ", \"wall_stiffness\": " << c.dem.material.wall_stiffness << ", \"dem_substeps\": " << c.coupling.dem_substeps
+     << ", \"solid_fraction\": " << c.solid_fraction << ", \"particle_count\": " << c.particles.size() << "}";
+  js << ",\n  \"statistics\": {\"seconds\": " << series.seconds()
+     << ", \"fraction_of_run\": " << series.seconds() / std::max(secs, 1e-12)
+     << ", \"averaged_from_step\": " << c.steps / 2 << ", \"averaged_samples\": " << series.averaged_samples()
+     << ", \"mean_slip\": " << series.mean_slip() << ", \"mean_drag_over_weight\": " << series.mean_drag_over_weight()
+     << ", \"wen_yu_slip\": " << wy << ", \"slip_over_wen_yu\": " << (wy > 0 ? series.mean_slip() / wy : 0.0)
+     << ", \"mean_slip_m_per_s\": " << series.mean_slip() * v_si << ", \"wen_yu_slip_m_per_s\": " << wy * v_si
+     << ", \"last_slip\": " << json_vec(last.slip) << ", \"last_granular_temperature\": " << last.granular_temperature
+     << ", \"note\": \"slip: fluid velocity over the fluid volume minus the mean particle velocity, along -gravity, "
+        "lattice units (cells per step) unless _m_per_s; Wen-Yu: the slip at which the Wen & Yu (1966) drag of a "
+        "homogeneous suspension at this solid fraction balances the mean net weight\"}";
+  if (const double ref = periodic_settling_reference(c); ref > 0) {
+    const double w = last_slip_along_gravity(c, last);
+    js << ",\n  \"reference\": {\"what\": \"terminal slip of one sphere in a periodic cube: Stokes drag of a "
+          "simple cubic array, Sangani & Acrivos (1982) Eq. 60\", \"chi\": "
+       << c.diameter / double(n[0]) << ", \"slip\": " << ref << ", \"measured_slip\": " << w
+       << ", \"relative_error\": " << (w - ref) / ref << ", \"re_p\": " << w * c.diameter / ((c.setup.tau - 0.5) / 3.0)
+       << "}";
+  }
+  js << "\n}\n";
+  return js.str();
 }
 
 int run_particles_case(const Config& root, const RunOptions& opt) {
@@ -359,41 +638,22 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
                  imb::to_string(c.coupling.psm.map.method), imb::to_string(cs.coupling().pipeline()), c.outdir);
   io::ParticleWriter pw(c.outdir, "particles");
   io::GridWriter gw(c.outdir, "fields", c.setup.domain);
-  io::TimeSeries series(c.outdir + "/series.csv",
-                        {"step", "fluid_mass_rel_change", "fluid_momentum_x", "fluid_momentum_y", "fluid_momentum_z",
-                         "max_mach", "particle_momentum_x", "particle_momentum_y", "particle_momentum_z",
-                         "mean_vx", "mean_vy", "mean_vz", "x0", "y0", "z0", "vx0", "vy0", "vz0", "wx0", "wy0", "wz0",
-                         "fx0", "fy0", "fz0", "tx0", "ty0", "tz0"});
   std::vector<double> rho, u;
   auto write_output = [&](long step) {
     const auto hf = cs.hydro_force_host();
-    cases::write_particle_snapshot(pw, step, double(step), dem.download(), {{"hydrodynamic_force", 3, hf.data()}});
+    cases::write_particle_snapshot(pw, step, double(step) * c.units.dt, dem.download(),
+                                   {{"hydrodynamic_force", 3, hf.data()}});
     fluid->macroscopic(rho, u);
     const auto eps = cs.solid_fraction_host();
-    gw.write(step, double(step),
+    gw.write(step, double(step) * c.units.dt,
              {{"density", 1, rho.data(), "lattice"}, {"velocity", 3, u.data(), "lattice (cells per step)"},
               {"solid_fraction", 1, eps.data(), "1"}});
   };
-  const auto d0 = fluid->diagnostics();
+  cases::ParticleSeries series(c.outdir + "/series.csv", cs, suspension_stats_spec(c), c.units.dt);
+  series.average_from(c.steps / 2);  // the mean slip of summary.json: the run's second half
   auto series_row = [&](long step) {
-    const auto d = fluid->diagnostics();
-    const auto hp = dem.download();
-    const auto hf = cs.hydro_force_host();
-    const auto ht = cs.hydro_torque_host();
-    double P[3] = {0, 0, 0}, V[3] = {0, 0, 0};
-    Index i0 = 0;
-    for (Index i = 0; i < hp.size(); ++i) {
-      for (int k = 0; k < 3; ++k) {
-        P[k] += (hp.mass[i] > 1e100 ? 0 : hp.mass[i]) * hp.v[i][k];
-        V[k] += hp.v[i][k] / double(hp.size());
-      }
-      if (hp.id[i] == 0) i0 = i;
-    }
+    const auto d = series.append(step);
     const double ma = d.max_speed * std::sqrt(3.0);
-    series.append({double(step), (d.mass - d0.mass) / d0.mass, d.momentum[0], d.momentum[1], d.momentum[2], ma, P[0],
-                   P[1], P[2], V[0], V[1], V[2], hp.x[i0][0], hp.x[i0][1], hp.x[i0][2], hp.v[i0][0], hp.v[i0][1],
-                   hp.v[i0][2], hp.w[i0][0], hp.w[i0][1], hp.w[i0][2], hf[3 * i0], hf[3 * i0 + 1], hf[3 * i0 + 2],
-                   ht[3 * i0], ht[3 * i0 + 1], ht[3 * i0 + 2]});
     if (!d.finite)
       throw DivergenceError("scene particles: non-finite fluid state at step " + std::to_string(step) + ", cell (" +
                             std::to_string(d.nonfinite_cell[0]) + ", " + std::to_string(d.nonfinite_cell[1]) + ", " +
@@ -423,7 +683,7 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
     if (c.output_interval > 0 && step % c.output_interval == 0) write_output(step);
     if (prog.due()) {
       fluid->synchronize();
-      prog.report(step, double(step), double(N) / 1e6, "MLUPS (coupled)");
+      prog.report(step, double(step) * c.units.dt, double(N) / 1e6, "MLUPS (coupled)");
     }
   }
   fluid->synchronize();
@@ -431,21 +691,33 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
   const double secs = std::chrono::duration<double>(clk::now() - t0).count();
   if (c.output_interval == 0 || step % c.output_interval != 0) write_output(step);
   const bool interrupted = step < c.steps;
-  std::ostringstream js;
-  js << "{\n  \"scene\": \"particles\",\n  \"particles\": " << dem.size() << ",\n  \"steps\": " << step
-     << ",\n  \"steps_planned\": " << c.steps << ",\n  \"seconds\": " << secs << ",\n  \"coupled_mlups\": "
-     << double(N) * step / std::max(secs, 1e-12) / 1e6 << ",\n  \"backend\": \"" << to_string(backend)
-     << "\",\n  \"interrupted\": " << (interrupted ? "true" : "false") << "\n}\n";
-  io::write_text_atomically(c.outdir + "/summary.json", js.str());
+  const std::string js = particles_summary(c, series, dem.size(), step, secs, double(N), backend, interrupted);
+  io::write_text_atomically(c.outdir + "/summary.json", js);
   if (interrupted) {
     spdlog::warn("stopped by {} at step {} of {}; output up to that step is in {}", stop_signal_name(), step, c.steps,
                  c.outdir);
     return kExitInterrupted;
   }
-  if (!opt.quiet)
-    spdlog::info("done: {} coupled steps in {:.1f} s ({:.1f} MLUPS coupled); results: {}/fields.xdmf, "
-                 "{}/particles.xdmf (ParaView), {}/series.csv (lattice units)",
-                 step, secs, double(N) * step / std::max(secs, 1e-12) / 1e6, c.outdir, c.outdir, c.outdir);
+  if (!opt.quiet) {
+    spdlog::info("done: {} coupled steps in {:.1f} s ({:.1f} MLUPS coupled); statistics {:.2f}% of it; results: "
+                 "{}/fields.xdmf, {}/particles.xdmf (ParaView), {}/series.csv (lattice units; summary.json "
+                 "gives dx, dt, dm)",
+                 step, secs, double(N) * step / std::max(secs, 1e-12) / 1e6,
+                 100 * series.seconds() / std::max(secs, 1e-12), c.outdir, c.outdir, c.outdir);
+    if (c.particles.size() > cases::ParticleSeries::kTrackedMax && series.averaged_samples() > 0)
+      spdlog::info("mean slip over steps {}..{}: {:.4g} cells/step ({:.4g} x the Wen-Yu homogeneous slip {:.4g}); "
+                   "drag / net weight {:.4f}",
+                   c.steps / 2, step, series.mean_slip(), series.mean_slip() / wen_yu_prediction(c),
+                   wen_yu_prediction(c), series.mean_drag_over_weight());
+    if (const double ref = periodic_settling_reference(c); ref > 0) {
+      const double w = last_slip_along_gravity(c, series.last());
+      spdlog::info("check: terminal slip {:.5g} cells/step ({:.5g} m/s) against the Stokes drag of a periodic "
+                   "array (Sangani & Acrivos 1982, d/L = {:.3g}) {:.5g}: error {:+.2f}% (PSM at d/l = {:g}; "
+                   "Re_p = {:.3f})",
+                   w, w * c.units.dx / c.units.dt, c.diameter / double(n[0]), ref, 100 * (w - ref) / ref, c.diameter,
+                   w * c.diameter / ((c.setup.tau - 0.5) / 3.0));
+    }
+  }
   return 0;
 }
 
@@ -456,7 +728,20 @@ std::vector<std::string> psm_scene_names() { return {"fixed_sphere", "particles"
 int run_psm_case(const Config& root, const RunOptions& opt) {
   const std::string scene = root.text("scene");
   return cases::with_user_keys(scene, [&] {
-    return scene == "fixed_sphere" ? run_fixed_sphere_case(root, opt) : run_particles_case(root, opt);
+    if (scene == "fixed_sphere") return run_fixed_sphere_case(root, opt);
+    // A physical-unit file names its SI keys where a check names the lattice one.
+    // (Not a message about a lattice key the user wrote by mistake: that one names it.)
+    const bool physical = root.has("units") && root.text("units") == "physical";
+    auto rewrite = [&](const std::string& m) {
+      return physical && m.find("unknown key '") == std::string::npos ? cases::user_keys(m, physical_key_map()) : m;
+    };
+    try {
+      return run_particles_case(root, opt);
+    } catch (const ConfigError& e) {
+      throw ConfigError(rewrite(e.what()));
+    } catch (const ResourceError& e) {
+      throw ResourceError(rewrite(e.what()));
+    }
   });
 }
 

@@ -144,6 +144,20 @@ void write_dataset(hid_t file, const std::string& path, const std::string& name,
   }
 }
 
+// The Polyvertex connectivity of n points: 0, 1, ..., n-1 as 64-bit integers.
+void write_connectivity(hid_t file, const std::string& path, hsize_t n) {
+  std::vector<std::int64_t> ids(static_cast<std::size_t>(n));
+  for (std::size_t i = 0; i < ids.size(); ++i) ids[i] = static_cast<std::int64_t>(i);
+  H5Id space(H5Screate_simple(1, &n, nullptr), H5Sclose);
+  if (!space.ok()) h5_fail(path, "H5Screate_simple for 'connectivity'");
+  H5Id dset(H5Dcreate2(file, "connectivity", H5T_STD_I64LE, space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+            H5Dclose);
+  if (!dset.ok()) h5_fail(path, "H5Dcreate2 of dataset 'connectivity'");
+  if (n > 0)
+    h5_check(H5Dwrite(dset.get(), H5T_NATIVE_INT64, H5S_ALL, H5S_ALL, H5P_DEFAULT, ids.data()), path,
+             "H5Dwrite of dataset 'connectivity'");
+}
+
 void write_scalar_attr(hid_t obj, const std::string& path, const char* name, double value) {
   H5Id space(H5Screate(H5S_SCALAR), H5Sclose);
   if (!space.ok()) h5_fail(path, "H5Screate");
@@ -380,11 +394,12 @@ std::string ParticleWriter::write(long step, double time, long n, const double* 
   const std::string file = prefix_ + "_" + step_tag(step) + ".h5";
   const std::string path = (fs::path(dir_) / file).string();
   if (n < 0) throw Error("ParticleWriter: particle count " + std::to_string(n) + " for '" + path + "' is negative");
-  std::set<std::string> seen{"positions"};
+  std::set<std::string> seen{"positions", "connectivity"};
   for (const auto& f : fields) {
     check_name(f.name, path);
     if (!seen.insert(f.name).second)
-      throw Error("particle field '" + f.name + "' given twice (or named 'positions') for '" + path + "'");
+      throw Error("particle field '" + f.name + "' given twice (or named 'positions' or 'connectivity') for '" + path +
+                  "'");
     if (f.components < 1)
       throw Error("particle field '" + f.name + "' has components = " + std::to_string(f.components) +
                   " (must be >= 1)");
@@ -396,6 +411,7 @@ std::string ParticleWriter::write(long step, double time, long n, const double* 
     write_scalar_attr(h5, path, "step", static_cast<double>(step));
     const auto nn = static_cast<hsize_t>(n);
     write_dataset(h5, path, "positions", {nn, 3}, positions, "");
+    write_connectivity(h5, path, nn);
     for (const auto& f : fields) {
       std::vector<hsize_t> shape{nn};
       if (f.components > 1) shape.push_back(static_cast<hsize_t>(f.components));
@@ -419,7 +435,12 @@ void ParticleWriter::write_xdmf() {
     const std::string n = std::to_string(e.n);
     x << "   <Grid Name=\"" << prefix_ << "_" << step_tag(e.step) << "\" GridType=\"Uniform\">\n";
     x << "    <Time Value=\"" << num(e.time) << "\"/>\n";
-    x << "    <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"" << n << "\" NodesPerElement=\"1\"/>\n";
+    // The point list 0..n-1 as an explicit connectivity: the Xdmf3 readers of
+    // ParaView count a topology's cells from its data item (none: 0 cells).
+    x << "    <Topology TopologyType=\"Polyvertex\" NumberOfElements=\"" << n << "\" NodesPerElement=\"1\">\n";
+    x << "     <DataItem Dimensions=\"" << n << "\" NumberType=\"Int\" Precision=\"8\" Format=\"HDF\">" << e.file
+      << ":/connectivity</DataItem>\n";
+    x << "    </Topology>\n";
     x << "    <Geometry GeometryType=\"XYZ\">\n";
     x << "     <DataItem Dimensions=\"" << n << " 3\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" << e.file
       << ":/positions</DataItem>\n";

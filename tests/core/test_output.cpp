@@ -137,7 +137,18 @@ TEST(Output, ParticlesRoundTripAndXdmf) {
   EXPECT_EQ(io::read_dataset(f, "velocity"), v);
   const std::string x = slurp(d.path / "particles.xdmf");
   EXPECT_TRUE(balanced_xml(x)) << x;
-  EXPECT_NE(x.find("TopologyType=\"Polyvertex\" NumberOfElements=\"7\""), std::string::npos);
+  EXPECT_NE(x.find("TopologyType=\"Polyvertex\" NumberOfElements=\"7\" NodesPerElement=\"1\">"), std::string::npos);
+  // ParaView's Xdmf3 readers count the cells from the topology's data item:
+  // it must be there, with one entry per particle, naming a dataset 0..n-1.
+  const auto top = x.find("<Topology");
+  const auto top_end = x.find("</Topology>", top);
+  ASSERT_NE(top_end, std::string::npos) << x;
+  const std::string topo = x.substr(top, top_end - top);
+  EXPECT_NE(topo.find("<DataItem Dimensions=\"7\" NumberType=\"Int\" Precision=\"8\" Format=\"HDF\">"
+                      "particles_00000005.h5:/connectivity</DataItem>"),
+            std::string::npos)
+      << topo;
+  EXPECT_EQ(io::read_dataset(f, "connectivity"), (std::vector<double>{0, 1, 2, 3, 4, 5, 6}));
   EXPECT_NE(x.find("GeometryType=\"XYZ\""), std::string::npos);
   EXPECT_NE(x.find("particles_00000005.h5:/positions"), std::string::npos);
   EXPECT_NE(x.find("particles_00000005.h5:/radius"), std::string::npos);

@@ -64,6 +64,8 @@ class GridWriter {
 
 // Particle output: points with radius, velocity and any extra per-particle
 // scalar/vector attributes; ParaView shows them as points (glyph by radius).
+// Each file also holds `connectivity` (0..n-1, int64), the Polyvertex
+// topology's data item: ParaView's Xdmf3 readers count the points' cells from it.
 struct ParticleField {
   std::string name;
   int components = 1;

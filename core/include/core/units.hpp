@@ -26,6 +26,17 @@ struct Units {
   // Pressure deviation from p0: p = cs^2 (rho - 1) rho_si dx^2/dt^2.
   double to_si_pressure(double drho) const { return drho / 3.0 * rho * dx * dx / (dt * dt); }
   double mach(double u_si) const { return to_lattice_velocity(u_si) * 1.7320508075688772; }
+  // Mass unit: the fluid mass of one cell, rho dx^3 [kg] (lattice fluid density 1).
+  double dm() const { return rho * dx * dx * dx; }
+  double to_lattice_length(double x) const { return x / dx; }
+  double to_lattice_time(double t) const { return t / dt; }
+  double to_lattice_density(double r) const { return r / rho; }
+  double to_lattice_mass(double m) const { return m / dm(); }
+  // A spring constant k [N/m = kg/s^2] in lattice units: k dt^2 / dm.
+  double to_lattice_stiffness(double k) const { return k * dt * dt / dm(); }
+  double to_lattice_angular_velocity(double w) const { return w * dt; }
+  // Lattice units: every conversion above is the identity, bitwise.
+  static Units lattice() { return Units{}; }
 };
 
 struct UnitsRequest {

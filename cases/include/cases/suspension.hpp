@@ -1,0 +1,155 @@
+#pragma once
+// The periodic gas-solid suspension of the first paper (Sec. 2, Table 2) as a
+// production run: its set-up (random disks in 2D, random initial particle
+// velocities), the statistics a suspension study publishes, computed on the
+// device as a few numbers per sample, and the Wen-Yu homogeneous slip the
+// measured slip is compared with. Lattice units throughout (cell size 1, fluid
+// time step 1, fluid density 1).
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/exec.hpp"
+#include "dem/particles.hpp"
+#include "dem/system.hpp"
+#include "core/output.hpp"
+#include "lbm/solver.hpp"
+
+namespace lbdem::imb {
+class CoupledSolver;
+}
+
+namespace lbdem::cases {
+
+// ----------------------------------------------------------------- set-up
+// `count` non-overlapping disks of radius r (centres at z = 0.5: a 2D scene's
+// one-cell slab) in the box [lo, hi] of x and y: a random subset of the sites
+// of a square lattice with about twice as many sites as disks (fewer where the
+// disks need the room), each disk displaced by a uniform random offset of up
+// to half the free gap along each axis, so no two disks overlap. O(count).
+// Masses as HostParticles::add (rho 4/3 pi r^3, the DEM's 2D convention).
+// Throws ConfigError naming `key` when the box cannot hold them.
+dem::HostParticles random_disks(const std::array<double, 3>& lo, const std::array<double, 3>& hi,
+                                const std::array<bool, 3>& periodic, long count, double r, double density,
+                                std::uint64_t seed, const std::string& key);
+
+// Adds to every particle's velocity a random vector of length `speed`, its
+// direction uniform on the sphere (3D) or the circle in the x-y plane (2D);
+// then removes the mean of the added vectors, so that the particles' total
+// momentum is what it was (a weight-balanced periodic suspension starts at
+// rest as a whole). Deterministic for a seed.
+void add_random_velocities(dem::HostParticles& p, int dim, double speed, std::uint64_t seed);
+
+// ----------------------------------------------------------------- Wen-Yu
+// The slip speed w = |u_f - v_p| (interstitial fluid velocity minus particle
+// velocity) at which the Wen & Yu (1966) drag on one particle of a homogeneous
+// suspension at solid fraction phi balances its net weight W = (m_p - rho_f
+// V_p) |g|: the steady state of a weight-balanced periodic suspension, where
+// the fluid body force, not a pressure gradient, holds the weight (the
+// particles feel no mean pressure gradient beyond their buoyancy). The drag is
+// that of cfd/drag.hpp (Yu et al. 2024, Eq. 16-17, the Wen-Yu branch):
+//   F(w) = 3 pi mu d w (1 - phi)^-2.65 (1 + 0.15 Re^0.687),
+//   Re = (1 - phi) rho_f d w / mu,
+// so in the Stokes limit w = W (1 - phi)^2.65 / (3 pi mu d). Any consistent
+// units (lattice: rho_f = 1, mu = nu). Returns 0 for W <= 0. For a 2D
+// suspension the particles scene evaluates it for spheres of the disks'
+// diameter and density at the areal fraction, as the first paper compares its
+// 2D suspension with Wen & Yu (its Table 2 gives one terminal velocity for both).
+double wen_yu_slip(double phi, double d, double rho_f, double mu, double net_weight);
+double wen_yu_drag(double phi, double d, double rho_f, double mu, double w);
+
+// ----------------------------------------------------------------- statistics
+// What the statistics need to know about the scene (lattice units).
+struct SuspensionStatsSpec {
+  int dim = 3;
+  std::array<long, 3> fluid_lo{0, 0, 0}, fluid_hi{1, 1, 1};  // the fluid box (cells), periodic axes whole
+  std::array<bool, 3> periodic{true, true, true};
+  std::array<double, 3> gravity{0, 0, 0};
+  std::array<double, 3> body_force{0, 0, 0};  // on the fluid, per unit volume
+  double fluid_density = 1;
+  bool buoyancy = true;            // ext_force holds the buoyancy -rho_f V_p g (imb/coupled.hpp)
+  double diameter = 1;             // particle diameter (the filter widths are multiples of it)
+  std::vector<double> filter_widths{2, 4, 8};  // in particle diameters
+};
+
+// One sample. Velocities in cells per step, forces in lattice units.
+struct SuspensionSample {
+  double fluid_volume = 0;                    // box volume minus the particles' volume
+  std::array<double, 3> fluid_velocity{};     // mean over the fluid volume
+  std::array<double, 3> particle_velocity{};  // mean over the particles
+  std::array<double, 3> slip{};               // fluid_velocity - particle_velocity
+  std::array<double, 3> drag{};               // total hydrodynamic force without buoyancy
+  std::array<double, 3> drag_per_particle{};
+  double drag_over_weight = 0;                // drag along -g over the particles' net weight (0 without gravity)
+  std::array<double, 3> velocity_variance{};  // <(v - <v>)^2> per direction
+  double granular_temperature = 0;            // mean of the variances over the dim directions
+  std::array<double, 3> particle_momentum{};  // sum m v (held particles excluded)
+  // Per filter width: variance of the coarse-grained solid fraction, and the
+  // same over its value for independently placed particles (phi V_p / V_bin):
+  // 1 for a random suspension, > 1 when the particles cluster.
+  std::vector<double> phi_variance, phi_variance_rel;
+  std::vector<std::array<long, 3>> bins;      // coarse cells per axis of each width
+};
+
+// Device reductions over particles (and the fluid's diagnostics, computed by
+// the caller every sample anyway): nothing is downloaded but a few numbers.
+// Allocates its buffers once, at construction.
+class SuspensionStatistics {
+ public:
+  SuspensionStatistics(const Exec& ex, const SuspensionStatsSpec& spec);
+  ~SuspensionStatistics();
+  SuspensionStatistics(const SuspensionStatistics&) = delete;
+  SuspensionStatistics& operator=(const SuspensionStatistics&) = delete;
+  // The fluid diagnostics `d` of the same state (LbmSolver::diagnostics()).
+  SuspensionSample sample(dem::DemSystem& dem, const lbm::LbmDiagnostics& d);
+  // series.csv column names of a sample (the order of row()).
+  std::vector<std::string> columns() const;
+  std::vector<double> row(const SuspensionSample& s) const;
+  const SuspensionStatsSpec& spec() const { return spec_; }
+
+ private:
+  struct Impl;
+  SuspensionStatsSpec spec_;
+  std::unique_ptr<Impl> impl_;
+};
+
+// ----------------------------------------------------------------- series.csv
+// The particle scene's time series, one row per call (lattice units; the
+// run's summary.json gives dx, dt and dm to convert): step, time (seconds in
+// a physical-unit scene, steps in a lattice-unit one), the fluid's relative
+// mass change, momentum and largest Mach number, the suspension statistics
+// (SuspensionStatistics::columns()), and for scenes of at most kTrackedMax
+// particles the state of particle id 0 (x0 ... tz0; a download of those few
+// particles). Times itself: seconds() is the wall time spent in append().
+class ParticleSeries {
+ public:
+  static constexpr long kTrackedMax = 16;
+  ParticleSeries(const std::string& path, imb::CoupledSolver& cs, const SuspensionStatsSpec& spec, double dt);
+  // Appends the row of `step`; returns the fluid diagnostics it used, for the
+  // caller's divergence checks.
+  lbm::LbmDiagnostics append(long step);
+  // Samples at steps >= `step` enter the averages below.
+  void average_from(long step) { average_from_ = step; }
+  double mean_slip() const { return samples_ > 0 ? slip_sum_ / double(samples_) : 0.0; }  // along -g (y without gravity)
+  double mean_drag_over_weight() const { return samples_ > 0 ? drag_sum_ / double(samples_) : 0.0; }
+  long averaged_samples() const { return samples_; }
+  const SuspensionSample& last() const { return last_; }
+  double seconds() const { return seconds_; }
+
+ private:
+  imb::CoupledSolver& cs_;
+  SuspensionStatistics stats_;
+  io::TimeSeries out_;
+  double dt_;
+  bool track_;
+  bool have_d0_ = false;
+  lbm::LbmDiagnostics d0_;
+  SuspensionSample last_;
+  long average_from_ = 0, samples_ = 0;
+  double slip_sum_ = 0, drag_sum_ = 0, seconds_ = 0;
+  std::array<double, 3> along_{0, 1, 0};  // unit vector along -g
+};
+
+}  // namespace lbdem::cases

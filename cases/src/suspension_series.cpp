@@ -1,0 +1,71 @@
+// series.csv of the particle scene (cases/suspension.hpp, ParticleSeries).
+#include <chrono>
+#include <cmath>
+
+#include "cases/suspension.hpp"
+#include "imb/coupled.hpp"
+
+namespace lbdem::cases {
+
+namespace {
+std::vector<std::string> series_columns(const SuspensionStatistics& s, bool track) {
+  std::vector<std::string> c = {"step", "time", "fluid_mass_rel_change", "fluid_momentum_x", "fluid_momentum_y",
+                                "fluid_momentum_z", "max_mach"};
+  const auto st = s.columns();
+  c.insert(c.end(), st.begin(), st.end());
+  if (track)
+    for (const char* k : {"x0", "y0", "z0", "vx0", "vy0", "vz0", "wx0", "wy0", "wz0", "fx0", "fy0", "fz0", "tx0",
+                          "ty0", "tz0"})
+      c.emplace_back(k);
+  return c;
+}
+}  // namespace
+
+ParticleSeries::ParticleSeries(const std::string& path, imb::CoupledSolver& cs, const SuspensionStatsSpec& spec,
+                               double dt)
+    : cs_(cs),
+      stats_(Exec(cs.dem().backend()), spec),
+      out_(path, series_columns(stats_, cs.dem().size() <= kTrackedMax)),
+      dt_(dt),
+      track_(cs.dem().size() <= kTrackedMax) {
+  const auto& g = spec.gravity;
+  const double gn = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+  if (gn > 0) along_ = {-g[0] / gn, -g[1] / gn, -g[2] / gn};
+}
+
+lbm::LbmDiagnostics ParticleSeries::append(long step) {
+  using clk = std::chrono::steady_clock;
+  const auto t0 = clk::now();
+  const lbm::LbmDiagnostics d = cs_.fluid().diagnostics();
+  if (!have_d0_) {
+    d0_ = d;
+    have_d0_ = true;
+  }
+  last_ = stats_.sample(cs_.dem(), d);
+  std::vector<double> row = {double(step), double(step) * dt_, (d.mass - d0_.mass) / d0_.mass, d.momentum[0],
+                             d.momentum[1], d.momentum[2], d.max_speed * std::sqrt(3.0)};
+  const auto st = stats_.row(last_);
+  row.insert(row.end(), st.begin(), st.end());
+  if (track_) {
+    const auto hp = cs_.dem().download();
+    const auto hf = cs_.hydro_force_host();
+    const auto ht = cs_.hydro_torque_host();
+    std::size_t i0 = 0;
+    for (std::size_t i = 0; i < hp.id.size(); ++i)
+      if (hp.id[i] == 0) i0 = i;
+    for (const Vec3d* v : {&hp.x[i0], &hp.v[i0], &hp.w[i0]})
+      for (int k = 0; k < 3; ++k) row.push_back((*v)[k]);
+    for (const auto* h : {&hf, &ht})
+      for (std::size_t k = 0; k < 3; ++k) row.push_back((*h)[3 * i0 + k]);
+  }
+  out_.append(row);
+  if (step >= average_from_) {
+    slip_sum_ += last_.slip[0] * along_[0] + last_.slip[1] * along_[1] + last_.slip[2] * along_[2];
+    drag_sum_ += last_.drag_over_weight;
+    ++samples_;
+  }
+  seconds_ += std::chrono::duration<double>(clk::now() - t0).count();
+  return d;
+}
+
+}  // namespace lbdem::cases
