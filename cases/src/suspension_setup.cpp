@@ -95,6 +95,9 @@ dem::HostParticles random_disks(const std::array<double, 3>& lo, const std::arra
     }
     hp.add(x, r, density);
   }
+  // Each centre moves by at most half the free gap along each axis from its
+  // own lattice site: no two disks overlap (tests/cases SuspensionSetup).
+  hp.apart_by_construction = true;
   return hp;
 }
 

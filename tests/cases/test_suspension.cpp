@@ -239,6 +239,7 @@ TEST(SuspensionSetup, PaperTwoDimensionalPackingIsFastAndValid) {
   // CPU time of this (single-threaded) placement: a loaded machine does not fail it.
   const std::clock_t c0 = std::clock();
   const auto p = cases::random_disks({0, 0, 0}, {15360, 61440, 1}, {true, true, true}, n, r, 692.3, 1, "particles.count");
+  EXPECT_TRUE(p.apart_by_construction);
   const double secs = double(std::clock() - c0) / CLOCKS_PER_SEC;
   EXPECT_LT(secs, 10.0);
   ASSERT_EQ(p.size(), n);
