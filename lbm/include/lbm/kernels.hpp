@@ -167,7 +167,8 @@ struct StepKernel {
   Collider<L, R, Force> coll;
 
   // Cell `cell` at storage coordinates (x, y, z) (core/exec.hpp for_each_cell).
-  LBDEM_HD void operator()(Index cell, int x, int y, int z) const {
+  // Always inlined: in the host row loop it then vectorises across x.
+  LBDEM_HD LBDEM_FORCEINLINE void operator()(Index cell, int x, int y, int z) const {
     if constexpr (Bnd) {
       if (flags[cell] != 0) return;
     }
