@@ -190,8 +190,15 @@ LbmCase parse(const Config& root, const RunOptions& opt) {
   c.steps = steps;
   {
     // 16-bit storage: warn where its rounding is not good enough (lbm/storage_checks.hpp).
-    double scale = static_cast<double>(c.fluid_cells[0]);
-    for (int a = 1; a < D; ++a) scale = std::min(scale, static_cast<double>(c.fluid_cells[static_cast<std::size_t>(a)]));
+    // The flow's scale: the narrowest gap between walls, else the largest periodic length.
+    double walled = 0, open = 0;
+    for (int a = 0; a < D; ++a) {
+      const auto k = static_cast<std::size_t>(a);
+      const double n = static_cast<double>(c.fluid_cells[k]);
+      if (closed[k]) walled = walled > 0 ? std::min(walled, n) : n;
+      else open = std::max(open, n);
+    }
+    const double scale = walled > 0 ? walled : open;
     for (const auto& w : lbm::storage_warnings(s, c.units.to_lattice_velocity(u_ref), scale, static_cast<double>(c.steps)))
       spdlog::warn("{}: {}", root.source(), w);
   }

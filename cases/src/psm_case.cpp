@@ -327,8 +327,10 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
   cases::check_particles_scene(root, s, p, c.particles, c.coupling.gravity, c.balance, c.coupling.dem_substeps, c.steps, opt);
   imb::check_coupled_setup(s, p, c.particles, c.coupling);
   {
-    // 16-bit storage (lbm/storage_checks.hpp); the flow scale is the smallest box side.
-    const double scale = double(*std::min_element(ext.begin(), ext.begin() + dim));
+    // 16-bit storage (lbm/storage_checks.hpp). The flow's scale: the largest
+    // particle diameter (the flow around a particle sets the slowest local relaxation).
+    double scale = 0;
+    for (Index i = 0; i < c.particles.size(); ++i) scale = std::max(scale, 2 * c.particles.r[static_cast<std::size_t>(i)]);
     for (const auto& w : lbm::storage_warnings(s, 0.0, scale, double(c.steps))) spdlog::warn("{}: {}", root.source(), w);
   }
   return c;
