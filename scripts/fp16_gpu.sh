@@ -93,14 +93,15 @@ import json, csv, glob, os, sys
 out, commit = sys.argv[1], sys.argv[2]
 L = [f"# 16-bit population storage: speed and error (commit {commit})", ""]
 env = open(os.path.join(out, "env.txt")).read().strip().splitlines()
-L += ["Device: " + " / ".join(env[1:3]), ""]
+L += ["Device: " + " / ".join(env[1:3]) + f"; lbdem_bench_lbm device: {json.load(open(os.path.join(out, 'lbm_fp16.json'))).get('device', '?') if os.path.exists(os.path.join(out, 'lbm_fp16.json')) else '?'}", ""]
 try:
     j = json.load(open(os.path.join(out, "lbm_fp16.json")))
-    L += ["## D3Q19 fluid step (lbdem_bench_lbm, same run as the copy bandwidth)", "",
+    cb = ", ".join(f"{k} {v:.0f} GB/s" for k, v in j.get("copy_bandwidth_GBs", {}).items())
+    L += ["## D3Q19 fluid step (lbdem_bench_lbm, same run as the copy bandwidth)", "", f"Copy bandwidth: {cb}.", "",
           "| backend | precision | streaming | cells | GLUPS | GB/s | % of copy | Taylor-Green rel. L2 |", "|---|---|---|---|---|---|---|---|"]
     for r in j["runs"]:
         L.append(f"| {r['backend']} | {r['precision']} | {r['streaming']} | {'x'.join(map(str, r['cells']))} | "
-                 f"{r['mlups'] / 1e3:.2f} | {r['GBs']:.0f} | {100 * r['fraction_of_copy']:.1f} | {r['taylor_green_rel_l2']:.2e} |")
+                 f"{r['mlups'] / 1e3:.3g} | {r['GBs']:.4g} | {100 * r['fraction_of_copy']:.1f} | {r['taylor_green_rel_l2']:.2e} |")
     L.append("")
 except Exception as e:
     L += [f"(speed: {e})", ""]
@@ -113,7 +114,8 @@ for tau in ("0.8", "0.52"):
         L += [f"## Fixed-sphere drag, tau {tau} (Sangani & Acrivos; lbdem_bench_psm sweep)", "",
               "| d/l | precision | K | error % | steps | converged |", "|---|---|---|---|---|---|"]
         for r in j["rows"]:
-            L.append(f"| {r.get('d')} | {r.get('precision')} | {r.get('K')} | {r.get('error_percent', r.get('rel_error'))} | "
+            e = r.get("error")
+            L.append(f"| {r.get('d')} | {r.get('precision')} | {r.get('K')} | {100 * e if isinstance(e, (int, float)) else e} | "
                      f"{r.get('steps')} | {r.get('converged')} |")
         L.append("")
     except Exception as e:
