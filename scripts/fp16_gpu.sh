@@ -8,7 +8,8 @@
 #     speed       lbdem_bench_lbm: D3Q19 256^3 fp16s / fp16c / fp32 (A-A and two-lattice) with the device copy
 #                 bandwidth measured in the same run; Taylor-Green error of each run beside its speed
 #     errors      the 16-bit storage tests on both backends (tests/lbm/test_fp16_storage.cpp: Taylor-Green 2D/3D,
-#                 Poiseuille against the rounding model, mass drift over 1e5 steps; the halo exchange in 16 bits)
+#                 Poiseuille against the rounding model, every boundary kind, mass drift over 1e5 steps; the halo
+#                 exchange in 16 bits; tests/imb/test_psm_fp16.cpp: PSM forces against fp64, both pipelines)
 #     drag        fixed-sphere drag (Sangani & Acrivos) at d/l 10 and 20, fp64 / fp32 / fp16s / fp16c, at tau 0.52
 #                 (the accurate fp64 setting) and 0.8 (where 16-bit storage stalls less: lbm/storage_checks.hpp)
 #     suspension  the coupled suspension (256^3, phi 0.128, d/l 10): coupled against fluid-only speed per precision
@@ -29,7 +30,8 @@ step_build() {
   local t0=$SECONDS
   cmake -S "$here" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DLBDEM_ENABLE_CUDA=ON \
     -DCMAKE_CUDA_ARCHITECTURES=90 > "$OUT/configure.log" 2>&1 || { echo "configure failed"; return 1; }
-  ninja -C "$build" -j "$(nproc)" lbdem lbdem_bench_lbm lbdem_bench_psm lbm_tests core_tests > "$OUT/build.log" 2>&1
+  ninja -C "$build" -j "$(nproc)" lbdem lbdem_bench_lbm lbdem_bench_psm lbm_tests imb_tests core_tests \
+    > "$OUT/build.log" 2>&1
   local rc=$?
   echo "build exit $rc in $((SECONDS - t0)) s"
   # Per-object compile times (ms) of the kernel translation units, from ninja's log.
@@ -51,6 +53,9 @@ step_errors() {
   timeout 500 "$build/tests/lbm/lbm_tests" --gtest_filter='*Fp16*:*fp16*' > "$OUT/errors.log" 2>&1
   echo "errors exit $?"
   grep -E '^(TG|Poiseuille|mass)|PASSED|FAILED' "$OUT/errors.log"
+  timeout 300 "$build/tests/imb/imb_tests" --gtest_filter='*PsmFp16*' > "$OUT/errors_psm.log" 2>&1
+  echo "PSM errors exit $?"
+  grep -E '(cpu|cuda) (mapped|fused)|PASSED|FAILED' "$OUT/errors_psm.log"
   timeout 120 "$build/tests/core/core_tests" --gtest_filter='Half.*' > "$OUT/half.log" 2>&1
   echo "half-format tests exit $?"
 }
