@@ -1,11 +1,11 @@
 // lbdem_bench_psm: speed against error of the PSM coupling.
 //
 //   lbdem_bench_psm sweep [--out FILE.json] [--d 4,6,8,...] [--tau 0.52] [--methods exact,table,linear]
-//                   [--precisions fp64,fp32] [--collisions trt,bgk] [--variants nebb,super] [--weights nt,eps]
+//                   [--precisions fp64,fp32,fp16s,fp16c] [--collisions trt,bgk] [--variants nebb,super] [--weights nt,eps]
 //                   [--magic 1e-4 (or auto: 1e-4 below d/l 16, 3e-2 from 16)] [--offset 0.5,0] [--re 0.2] [--chi 0.5] [--tol 1e-5]
 //                   [--start estimate|rest] [--check N] [--max-steps N] [--backend host|cuda] [--dim 3] [-v]
 //   lbdem_bench_psm suspension [--out FILE.json] [--n 256] [--phi 0.128] [--d 10] [--steps 200]
-//                   [--substeps N (default: fewest accepted)] [--tau 0.6] [--precision fp32|fp64] [--fraction exact|table|linear]
+//                   [--substeps N (default: fewest accepted)] [--tau 0.6] [--precision fp32|fp64|fp16s|fp16c] [--fraction exact|table|linear]
 //                   [--pipeline auto|fused|mapped] [--backend host|cuda]
 //
 // sweep: fixed sphere in a simple cubic array (the first paper's Table 1
@@ -147,14 +147,14 @@ int sweep(int argc, char** argv) {
                       // (bench/results/psm_drag_by_resolution_h200.json): Lambda 1e-4 below d/l 16, 3e-2 from 16.
                       s.magic = ms == "auto" ? (s.diameter < 16.0 ? 1e-4 : 3e-2) : std::stod(ms);
                       s.offset = std::stod(os);
-                      // fp32 round-off floors the drag's step-to-step change near 1e-6.
-                      s.tolerance = pr == "fp32" ? std::max(tol, 1e-5) : tol;
+                      // fp32 round-off floors the drag's step-to-step change near 1e-6, 16-bit storage near 1e-4.
+                      s.tolerance = pr == "fp64" ? tol : std::max(tol, pr == "fp32" ? 1e-5 : 5e-4);
                       s.max_steps = max_steps;
                       s.check_every = check;
                       s.start = start == "rest" ? cases::FixedSphereSpec::Start::Rest
                                                 : cases::FixedSphereSpec::Start::Estimate;
                       s.quiet = !verbose;
-                      s.precision = pr == "fp32" ? lbm::Precision::FP32 : lbm::Precision::FP64;
+                      s.precision = lbm::precision_from_string(pr);
                       s.collision = co == "bgk" ? lbm::CollisionKind::BGK : lbm::CollisionKind::TRT;
                       s.variant = va == "super" ? imb::PsmVariant::Superposition : imb::PsmVariant::NEBB;
                       s.weight = we == "eps" ? imb::PsmWeight::Linear : imb::PsmWeight::NobleTorczynski;
@@ -221,7 +221,7 @@ int suspension(int argc, char** argv) {
   const Backend b = resolve_backend(backend);
   lbm::LbmSetup s;
   s.lattice = lbm::LatticeKind::D3Q19;
-  s.precision = prec == "fp64" ? lbm::Precision::FP64 : lbm::Precision::FP32;
+  s.precision = lbm::precision_from_string(prec);
   s.collision = lbm::CollisionKind::TRT;
   s.tau = tau;
   s.magic = 1e-3;

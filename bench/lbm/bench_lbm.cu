@@ -1,12 +1,13 @@
-// LBM throughput benchmark: MLUPS for D2Q9/D3Q19 x fp32/fp64 x AA/two-lattice
-// on periodic boxes, against the device copy bandwidth measured in the same
-// run, with the Taylor-Green error of each run beside its speed.
+// LBM throughput benchmark: MLUPS for D2Q9/D3Q19 x fp32/fp64/fp16s/fp16c x
+// AA/two-lattice on periodic boxes, against the device copy bandwidth measured
+// in the same run, with the Taylor-Green error of each run beside its speed.
 //
 //   lbdem_bench_lbm [--out FILE.json] [--quick] [--host-only] [--sizes3d 256,512] [--sizes2d 4096,8192]
+//                   [--lattices D3Q19,D2Q9] [--precisions fp32,fp64,fp16s,fp16c] [--streaming aa,two_lattice]
 //
 // Bytes counted per cell and step: every population read once and written
-// once, 2 Q sizeof(T) (both schemes; the two-lattice scheme needs twice the
-// memory, not more traffic per step).
+// once, 2 Q sizeof(T) with T the storage type (both schemes; the two-lattice
+// scheme needs twice the memory, not more traffic per step).
 #include <omp.h>
 
 #include <algorithm>
@@ -15,6 +16,7 @@
 #include <cstdio>
 #include <fstream>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -129,6 +131,15 @@ Result run_one(Backend b, LatticeKind lk, Precision p, StreamKind sk, long N, in
   return r;
 }
 
+std::vector<std::string> split(const std::string& s) {
+  std::vector<std::string> v;
+  std::stringstream ss(s);
+  std::string tok;
+  while (std::getline(ss, tok, ','))
+    if (!tok.empty()) v.push_back(tok);
+  return v;
+}
+
 std::vector<long> parse_list(const std::string& s) {
   std::vector<long> v;
   std::stringstream ss(s);
@@ -144,6 +155,9 @@ int main(int argc, char** argv) {
   std::string out = "bench_lbm.json";
   bool quick = false, host_only = false;
   std::vector<long> s3 = {256, 512}, s2 = {4096, 8192}, h3 = {128}, h2 = {1024};
+  std::vector<LatticeKind> lattices = {LatticeKind::D3Q19, LatticeKind::D2Q9};
+  std::vector<Precision> precisions = {Precision::FP32, Precision::FP64, Precision::FP16S, Precision::FP16C};
+  std::vector<StreamKind> streams = {StreamKind::AA, StreamKind::TwoLattice};
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto next = [&]() -> std::string {
@@ -157,7 +171,31 @@ int main(int argc, char** argv) {
     else if (a == "--sizes2d") s2 = parse_list(next());
     else if (a == "--host-sizes3d") h3 = parse_list(next());
     else if (a == "--host-sizes2d") h2 = parse_list(next());
-    else { std::fprintf(stderr, "error: unknown option '%s' (valid: --out --quick --host-only --sizes3d --sizes2d --host-sizes3d --host-sizes2d)\n", a.c_str()); return 2; }
+    else if (a == "--lattices" || a == "--precisions" || a == "--streaming") {
+      const std::string v = next();
+      try {
+        if (a == "--lattices") {
+          lattices.clear();
+          for (const auto& t : split(v)) {
+            if (t != "D3Q19" && t != "D2Q9") throw std::invalid_argument("lattice '" + t + "': valid are D3Q19, D2Q9");
+            lattices.push_back(t == "D3Q19" ? LatticeKind::D3Q19 : LatticeKind::D2Q9);
+          }
+        } else if (a == "--precisions") {
+          precisions.clear();
+          for (const auto& t : split(v)) precisions.push_back(precision_from_string(t));
+        } else {
+          streams.clear();
+          for (const auto& t : split(v)) {
+            if (t != "aa" && t != "two_lattice") throw std::invalid_argument("streaming '" + t + "': valid are aa, two_lattice");
+            streams.push_back(t == "aa" ? StreamKind::AA : StreamKind::TwoLattice);
+          }
+        }
+      } catch (const std::exception& e) {
+        std::fprintf(stderr, "error: %s %s: %s\n", a.c_str(), v.c_str(), e.what());
+        return 2;
+      }
+    }
+    else { std::fprintf(stderr, "error: unknown option '%s' (valid: --out --quick --host-only --sizes3d --sizes2d --host-sizes3d --host-sizes2d --lattices --precisions --streaming)\n", a.c_str()); return 2; }
   }
   if (quick) { s3 = {64}; s2 = {256}; h3 = {32}; h2 = {128}; }
   std::vector<Result> res;
@@ -165,9 +203,9 @@ int main(int argc, char** argv) {
   const bool gpu = !host_only && cuda_unavailable_reason().empty();
   const std::string device = bench::device_name(gpu ? Backend::Cuda : Backend::Host);
   auto sweep = [&](Backend b, const std::vector<long>& n3, const std::vector<long>& n2, double copy) {
-    for (LatticeKind lk : {LatticeKind::D3Q19, LatticeKind::D2Q9})
-      for (Precision p : {Precision::FP32, Precision::FP64})
-        for (StreamKind sk : {StreamKind::AA, StreamKind::TwoLattice})
+    for (LatticeKind lk : lattices)
+      for (Precision p : precisions)
+        for (StreamKind sk : streams)
           for (long N : (lk == LatticeKind::D3Q19 ? n3 : n2)) {
             LbmSetup probe;
             probe.lattice = lk;
@@ -183,7 +221,7 @@ int main(int argc, char** argv) {
             }
             const int steps = b == Backend::Cuda ? 20 : 6;
             Result r = run_one(b, lk, p, sk, N, steps, b == Backend::Cuda ? 7 : 3, copy);
-            std::printf("%-4s %-5s %-4s %-11s %5ldx%ldx%ld  %9.1f MLUPS  %7.1f GB/s  %5.1f%% of copy  TG err %.3e\n",
+            std::printf("%-4s %-5s %-5s %-11s %5ldx%ldx%ld  %9.1f MLUPS  %7.1f GB/s  %5.1f%% of copy  TG err %.3e\n",
                         r.backend.c_str(), r.lattice.c_str(), r.precision.c_str(), r.streaming.c_str(), r.nx, r.ny,
                         r.nz, r.mlups, r.gbs, 100 * r.fraction, r.tg_error);
             std::fflush(stdout);

@@ -18,6 +18,7 @@
 #include "core/signals.hpp"
 #include "core/units.hpp"
 #include "lbm/solver.hpp"
+#include "lbm/storage_checks.hpp"
 
 namespace lbdem {
 
@@ -81,7 +82,7 @@ LbmCase parse(const Config& root, const RunOptions& opt) {
   auto& s = c.setup;
   s.lattice = root.choice("lattice", {"D2Q9", "D3Q19"}) == "D2Q9" ? lbm::LatticeKind::D2Q9 : lbm::LatticeKind::D3Q19;
   const int D = s.lattice == lbm::LatticeKind::D2Q9 ? 2 : 3;
-  s.precision = root.choice("precision", "fp64", {"fp32", "fp64"}) == "fp32" ? lbm::Precision::FP32 : lbm::Precision::FP64;
+  s.precision = lbm::precision_from_string(root.choice("precision", "fp64", {"fp32", "fp64", "fp16s", "fp16c"}));
   s.streaming = root.choice("streaming", "aa", {"aa", "two_lattice"}) == "aa" ? lbm::StreamKind::AA : lbm::StreamKind::TwoLattice;
 
   c.parallel = parse_parallel(root);
@@ -187,6 +188,20 @@ LbmCase parse(const Config& root, const RunOptions& opt) {
   if (has_end) steps = std::max<long>(1, std::lround(t_end / c.units.dt));
   if (opt.steps) steps = *opt.steps;
   c.steps = steps;
+  {
+    // 16-bit storage: warn where its rounding is not good enough (lbm/storage_checks.hpp).
+    // The flow's scale: the narrowest gap between walls, else the largest periodic length.
+    double walled = 0, open = 0;
+    for (int a = 0; a < D; ++a) {
+      const auto k = static_cast<std::size_t>(a);
+      const double n = static_cast<double>(c.fluid_cells[k]);
+      if (closed[k]) walled = walled > 0 ? std::min(walled, n) : n;
+      else open = std::max(open, n);
+    }
+    const double scale = walled > 0 ? walled : open;
+    for (const auto& w : lbm::storage_warnings(s, c.units.to_lattice_velocity(u_ref), scale, static_cast<double>(c.steps)))
+      spdlog::warn("{}: {}", root.source(), w);
+  }
   if (opt.output) c.outdir = *opt.output;
   cases::check_fluid_plan(root, opt, has_end && !opt.steps ? t_end / c.units.dt : double(c.steps), double(c.fluid_cells[0]) * double(c.fluid_cells[1]) * double(c.fluid_cells[2]));
 

@@ -121,6 +121,7 @@ int main(int argc, char** argv) {
       const halo::Comm& comm = halo::Comm::world();
       std::printf("ranks: %s; transports: host_mpi%s%s\n", comm.describe().c_str(),
                   halo::mpi_cuda_aware() ? ", device_mpi" : "", halo::nccl_compiled() ? ", nccl" : "");
+      std::printf("precisions (bytes per stored population): fp64 (8), fp32 (4), fp16s (2), fp16c (2)\n");
       std::printf("scenes:");
       for (auto& s : all_scene_names()) std::printf(" %s", s.c_str());
       std::printf("\n");

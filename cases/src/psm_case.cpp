@@ -46,6 +46,7 @@
 #include "imb/coupled.hpp"
 #include "imb/coupled_checks.hpp"
 #include "imb/fraction_table.hpp"
+#include "lbm/storage_checks.hpp"
 
 namespace lbdem {
 namespace {
@@ -71,7 +72,7 @@ void read_fluid_common(const Config& f, S& s, bool read_tau = true) {
   s.collision = read_collision(f, s.magic);
   if (read_tau && s.collision == lbm::CollisionKind::BGK && s.tau < 0.51)  // (else: the caller, naming its key)
     f.fail("tau", "BGK needs tau >= 0.51 to stay stable; use collision: trt for smaller tau");
-  s.precision = f.choice("precision", "fp64", {"fp32", "fp64"}) == "fp32" ? lbm::Precision::FP32 : lbm::Precision::FP64;
+  s.precision = lbm::precision_from_string(f.choice("precision", "fp64", {"fp32", "fp64", "fp16s", "fp16c"}));
 }
 
 void read_psm(const Config& ps, imb::PsmOptions& o, int& slots) {
@@ -137,6 +138,15 @@ int run_fixed_sphere_case(const Config& root, const RunOptions& opt) {
   if (opt.output) outdir = *opt.output;
   if (opt.steps) s.max_steps = *opt.steps;
   cases::check_fixed_sphere(root, s.dim, s.diameter, s.chi, s.precision, s.streaming, s.max_steps, opt);
+  {
+    // 16-bit storage (lbm/storage_checks.hpp): the flow is steady, its scale the array period d / chi.
+    lbm::LbmSetup fl;
+    fl.precision = s.precision;
+    fl.tau = s.tau;
+    const double nu = (s.tau - 0.5) / 3.0;
+    for (const auto& w : lbm::storage_warnings(fl, s.re_p * nu / s.diameter, s.diameter / s.chi, double(s.max_steps)))
+      spdlog::warn("{}: {}", root.source(), w);
+  }
   const Backend backend = resolve_backend(opt.backend);
   const halo::Comm& comm = halo::Comm::world();
   s.comm = &comm;
@@ -467,6 +477,13 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
   // particles, DEM sub-steps, unbalanced weight), naming the key to change.
   cases::check_particles_scene(root, s, p, c.particles, c.coupling.gravity, c.balance, c.coupling.dem_substeps, c.steps, opt);
   imb::check_coupled_setup(s, p, c.particles, c.coupling);
+  {
+    // 16-bit storage (lbm/storage_checks.hpp). The flow's scale: the largest
+    // particle diameter (the flow around a particle sets the slowest local relaxation).
+    double scale = 0;
+    for (Index i = 0; i < c.particles.size(); ++i) scale = std::max(scale, 2 * c.particles.r[static_cast<std::size_t>(i)]);
+    for (const auto& w : lbm::storage_warnings(s, 0.0, scale, double(c.steps))) spdlog::warn("{}: {}", root.source(), w);
+  }
   return c;
 }
 

@@ -300,7 +300,7 @@ Backend planned_backend(const RunOptions& opt) {
 }
 
 double lbm_grid_bytes(const lbm::LbmSetup& s, double cells) {
-  const double tsize = s.precision == lbm::Precision::FP32 ? 4 : 8;
+  const double tsize = lbm::storage_bytes(s.precision);
   const double lattices = s.streaming == lbm::StreamKind::AA ? 1 : 2;
   // As lbm_memory_estimate: populations, rho + u for output, one flag byte.
   return cells * (lbm::lattice_q(s.lattice) * tsize * lattices + 4 * sizeof(double) + 1);

@@ -11,10 +11,21 @@ void psm_step_d3q19(const Exec&, const lbm::LbmSetup&, const lbm::LbmRaw&, const
 void psm_fused_d2q9(const Exec&, const FusedArgs&);
 void psm_fused_d3q19_f32(const Exec&, const FusedArgs&);
 void psm_fused_d3q19_f64(const Exec&, const FusedArgs&);
+// 16-bit storage (fp16s, fp16c), in their own translation units.
+void psm_step_f16(const Exec&, const lbm::LbmSetup&, const lbm::LbmRaw&, const CellSlotsView&, const SlotForceView&,
+                  const PsmOptions&);
+void psm_fused_d2q9_f16(const Exec&, const FusedArgs&);
+void psm_fused_d3q19_f16s(const Exec&, const FusedArgs&);
+void psm_fused_d3q19_f16c(const Exec&, const FusedArgs&);
+
+namespace {
+bool sixteen_bit(lbm::Precision p) { return p == lbm::Precision::FP16S || p == lbm::Precision::FP16C; }
+}  // namespace
 
 void psm_fluid_step(const Exec& ex, const lbm::LbmSetup& s, const lbm::LbmRaw& raw, const CellSlotsView& slots,
                     const SlotForceView& sf, const PsmOptions& opt) {
-  if (s.lattice == lbm::LatticeKind::D2Q9) psm_step_d2q9(ex, s, raw, slots, sf, opt);
+  if (sixteen_bit(s.precision)) psm_step_f16(ex, s, raw, slots, sf, opt);
+  else if (s.lattice == lbm::LatticeKind::D2Q9) psm_step_d2q9(ex, s, raw, slots, sf, opt);
   else psm_step_d3q19(ex, s, raw, slots, sf, opt);
 }
 
@@ -196,9 +207,18 @@ void PsmCoupling::step_part(const CellBox& part, const PsmParticles& p, const Ps
                   ? (ex_.on_device() ? table_.data() : opt.map.table->values.data())
                   : nullptr;
     a.K = K_;
-    if (dim == 2) psm_fused_d2q9(ex, a);
-    else if (solver_.setup().precision == lbm::Precision::FP32) psm_fused_d3q19_f32(ex, a);
-    else psm_fused_d3q19_f64(ex, a);
+    const lbm::Precision pr = solver_.setup().precision;
+    if (dim == 2) {
+      if (sixteen_bit(pr)) psm_fused_d2q9_f16(ex, a);
+      else psm_fused_d2q9(ex, a);
+    } else {
+      switch (pr) {
+        case lbm::Precision::FP32: psm_fused_d3q19_f32(ex, a); break;
+        case lbm::Precision::FP64: psm_fused_d3q19_f64(ex, a); break;
+        case lbm::Precision::FP16S: psm_fused_d3q19_f16s(ex, a); break;
+        case lbm::Precision::FP16C: psm_fused_d3q19_f16c(ex, a); break;
+      }
+    }
     return;
   }
   CellSlots& cs = mapped_slots();

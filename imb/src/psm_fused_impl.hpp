@@ -157,7 +157,7 @@ struct FusedArgs {
 
 template <class L, class T, lbm::StreamKind S, int P, bool B, bool Force, PsmVariant V, FractionMethod M>
 void fused_launch(const Exec& ex, const FusedArgs& a) {
-  using Frac = FractionOf<L::D, M, PointerTableAccess, T>;  // fractions in the lattice's precision
+  using Frac = FractionOf<L::D, M, PointerTableAccess, lbm::compute_t<T>>;  // fractions in the lattice's compute precision
   PsmFusedKernel<L, T, S, P, B, Force, V, Frac> k;
   k.set_lattice(*a.raw, a.setup->tau, a.opt->weight);
   k.K = a.K;

@@ -13,10 +13,11 @@ void psm_launch(const Exec& ex, const lbm::LbmSetup& s, const lbm::LbmRaw& raw, 
   k.set_lattice(raw, s.tau, opt.weight);
   k.slots = slots;
   k.out = sf;
-  // Three blocks of 256 per multiprocessor in fp32 (<= 85 registers, like the
-  // plain kernel), two in fp64: without the bound the compiler gives the odd
-  // A-A step more registers than that and fewer blocks fit.
-  for_each_cell_bounded<sizeof(T) == 4 ? 3 : 2>(ex, raw.grid, raw.owned, k);
+  // Three blocks of 256 per multiprocessor when computing in fp32 (<= 85
+  // registers, like the plain kernel; 16-bit storage too), two in fp64:
+  // without the bound the compiler gives the odd A-A step more registers than
+  // that and fewer blocks fit.
+  for_each_cell_bounded<sizeof(lbm::compute_t<T>) == 4 ? 3 : 2>(ex, raw.grid, raw.owned, k);
 }
 
 template <class L, class T>

@@ -10,17 +10,43 @@ std::unique_ptr<LbmSolver> make_solver_d2q9_f32(const LbmSetup&, Backend);
 std::unique_ptr<LbmSolver> make_solver_d2q9_f64(const LbmSetup&, Backend);
 std::unique_ptr<LbmSolver> make_solver_d3q19_f32(const LbmSetup&, Backend);
 std::unique_ptr<LbmSolver> make_solver_d3q19_f64(const LbmSetup&, Backend);
+std::unique_ptr<LbmSolver> make_solver_d2q9_f16s(const LbmSetup&, Backend);
+std::unique_ptr<LbmSolver> make_solver_d2q9_f16c(const LbmSetup&, Backend);
+std::unique_ptr<LbmSolver> make_solver_d3q19_f16s(const LbmSetup&, Backend);
+std::unique_ptr<LbmSolver> make_solver_d3q19_f16c(const LbmSetup&, Backend);
 
 int lattice_q(LatticeKind k) { return k == LatticeKind::D2Q9 ? 9 : 19; }
 const char* to_string(LatticeKind k) { return k == LatticeKind::D2Q9 ? "D2Q9" : "D3Q19"; }
-const char* to_string(Precision p) { return p == Precision::FP32 ? "fp32" : "fp64"; }
+const char* to_string(Precision p) {
+  switch (p) {
+    case Precision::FP32: return "fp32";
+    case Precision::FP64: return "fp64";
+    case Precision::FP16S: return "fp16s";
+    case Precision::FP16C: return "fp16c";
+  }
+  return "?";
+}
+Precision precision_from_string(const std::string& name) {
+  for (Precision p : {Precision::FP32, Precision::FP64, Precision::FP16S, Precision::FP16C})
+    if (name == to_string(p)) return p;
+  throw ConfigError("precision '" + name + "': valid are fp32, fp64, fp16s (IEEE half storage) and fp16c (1-4-11 storage)");
+}
+int storage_bytes(Precision p) {
+  switch (p) {
+    case Precision::FP32: return 4;
+    case Precision::FP64: return 8;
+    case Precision::FP16S:
+    case Precision::FP16C: return 2;
+  }
+  return 8;
+}
 const char* to_string(CollisionKind k) { return k == CollisionKind::BGK ? "bgk" : "trt"; }
 const char* to_string(StreamKind k) { return k == StreamKind::AA ? "aa" : "two_lattice"; }
 
 std::size_t lbm_memory_estimate(const LbmSetup& s) {
   const GridView g = s.domain.view();
   const std::size_t stride = static_cast<std::size_t>((g.n + 63) / 64 * 64);
-  const std::size_t tsize = s.precision == Precision::FP32 ? 4 : 8;
+  const auto tsize = static_cast<std::size_t>(storage_bytes(s.precision));
   const std::size_t lattices = s.streaming == StreamKind::AA ? 1 : 2;
   const std::size_t pops = stride * static_cast<std::size_t>(lattice_q(s.lattice)) * tsize * lattices;
   const std::size_t macro = static_cast<std::size_t>(g.n) * 4 * sizeof(double);  // rho + u for output
@@ -40,9 +66,14 @@ std::unique_ptr<LbmSolver> make_lbm_solver(const LbmSetup& s, Backend b) {
   } catch (const std::invalid_argument& e) {
     throw ConfigError(e.what());
   }
-  const bool f32 = s.precision == Precision::FP32;
-  if (s.lattice == LatticeKind::D2Q9) return f32 ? make_solver_d2q9_f32(s, b) : make_solver_d2q9_f64(s, b);
-  return f32 ? make_solver_d3q19_f32(s, b) : make_solver_d3q19_f64(s, b);
+  const bool d2 = s.lattice == LatticeKind::D2Q9;
+  switch (s.precision) {
+    case Precision::FP32: return d2 ? make_solver_d2q9_f32(s, b) : make_solver_d3q19_f32(s, b);
+    case Precision::FP16S: return d2 ? make_solver_d2q9_f16s(s, b) : make_solver_d3q19_f16s(s, b);
+    case Precision::FP16C: return d2 ? make_solver_d2q9_f16c(s, b) : make_solver_d3q19_f16c(s, b);
+    case Precision::FP64: break;
+  }
+  return d2 ? make_solver_d2q9_f64(s, b) : make_solver_d3q19_f64(s, b);
 }
 
 }  // namespace lbdem::lbm

@@ -29,6 +29,8 @@ struct PopulationKernel {
 
 template <class L, class T>
 class SolverImpl final : public LbmSolver {
+  using R = compute_t<T>;  // the kernels' arithmetic type (lbm/storage.hpp)
+
  public:
   SolverImpl(const LbmSetup& s, Backend b) : s_(s), ex_(b) {
     g_ = s_.domain.view();
@@ -219,9 +221,9 @@ class SolverImpl final : public LbmSolver {
     k.g = g_;
     k.flags = flags_.data();
     k.bt = s_.boundaries;
-    k.coll.omega_p = static_cast<T>(omega_p_);
-    k.coll.omega_m = static_cast<T>(omega_m_);
-    for (int a = 0; a < 3; ++a) k.coll.F[a] = static_cast<T>(s_.body_force[static_cast<std::size_t>(a)]);
+    k.coll.omega_p = static_cast<R>(omega_p_);
+    k.coll.omega_m = static_cast<R>(omega_m_);
+    for (int a = 0; a < 3; ++a) k.coll.F[a] = static_cast<R>(s_.body_force[static_cast<std::size_t>(a)]);
     // Every population slot has one writer per step, and in place (A-A) the
     // cell that writes a slot is the one that read it: cells are independent.
     for_each_cell_independent(ex, g_, box, k);

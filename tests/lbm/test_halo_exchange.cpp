@@ -1,7 +1,7 @@
 // The fluid halo exchange: a grid cut into 2-8 pieces (1D, 2D and 3D cuts,
 // uneven, periodic and walled axes), each piece a rank in this process
 // exchanging through a mailbox, evolves bitwise like the whole grid on one
-// rank — both lattices, both precisions, both streaming schemes, the
+// rank — both lattices, all four precisions, both streaming schemes, the
 // overlapped step and the serial one. Also: the slot counts per face and
 // edge, and the links of a 2-rank periodic cut.
 #include <gtest/gtest.h>
@@ -133,6 +133,14 @@ std::vector<Params> all_params() {
               v.push_back({l, pr, s, d, walls, true, b});
               if (pr == Precision::FP64 && walls && d == std::array<int, 3>{2, 2, 1}) v.push_back({l, pr, s, d, walls, false, b});
             }
+  // 16-bit storage: the halo carries the stored 16-bit values; one 2D and one 3D cut.
+  for (Backend b : test::backends())
+    for (auto l : {LatticeKind::D2Q9, LatticeKind::D3Q19})
+      for (auto pr : {Precision::FP16S, Precision::FP16C})
+        for (auto s : {StreamKind::AA, StreamKind::TwoLattice})
+          for (bool walls : {false, true})
+            v.push_back({l, pr, s, l == LatticeKind::D2Q9 ? std::array<int, 3>{2, 2, 1} : std::array<int, 3>{2, 2, 2},
+                         walls, true, b});
   return v;
 }
 

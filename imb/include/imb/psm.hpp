@@ -229,14 +229,17 @@ LBDEM_HD LBDEM_FORCEINLINE void psm_collide(const lbm::Collider<L, R, Force>& co
 // The lattice side of a PSM stream-collide kernel, shared by the mapped
 // (PsmStepKernel) and the fused (PsmFusedKernel) kernels: populations, grid,
 // boundaries, relaxation rates, body force, tau - 1/2 and the weighting.
+// Populations are stored as T and the arithmetic is in C = lbm::compute_t<T>
+// (T itself for fp32/fp64, float for 16-bit storage).
 template <class T>
 struct PsmLatticeFields {
+  using C = lbm::compute_t<T>;
   lbm::PopView<T> src, dst;
   lbm::GridView g;
   const std::uint8_t* flags;
   lbm::BoundaryTable bt;
-  T omega_p, omega_m, F[3];
-  T tm;  // tau - 1/2
+  C omega_p, omega_m, F[3];
+  C tm;  // tau - 1/2
   PsmWeight weight;
 
   // From the solver's raw view (lbm::LbmRaw) and tau; host side, once per launch.
@@ -247,17 +250,17 @@ struct PsmLatticeFields {
     g = raw.grid;
     flags = raw.flags;
     bt = raw.boundaries;
-    omega_p = static_cast<T>(raw.omega_p);
-    omega_m = static_cast<T>(raw.omega_m);
-    for (int a = 0; a < 3; ++a) F[a] = static_cast<T>(raw.body_force[static_cast<std::size_t>(a)]);
-    tm = static_cast<T>(tau - 0.5);
+    omega_p = static_cast<C>(raw.omega_p);
+    omega_m = static_cast<C>(raw.omega_m);
+    for (int a = 0; a < 3; ++a) F[a] = static_cast<C>(raw.body_force[static_cast<std::size_t>(a)]);
+    tm = static_cast<C>(tau - 0.5);
     weight = w;
   }
 
   // The fluid collision at these rates and body force.
   template <class L, bool Force>
-  LBDEM_HD LBDEM_FORCEINLINE lbm::Collider<L, T, Force> collider() const {
-    lbm::Collider<L, T, Force> coll;
+  LBDEM_HD LBDEM_FORCEINLINE lbm::Collider<L, C, Force> collider() const {
+    lbm::Collider<L, C, Force> coll;
     coll.omega_p = omega_p;
     coll.omega_m = omega_m;
     for (int a = 0; a < 3; ++a) coll.F[a] = F[a];
@@ -267,7 +270,7 @@ struct PsmLatticeFields {
 
 template <class L, class T, lbm::StreamKind S, int Parity, bool Bnd, bool Force, PsmVariant V>
 struct PsmStepKernel : PsmLatticeFields<T> {
-  using R = T;
+  using R = lbm::compute_t<T>;
   using Lat = PsmLatticeFields<T>;  // the lattice side's members, by name (a dependent base)
   using Lat::src, Lat::dst, Lat::g, Lat::flags, Lat::bt, Lat::omega_p, Lat::omega_m, Lat::F, Lat::tm, Lat::weight;
   CellSlotsView slots;

@@ -4,7 +4,9 @@
 // and the OpenMP backend (core/exec.hpp).
 //
 // Storage: structure of arrays, population q of cell i at f[q*stride + i],
-// shifted by -w_q (see collision.hpp).
+// shifted by -w_q (see collision.hpp), in the storage type T (float, double or
+// a 16-bit format, lbm/storage.hpp); loads convert to the compute type R and
+// stores round back to T (static_cast both ways).
 //
 // Streaming policies. "Incoming populations at x" are the f_q(x, t) a
 // collision starts from.
@@ -27,6 +29,7 @@
 #include "lbm/collision.hpp"
 #include "lbm/grid.hpp"
 #include "lbm/lattice.hpp"
+#include "lbm/storage.hpp"
 
 namespace lbdem::lbm {
 
@@ -159,7 +162,7 @@ LBDEM_HD LBDEM_FORCEINLINE void store_outgoing(const PopView<T>& dst, const Neig
 // One fused stream-collide step for one cell.
 template <class L, class T, StreamKind S, int Parity, bool Bnd, bool Force>
 struct StepKernel {
-  using R = T;  // compute in the storage precision (fp32 or fp64)
+  using R = compute_t<T>;  // fp32/fp64: the storage precision; 16-bit storage: float
   PopView<T> src, dst;  // AA: src == dst
   GridView g;
   const std::uint8_t* flags;

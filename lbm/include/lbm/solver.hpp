@@ -19,7 +19,10 @@
 namespace lbdem::lbm {
 
 enum class LatticeKind { D2Q9, D3Q19 };
-enum class Precision { FP32, FP64 };
+// Storage precision of the populations. FP16S (IEEE half) and FP16C (a
+// 1-4-11 float for values below 1) store 16 bits and compute in fp32
+// (core/half.hpp, lbm/storage.hpp).
+enum class Precision { FP32, FP64, FP16S, FP16C };
 
 struct LbmSetup {
   LatticeKind lattice = LatticeKind::D2Q9;
@@ -117,6 +120,9 @@ std::size_t lbm_memory_estimate(const LbmSetup& s);
 std::unique_ptr<LbmSolver> make_lbm_solver(const LbmSetup& setup, Backend backend);
 
 int lattice_q(LatticeKind k);
+int storage_bytes(Precision p);  // bytes of one stored population
+// "fp32", "fp64", "fp16s", "fp16c" (the case key `precision`); throws ConfigError otherwise.
+Precision precision_from_string(const std::string& name);
 const char* to_string(LatticeKind k);
 const char* to_string(Precision p);
 const char* to_string(CollisionKind k);

@@ -1,0 +1,185 @@
+#pragma once
+// 16-bit floating-point storage formats and their conversions to and from
+// float, for population storage (lbm/storage.hpp): values are stored in 16
+// bits and every arithmetic operation happens in float.
+//
+// A format is 1 sign bit, E exponent bits and M = 15 - E mantissa bits with
+// exponent bias `Bias`, laid out like IEEE 754 binary16:
+//   exponent field 0               subnormal: (-1)^s  m / 2^M  2^(1 - Bias)
+//   exponent field 1 .. 2^E - 2    normal:    (-1)^s (1 + m / 2^M) 2^(e - Bias)
+//   exponent field 2^E - 1         m = 0: +-infinity, m != 0: NaN
+// float -> 16 bits rounds to nearest, ties to even (IEEE 754 roundTiesToEven);
+// finite values at or beyond the largest finite value plus half its spacing
+// become +-infinity; a NaN becomes a NaN (payload unspecified); -0 stays -0.
+// 16 bits -> float is exact (every code is a float).
+//
+// Two formats:
+//  * Fp16s: IEEE binary16 (E = 5, M = 10, bias 15): largest finite 65504,
+//    smallest normal 2^-14, unit roundoff 2^-11.
+//  * Fp16c: E = 4, M = 11, bias 15: largest finite 2^-1 (2 - 2^-11) (just
+//    below 1), smallest normal 2^-14 (as binary16), subnormal spacing 2^-25,
+//    unit roundoff 2^-12. Populations stored shifted (f - w, lbm/collision.hpp)
+//    lie in (-1/3, 1) for any physical state, so the exponents binary16
+//    spends on values above 1 buy nothing there; Fp16c spends that bit on
+//    the mantissa instead and halves the rounding error everywhere below 1.
+//    A fixed per-direction scale would not help further: in the normal range
+//    the relative rounding error does not depend on the magnitude.
+//
+// On the device Fp16s converts with the CUDA half intrinsics, on the host with
+// F16C instructions where the compiler targets them, else in software; all
+// three round alike (ties to even), so both backends store the same bits.
+// Fp16c converts in software everywhere (integer operations on the float's bits).
+#include <cstdint>
+#include <cstring>
+
+#include "core/hd.hpp"
+
+#if defined(__CUDACC__)
+#include <cuda_fp16.h>
+#endif
+#if defined(__F16C__) && !defined(__CUDA_ARCH__)
+#include <immintrin.h>
+#endif
+
+namespace lbdem {
+
+namespace half_detail {
+
+LBDEM_HD LBDEM_FORCEINLINE std::uint32_t float_bits(float x) {
+#if defined(__CUDA_ARCH__)
+  return __float_as_uint(x);
+#else
+  std::uint32_t u;
+  std::memcpy(&u, &x, sizeof u);
+  return u;
+#endif
+}
+
+LBDEM_HD LBDEM_FORCEINLINE float bits_float(std::uint32_t u) {
+#if defined(__CUDA_ARCH__)
+  return __uint_as_float(u);
+#else
+  float x;
+  std::memcpy(&x, &u, sizeof x);
+  return x;
+#endif
+}
+
+}  // namespace half_detail
+
+// Conversions of the 16-bit format with E exponent bits and exponent bias Bias
+// (layout and rounding in the header comment).
+template <int E, int Bias>
+struct Float16Format {
+  static constexpr int kExpBits = E;
+  static constexpr int kManBits = 15 - E;
+  static constexpr int kBias = Bias;
+  static constexpr int kEmax = (1 << E) - 2 - Bias;  // exponent of the largest finite value
+  static constexpr int kEmin = 1 - Bias;             // exponent of the smallest normal value
+  static constexpr std::uint32_t kExpField = (1u << E) - 1;
+  static constexpr std::uint16_t kInf = static_cast<std::uint16_t>(kExpField << kManBits);
+  static constexpr std::uint16_t kNaN = static_cast<std::uint16_t>(kInf | (1u << (kManBits - 1)));
+  static_assert(E >= 2 && E <= 8 && kManBits >= 7 && kManBits <= 13, "a 16-bit format a float holds exactly");
+  static_assert(kEmin >= -126 + 1 && kEmax <= 127, "normal values of the format are normal floats");
+
+  // float -> code, round to nearest, ties to even.
+  LBDEM_HD static LBDEM_FORCEINLINE std::uint16_t encode(float x) {
+    constexpr int M = kManBits;
+    const std::uint32_t u = half_detail::float_bits(x);
+    const std::uint32_t sign = (u >> 16) & 0x8000u;
+    const std::uint32_t a = u & 0x7fffffffu;
+    if (a > 0x7f800000u) return static_cast<std::uint16_t>(sign | kNaN);
+    // The largest finite value plus half its spacing, 2^Emax (2 - 2^-(M+1)):
+    // a tie there rounds to the even neighbour, which is infinity (the largest
+    // finite value has an odd mantissa).
+    constexpr std::uint32_t kOverflow =
+        (static_cast<std::uint32_t>(kEmax + 127) << 23) | (((1u << (M + 1)) - 1u) << (22 - M));
+    if (a >= kOverflow) return static_cast<std::uint16_t>(sign | kInf);
+    constexpr std::uint32_t kMinNormal = static_cast<std::uint32_t>(kEmin + 127) << 23;
+    if (a >= kMinNormal) {
+      // Normal result: drop 23 - M mantissa bits rounding to nearest-even (a
+      // carry out of the mantissa moves into the exponent), then rebias.
+      constexpr int kShift = 23 - M;
+      const std::uint32_t r = a + ((1u << (kShift - 1)) - 1u) + ((a >> kShift) & 1u);
+      return static_cast<std::uint16_t>(sign | ((r >> kShift) - (static_cast<std::uint32_t>(127 - Bias) << M)));
+    }
+    // Subnormal result or zero: the value in units of the subnormal spacing
+    // 2^(Emin - M), rounded to an integer (2^M, the carry, is the smallest normal code).
+    const std::uint32_t e = a >> 23;
+    if (e == 0) return static_cast<std::uint16_t>(sign);  // float zero or subnormal: below 2^-126
+    const std::uint32_t mant = (a & 0x7fffffu) | 0x800000u;  // value = mant 2^(e - 150)
+    const std::uint32_t shift = static_cast<std::uint32_t>(150 + kEmin - M) - e;
+    if (shift > 24) return static_cast<std::uint16_t>(sign);  // below half the smallest subnormal
+    const std::uint32_t q = mant >> shift, rem = mant & ((1u << shift) - 1u), half = 1u << (shift - 1);
+    const std::uint32_t up = (rem > half || (rem == half && (q & 1u))) ? 1u : 0u;
+    return static_cast<std::uint16_t>(sign | (q + up));
+  }
+
+  // code -> float, exact.
+  LBDEM_HD static LBDEM_FORCEINLINE float decode(std::uint16_t h) {
+    constexpr int M = kManBits;
+    const std::uint32_t sign = static_cast<std::uint32_t>(h & 0x8000u) << 16;
+    const std::uint32_t e = (h >> M) & kExpField;
+    const std::uint32_t m = h & ((1u << M) - 1u);
+    if (e == kExpField) return half_detail::bits_float(sign | 0x7f800000u | (m << (23 - M)));
+    if (e == 0) {
+      // m 2^(Emin - M): an integer below 2^M times a power of two, exact in float.
+      const float v = static_cast<float>(m) * half_detail::bits_float(static_cast<std::uint32_t>(kEmin - M + 127) << 23);
+      return half_detail::bits_float(sign | half_detail::float_bits(v));
+    }
+    return half_detail::bits_float(sign | ((e + static_cast<std::uint32_t>(127 - Bias)) << 23) | (m << (23 - M)));
+  }
+};
+
+using Binary16Format = Float16Format<5, 15>;  // IEEE 754 binary16
+using Fp16cFormat = Float16Format<4, 15>;     // 1-4-11, values below 1
+
+// IEEE half storage. Trivially copyable, all-zero bits are +0; conversions are
+// explicit so that each one is visible in a kernel (static_cast).
+struct Fp16s {
+  using Format = Binary16Format;
+  std::uint16_t bits;
+  Fp16s() = default;
+  LBDEM_HD LBDEM_FORCEINLINE explicit Fp16s(float x) : bits(encode(x)) {}
+  // Through float: a double lands on a 16-bit tie only after rounding to float
+  // in cases far below the 16-bit spacing (set-up values only).
+  LBDEM_HD LBDEM_FORCEINLINE explicit Fp16s(double x) : bits(encode(static_cast<float>(x))) {}
+  LBDEM_HD LBDEM_FORCEINLINE explicit operator float() const { return decode(bits); }
+  LBDEM_HD LBDEM_FORCEINLINE explicit operator double() const { return static_cast<double>(decode(bits)); }
+
+  LBDEM_HD static LBDEM_FORCEINLINE std::uint16_t encode(float x) {
+#if defined(__CUDA_ARCH__)
+    return __half_as_ushort(__float2half_rn(x));
+#elif defined(__F16C__)
+    return static_cast<std::uint16_t>(_cvtss_sh(x, _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC));
+#else
+    return Format::encode(x);
+#endif
+  }
+  LBDEM_HD static LBDEM_FORCEINLINE float decode(std::uint16_t h) {
+#if defined(__CUDA_ARCH__)
+    return __half2float(__ushort_as_half(h));
+#elif defined(__F16C__)
+    return _cvtsh_ss(h);
+#else
+    return Format::decode(h);
+#endif
+  }
+};
+
+// The 1-4-11 format (header comment), same interface as Fp16s.
+struct Fp16c {
+  using Format = Fp16cFormat;
+  std::uint16_t bits;
+  Fp16c() = default;
+  LBDEM_HD LBDEM_FORCEINLINE explicit Fp16c(float x) : bits(Format::encode(x)) {}
+  LBDEM_HD LBDEM_FORCEINLINE explicit Fp16c(double x) : bits(Format::encode(static_cast<float>(x))) {}
+  LBDEM_HD LBDEM_FORCEINLINE explicit operator float() const { return Format::decode(bits); }
+  LBDEM_HD LBDEM_FORCEINLINE explicit operator double() const { return static_cast<double>(Format::decode(bits)); }
+  LBDEM_HD static LBDEM_FORCEINLINE std::uint16_t encode(float x) { return Format::encode(x); }
+  LBDEM_HD static LBDEM_FORCEINLINE float decode(std::uint16_t h) { return Format::decode(h); }
+};
+
+static_assert(sizeof(Fp16s) == 2 && sizeof(Fp16c) == 2, "16-bit storage");
+
+}  // namespace lbdem
