@@ -2,7 +2,10 @@
 # All four compute-sanitizer tools over the CUDA tests and the shipped scenes in one device call:
 # several scripts/gpu_sanitize.sh runs side by side ("lanes"), each with its own tools, tests and
 # gtest filter, started as soon as the executables it needs are built.
-#   scripts/gpu_sanitize_lanes.sh [SECONDS]     wall-time budget of the whole call (default 560)
+#   scripts/gpu_sanitize_lanes.sh [SECONDS] [SET]   SECONDS: wall-time budget of the whole call (default 560)
+#     SET  all (default): every tool over every test executable and scene, in one pass
+#          rest: a second call for what one call cannot hold: the long initcheck/racecheck runs split into
+#          narrower lanes, the scenes that took longest, cfd_tests, the 16-bit storage tests
 #   OUT            logs, per-lane summaries and summary.txt (default ./out/sanitize)
 #   LBDEM_COMMIT   the commit named in the summaries
 # Every sanitizer run has its own time limit (CS_T seconds); a run cut off by it reports "exit 124,
@@ -13,6 +16,7 @@
 set -uo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
 budget="${1:-560}"
+set_="${2:-all}"
 OUT="${OUT:-$here/out/sanitize}"
 mkdir -p "$OUT"
 t0=$(date +%s)
@@ -28,7 +32,7 @@ S="$here/scripts/gpu_sanitize.sh"
   cmake --build build-gpu -j16 --target lbdem lbm_tests >> "$OUT/build.log" 2>&1)
 echo "build lbdem lbm_tests: exit $? at $(( $(date +%s) - t0 )) s"
 (cd "$here" && cmake --build build-gpu -j12 --target dem_tests imb_tests >> "$OUT/build2.log" 2>&1
- echo "build dem_tests imb_tests: exit $? at $(( $(date +%s) - t0 )) s" >> "$OUT/build2.log") &
+ echo "build dem_tests imb_tests cfd_tests: exit $? at $(( $(date +%s) - t0 )) s" >> "$OUT/build2.log") &
 builder=$!
 lane() {  # lane NAME [VAR=VALUE...] -- TOOL...
   local name="$1"; shift
@@ -39,6 +43,21 @@ lane() {  # lane NAME [VAR=VALUE...] -- TOOL...
   mkdir -p "$OUT/$name/tmp"
   env "${env[@]}" TMPDIR="$OUT/$name/tmp" OUT="$OUT/$name" timeout "$(left)" bash "$S" "$@" > "$OUT/$name/lane.log" 2>&1
 }
+if [ "$set_" = rest ]; then
+  lane sc_sphere SCENES=1 "SCENE_GLOB=*sphere*" TESTS=none CS_T=150 -- initcheck memcheck &
+  lane sc_disk SCENES=1 SCENE_GLOB=fixed_disk TESTS=none CS_T=200 -- initcheck &
+  lane sc_susp SCENES=1 SCENE_GLOB=suspension TESTS=none CS_T=200 -- initcheck &
+  lane sc_bed SCENES=1 "SCENE_GLOB=fluidized_bed*" TESTS=none CS_T=100 -- memcheck initcheck &
+  lane lbm_init SCENES=0 TESTS=lbm CS_T=400 "FILTER=*/cuda*:-*FluidHaloExchange*:*GhostLayers*:*Sweep*" -- initcheck &
+  lane lbm_fp16 SCENES=0 TESTS=lbm CS_T=300 "FILTER=*Fp16*/cuda*:*fp16*cuda*" -- memcheck &
+  wait $builder
+  tail -1 "$OUT/build2.log"
+  lane imb_init SCENES=0 TESTS=imb CS_T=400 -- initcheck &
+  lane dem_mem SCENES=0 TESTS=dem CS_T=300 -- memcheck &
+  lane dem_init SCENES=0 TESTS=dem CS_T=300 -- initcheck &
+  lane dem_race SCENES=0 TESTS=dem CS_T=300 "FILTER=*DemNeighbours*/cuda*" -- racecheck &
+  lane cfd_all SCENES=0 TESTS=cfd CS_T=120 -- memcheck racecheck initcheck synccheck &
+else
 # Lanes on the fluid: they need only lbdem and lbm_tests.
 lane scenes_init SCENES=1 TESTS=none CS_T=60 -- initcheck &
 lane lbm_init SCENES=0 TESTS=lbm CS_T=300 -- initcheck &
@@ -51,6 +70,7 @@ lane imb_race SCENES=0 TESTS=imb CS_T=240 "FILTER=*PsmFused*/cuda*:*PsmParts*:*C
 lane dem_race SCENES=0 TESTS=dem CS_T=200 -- racecheck &
 lane imb_dem_sync SCENES=0 "TESTS=imb dem" CS_T=200 -- synccheck &
 lane disk_race SCENES=1 SCENE_GLOB=fixed_disk TESTS=none CS_T=200 -- racecheck &
+fi
 wait
 { echo "# compute-sanitizer lanes, $(( $(date +%s) - t0 )) s"; cat "$OUT"/*/summary.txt 2>/dev/null; } > "$OUT/summary.txt"
 grep -hE "^(memcheck|racecheck|initcheck|synccheck)" "$OUT/summary.txt" | sort
