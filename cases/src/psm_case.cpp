@@ -15,6 +15,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <memory>
 #include <sstream>
@@ -186,6 +187,7 @@ struct ParticlesCase {
   std::vector<std::int64_t> track;
   std::string outdir;
   double max_mach = 0.3;
+  bool fields_fp32 = false;  // output.field_precision
 };
 
 ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
@@ -302,6 +304,9 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
   c.outdir = o.text("directory");
   c.output_interval = o.integer_in("interval", 0, 0, std::numeric_limits<long>::max());
   c.series_interval = o.integer_in("series_interval", 100, 1, std::numeric_limits<long>::max());
+  // Fields on disk: float64, float32, or the populations' precision (fluid.precision).
+  const std::string fp = o.choice("field_precision", "fp64", {"fp64", "fp32", "storage"});
+  c.fields_fp32 = fp == "fp32" || (fp == "storage" && s.precision == lbm::Precision::FP32);
   o.finish();
   root.accept("scene");
   root.finish();
@@ -316,17 +321,23 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
   // particles, DEM sub-steps, unbalanced weight), naming the key to change.
   cases::check_particles_scene(root, s, p, c.particles, c.coupling.gravity, c.balance, c.coupling.dem_substeps, c.steps, opt);
   imb::check_coupled_setup(s, p, c.particles, c.coupling);
+  // Every device allocation of the run, by component, before any is made (exit 4 when it does not fit).
+  cases::check_coupled_memory(root, s, c.coupling, static_cast<double>(c.particles.size()), opt);
   return c;
 }
 
 int run_particles_case(const Config& root, const RunOptions& opt) {
   ParticlesCase c = parse_particles(root, opt);
   const Backend backend = resolve_backend(opt.backend);
-  const std::size_t need = lbm::lbm_memory_estimate(c.setup);
-  if (need > backend_free_bytes(backend))
-    throw ResourceError("key 'domain.cells': the grid needs " + std::to_string(need >> 20) + " MiB but " +
-                      std::to_string(backend_free_bytes(backend) >> 20) + " MiB are free");
-  if (opt.validate_only) return 0;
+  const MemoryUse planned = cases::coupled_memory(c.setup, c.coupling, static_cast<double>(c.particles.size()), backend);
+  const double cells = static_cast<double>(c.setup.domain.global_cells());
+  if (opt.validate_only) {
+    std::printf("%s: device memory (%s, %s, %s pipeline), %.4g cells, %lld particles:\n%s", root.source().c_str(),
+                to_string(backend), lbm::to_string(c.setup.precision),
+                imb::to_string(imb::resolve_pipeline(c.coupling.psm, c.coupling.slots)), cells,
+                static_cast<long long>(c.particles.size()), cases::memory_table(planned, cells).c_str());
+    return 0;
+  }
   io::prepare_output_dir(c.outdir, opt.overwrite);
   auto fluid = lbm::make_lbm_solver(c.setup, backend);
   const auto& n = c.setup.domain.local;
@@ -364,15 +375,18 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
                          "max_mach", "particle_momentum_x", "particle_momentum_y", "particle_momentum_z",
                          "mean_vx", "mean_vy", "mean_vz", "x0", "y0", "z0", "vx0", "vy0", "vz0", "wx0", "wy0", "wz0",
                          "fx0", "fy0", "fz0", "tx0", "ty0", "tz0"});
-  std::vector<double> rho, u;
+  gw.set_float32(c.fields_fp32);
+  // Fields leave the device slab by slab through the staging buffers the
+  // solver and the coupling reserved at start: output allocates no device memory.
   auto write_output = [&](long step) {
     const auto hf = cs.hydro_force_host();
     cases::write_particle_snapshot(pw, step, double(step), dem.download(), {{"hydrodynamic_force", 3, hf.data()}});
-    fluid->macroscopic(rho, u);
-    const auto eps = cs.solid_fraction_host();
-    gw.write(step, double(step),
-             {{"density", 1, rho.data(), "lattice"}, {"velocity", 3, u.data(), "lattice (cells per step)"},
-              {"solid_fraction", 1, eps.data(), "1"}});
+    gw.write_slabs(step, double(step),
+                   {{"density", 1, "lattice"}, {"velocity", 3, "lattice (cells per step)"}, {"solid_fraction", 1, "1"}},
+                   fluid->output_slab_cells(), [&](const CellBox& b, const std::vector<double*>& out) {
+                     fluid->macroscopic_box(b, out[0], out[1]);
+                     cs.solid_fraction_box(b, out[2]);
+                   });
   };
   const auto d0 = fluid->diagnostics();
   auto series_row = [&](long step) {
@@ -435,7 +449,17 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
   js << "{\n  \"scene\": \"particles\",\n  \"particles\": " << dem.size() << ",\n  \"steps\": " << step
      << ",\n  \"steps_planned\": " << c.steps << ",\n  \"seconds\": " << secs << ",\n  \"coupled_mlups\": "
      << double(N) * step / std::max(secs, 1e-12) / 1e6 << ",\n  \"backend\": \"" << to_string(backend)
-     << "\",\n  \"interrupted\": " << (interrupted ? "true" : "false") << "\n}\n";
+     << "\",\n  \"interrupted\": " << (interrupted ? "true" : "false");
+  {
+    // Device memory held by the fluid and the coupling (their buffers), by component.
+    MemoryUse held = fluid->memory_use();
+    held.add(cs.memory_use());
+    js << ",\n  \"memory_bytes\": {";
+    for (std::size_t i = 0; i < held.items.size(); ++i)
+      js << (i ? ", " : "") << "\"" << held.items[i].name << "\": " << held.items[i].bytes;
+    js << "},\n  \"memory_bytes_per_cell\": " << double(held.total()) / cells;
+  }
+  js << "\n}\n";
   io::write_text_atomically(c.outdir + "/summary.json", js.str());
   if (interrupted) {
     spdlog::warn("stopped by {} at step {} of {}; output up to that step is in {}", stop_signal_name(), step, c.steps,
