@@ -18,6 +18,7 @@
 #include <cstdio>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <sstream>
 #include <spdlog/spdlog.h>
 
@@ -28,6 +29,7 @@
 #include "cases/particle_output.hpp"
 #include "cases/scenes.hpp"
 #include "scene_checks.hpp"
+#include "core/async_writer.hpp"
 #include "core/error.hpp"
 #include "core/output.hpp"
 #include "core/progress.hpp"
@@ -188,6 +190,7 @@ struct ParticlesCase {
   std::string outdir;
   double max_mach = 0.3;
   bool fields_fp32 = false;  // output.field_precision
+  bool async_output = false;  // output.background
 };
 
 ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
@@ -307,6 +310,9 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
   // Fields on disk: float64, float32, or the populations' precision (fluid.precision).
   const std::string fp = o.choice("field_precision", "fp64", {"fp64", "fp32", "storage"});
   c.fields_fp32 = fp == "fp32" || (fp == "storage" && s.precision == lbm::Precision::FP32);
+  // Snapshots copied to host memory (40 B per cell) and written by a host
+  // thread while the run goes on; off: written slab by slab, no host copy of the grid.
+  c.async_output = o.boolean("background", false);
   o.finish();
   root.accept("scene");
   root.finish();
@@ -376,9 +382,46 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
                          "mean_vx", "mean_vy", "mean_vz", "x0", "y0", "z0", "vx0", "vy0", "vz0", "wx0", "wy0", "wz0",
                          "fx0", "fy0", "fz0", "tx0", "ty0", "tz0"});
   gw.set_float32(c.fields_fp32);
+  // Background output (output.background): the writer thread owns every HDF5
+  // call from here on; declared after the writers, so it finishes its jobs
+  // before they go.
+  std::optional<io::BackgroundWriter> bg;
+  if (c.async_output) bg.emplace();
+  struct Snapshot {
+    long step = 0;
+    dem::HostParticles particles;
+    std::vector<double> force, rho, u, eps;
+  };
   // Fields leave the device slab by slab through the staging buffers the
   // solver and the coupling reserved at start: output allocates no device memory.
   auto write_output = [&](long step) {
+    if (bg) {
+      // The previous snapshot is written by now (one host copy of the grid at
+      // a time); this one is copied out slab by slab and handed to the thread.
+      bg->wait();
+      auto snap = std::make_shared<Snapshot>();
+      snap->step = step;
+      snap->force = cs.hydro_force_host();
+      snap->particles = dem.download();
+      snap->rho.resize(N);
+      snap->u.resize(3 * N);
+      snap->eps.resize(N);
+      const GridView g = c.setup.domain.view();
+      for (const CellBox& b : slabs_of(c.setup.domain.owned(), fluid->output_slab_cells())) {
+        // A slab of whole layers, whole rows or one row piece of the whole grid: contiguous in storage.
+        const auto c0 = static_cast<std::size_t>(g.index(b.lo[0], b.lo[1], b.lo[2]));
+        fluid->macroscopic_box(b, snap->rho.data() + c0, snap->u.data() + 3 * c0);
+        cs.solid_fraction_box(b, snap->eps.data() + c0);
+      }
+      bg->submit([snap, &pw, &gw] {
+        const double t = double(snap->step);
+        cases::write_particle_snapshot(pw, snap->step, t, snap->particles, {{"hydrodynamic_force", 3, snap->force.data()}});
+        gw.write(snap->step, t,
+                 {{"density", 1, snap->rho.data(), "lattice"}, {"velocity", 3, snap->u.data(), "lattice (cells per step)"},
+                  {"solid_fraction", 1, snap->eps.data(), "1"}});
+      });
+      return;
+    }
     const auto hf = cs.hydro_force_host();
     cases::write_particle_snapshot(pw, step, double(step), dem.download(), {{"hydrodynamic_force", 3, hf.data()}});
     gw.write_slabs(step, double(step),
@@ -444,6 +487,7 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
   cs.check_overflow();
   const double secs = std::chrono::duration<double>(clk::now() - t0).count();
   if (c.output_interval == 0 || step % c.output_interval != 0) write_output(step);
+  if (bg) bg->wait();  // every snapshot on disk (a write failure surfaces here) before the summary
   const bool interrupted = step < c.steps;
   std::ostringstream js;
   js << "{\n  \"scene\": \"particles\",\n  \"particles\": " << dem.size() << ",\n  \"steps\": " << step
