@@ -280,11 +280,22 @@ double lbm_grid_bytes(const lbm::LbmSetup& s, double cells) {
          4.0 * sizeof(double) * std::min(cells, static_cast<double>(kOutputSlabCells));
 }
 
+// DEM device memory of a coupled scene per particle, an upper bound from the
+// DEM's layout (dem/src/particle_store.hpp, neighbour_list.hpp): 23 records
+// of 32 bytes (state, its reorder copy, previous forces and velocities,
+// coupling input) plus id and type twice; eight ints of sort and list
+// bookkeeping; and the neighbour list at its first capacity of 32 slots
+// (fitted down after the first build), each an index and a tangential
+// history (24 bytes) and their copies from the previous build. The cell
+// grid of the DEM (a few bytes per particle cell) is not counted.
+constexpr double kCoupledDemBytesPerParticle = 23 * 32 + 2 * (8 + 4) + 8 * 4 + 32 * 2 * (4 + 24);
+
 MemoryUse coupled_memory(const lbm::LbmSetup& fluid, const imb::CoupledParams& cp, double particles, Backend b) {
   const auto n = static_cast<Index>(std::max(0.0, std::ceil(particles)));
   MemoryUse m = lbm::lbm_memory(fluid);
   m.add(imb::psm_memory(fluid, cp.slots, cp.psm, n, b == Backend::Cuda));
-  if (n > 0) m.add("DEM particles and lists", static_cast<std::size_t>(static_cast<double>(n) * kDemDeviceBytesPerParticle));
+  if (n > 0)
+    m.add("DEM particles and lists", static_cast<std::size_t>(static_cast<double>(n) * kCoupledDemBytesPerParticle));
   return m;
 }
 

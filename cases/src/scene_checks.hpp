@@ -101,7 +101,8 @@ double lbm_grid_bytes(const lbm::LbmSetup& s, double cells);
 // Device memory of a coupled run by component, before anything is allocated:
 // the fluid's (lbm::lbm_memory), the PSM coupling's (imb::psm_memory, for
 // `particles` particles of the largest radius cp.psm.map.max_radius) and the
-// DEM's ("DEM particles and lists", kDemDeviceBytesPerParticle each).
+// DEM's ("DEM particles and lists": an upper bound per particle from the
+// DEM's layout; its neighbour-list capacity is fitted at the first build).
 MemoryUse coupled_memory(const lbm::LbmSetup& fluid, const imb::CoupledParams& cp, double particles, Backend b);
 // The table `lbdem check` prints: one line per component (bytes per cell and
 // total), then the total.
