@@ -409,6 +409,30 @@ int run_parsed(LbmCase& c, const RunOptions& opt) {
   }
   std::vector<double> rho, u, flagd(c.flags.begin(), c.flags.end()), p;
   auto write_fields = [&](long step) {
+    if (!fluid.distributed()) {
+      // One rank: slab by slab through the solver's output staging (no
+      // whole-grid field on the device or the host).
+      lbm::LbmSolver& ls = fluid.local();
+      const GridView g = s.domain.view();
+      writer->write_slabs(
+          step, step * U.dt,
+          {{"density", 1, "kg/m^3"}, {"velocity", 3, "m/s"}, {"pressure", 1, "Pa (deviation from the reference)"},
+           {"boundary", 1, "0 fluid, k boundary entry"}},
+          ls.output_slab_cells(), [&](const CellBox& b, const std::vector<double*>& out) {
+            ls.macroscopic_box(b, out[0], out[1]);
+            Index t = 0;
+            for (int z = b.lo[2]; z < b.lo[2] + b.ext[2]; ++z)
+              for (int y = b.lo[1]; y < b.lo[1] + b.ext[1]; ++y)
+                for (int x = b.lo[0]; x < b.lo[0] + b.ext[0]; ++x, ++t) {
+                  const std::uint8_t f = c.flags[static_cast<std::size_t>(g.index(x, y, z))];
+                  out[2][t] = f ? 0.0 : U.to_si_pressure(out[0][t] - 1.0);
+                  out[0][t] *= U.rho;
+                  out[3][t] = f;
+                }
+            for (Index i = 0; i < 3 * t; ++i) out[1][i] = U.to_si_velocity(out[1][i]);
+          });
+      return;
+    }
     solver->macroscopic(rho, u);
     if (!root) return;
     p.resize(rho.size());

@@ -22,8 +22,10 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <sstream>
 #include <spdlog/spdlog.h>
 
@@ -36,6 +38,7 @@
 #include "core/units.hpp"
 #include "cases/scenes.hpp"
 #include "scene_checks.hpp"
+#include "core/async_writer.hpp"
 #include "core/error.hpp"
 #include "core/output.hpp"
 #include "core/progress.hpp"
@@ -213,6 +216,8 @@ struct ParticlesCase {
   double solid_fraction = 0;  // sum of the particle volumes over the fluid box
   int dim = 3;
   std::array<long, 3> fluid_lo{0, 0, 0}, fluid_hi{1, 1, 1};
+  bool fields_fp32 = false;  // output.field_precision
+  bool async_output = false;  // output.background
 };
 
 // The particle scene in SI units (units: physical): the keys whose meaning
@@ -463,6 +468,12 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
   c.outdir = o.text("directory");
   c.output_interval = o.integer_in("interval", 0, 0, std::numeric_limits<long>::max());
   c.series_interval = o.integer_in("series_interval", 100, 1, std::numeric_limits<long>::max());
+  // Fields on disk: float64, float32, or the populations' precision (fluid.precision).
+  const std::string fp = o.choice("field_precision", "fp64", {"fp64", "fp32", "storage"});
+  c.fields_fp32 = fp == "fp32" || (fp == "storage" && s.precision == lbm::Precision::FP32);
+  // Snapshots copied to host memory (40 B per cell) and written by a host
+  // thread while the run goes on; off: written slab by slab, no host copy of the grid.
+  c.async_output = o.boolean("background", false);
   o.finish();
   root.accept("scene");
   root.finish();
@@ -484,6 +495,8 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
     for (Index i = 0; i < c.particles.size(); ++i) scale = std::max(scale, 2 * c.particles.r[static_cast<std::size_t>(i)]);
     for (const auto& w : lbm::storage_warnings(s, 0.0, scale, double(c.steps))) spdlog::warn("{}: {}", root.source(), w);
   }
+  // Every device allocation of the run, by component, before any is made (exit 4 when it does not fit).
+  cases::check_coupled_memory(root, s, c.coupling, static_cast<double>(c.particles.size()), opt);
   return c;
 }
 
@@ -618,11 +631,15 @@ std::string particles_summary(const ParticlesCase& c, const cases::ParticleSerie
 int run_particles_case(const Config& root, const RunOptions& opt) {
   ParticlesCase c = parse_particles(root, opt);
   const Backend backend = resolve_backend(opt.backend);
-  const std::size_t need = lbm::lbm_memory_estimate(c.setup);
-  if (need > backend_free_bytes(backend))
-    throw ResourceError("key 'domain.cells': the grid needs " + std::to_string(need >> 20) + " MiB but " +
-                      std::to_string(backend_free_bytes(backend) >> 20) + " MiB are free");
-  if (opt.validate_only) return 0;
+  const MemoryUse planned = cases::coupled_memory(c.setup, c.coupling, static_cast<double>(c.particles.size()), backend);
+  const double cells = static_cast<double>(c.setup.domain.global_cells());
+  if (opt.validate_only) {
+    std::printf("%s: device memory (%s, %s, %s pipeline), %.4g cells, %lld particles:\n%s", root.source().c_str(),
+                to_string(backend), lbm::to_string(c.setup.precision),
+                imb::to_string(imb::resolve_pipeline(c.coupling.psm, c.coupling.slots)), cells,
+                static_cast<long long>(c.particles.size()), cases::memory_table(planned, cells).c_str());
+    return 0;
+  }
   io::prepare_output_dir(c.outdir, opt.overwrite);
   auto fluid = lbm::make_lbm_solver(c.setup, backend);
   const auto& n = c.setup.domain.local;
@@ -655,16 +672,55 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
                  imb::to_string(c.coupling.psm.map.method), imb::to_string(cs.coupling().pipeline()), c.outdir);
   io::ParticleWriter pw(c.outdir, "particles");
   io::GridWriter gw(c.outdir, "fields", c.setup.domain);
-  std::vector<double> rho, u;
+  gw.set_float32(c.fields_fp32);
+  // Background output (output.background): the writer thread owns every HDF5
+  // call from here on; declared after the writers, so it finishes its jobs
+  // before they go.
+  std::optional<io::BackgroundWriter> bg;
+  if (c.async_output) bg.emplace();
+  struct Snapshot {
+    long step = 0;
+    dem::HostParticles particles;
+    std::vector<double> force, rho, u, eps;
+  };
+  // Fields leave the device slab by slab through the staging buffers the
+  // solver and the coupling reserved at start: output allocates no device memory.
   auto write_output = [&](long step) {
+    if (bg) {
+      // The previous snapshot is written by now (one host copy of the grid at
+      // a time); this one is copied out slab by slab and handed to the thread.
+      bg->wait();
+      auto snap = std::make_shared<Snapshot>();
+      snap->step = step;
+      snap->force = cs.hydro_force_host();
+      snap->particles = dem.download();
+      snap->rho.resize(N);
+      snap->u.resize(3 * N);
+      snap->eps.resize(N);
+      const GridView g = c.setup.domain.view();
+      for (const CellBox& b : slabs_of(c.setup.domain.owned(), fluid->output_slab_cells())) {
+        // A slab of whole layers, whole rows or one row piece of the whole grid: contiguous in storage.
+        const auto c0 = static_cast<std::size_t>(g.index(b.lo[0], b.lo[1], b.lo[2]));
+        fluid->macroscopic_box(b, snap->rho.data() + c0, snap->u.data() + 3 * c0);
+        cs.solid_fraction_box(b, snap->eps.data() + c0);
+      }
+      bg->submit([snap, &pw, &gw, dt = c.units.dt] {
+        const double t = double(snap->step) * dt;
+        cases::write_particle_snapshot(pw, snap->step, t, snap->particles, {{"hydrodynamic_force", 3, snap->force.data()}});
+        gw.write(snap->step, t,
+                 {{"density", 1, snap->rho.data(), "lattice"}, {"velocity", 3, snap->u.data(), "lattice (cells per step)"},
+                  {"solid_fraction", 1, snap->eps.data(), "1"}});
+      });
+      return;
+    }
     const auto hf = cs.hydro_force_host();
-    cases::write_particle_snapshot(pw, step, double(step) * c.units.dt, dem.download(),
-                                   {{"hydrodynamic_force", 3, hf.data()}});
-    fluid->macroscopic(rho, u);
-    const auto eps = cs.solid_fraction_host();
-    gw.write(step, double(step) * c.units.dt,
-             {{"density", 1, rho.data(), "lattice"}, {"velocity", 3, u.data(), "lattice (cells per step)"},
-              {"solid_fraction", 1, eps.data(), "1"}});
+    cases::write_particle_snapshot(pw, step, double(step) * c.units.dt, dem.download(), {{"hydrodynamic_force", 3, hf.data()}});
+    gw.write_slabs(step, double(step) * c.units.dt,
+                   {{"density", 1, "lattice"}, {"velocity", 3, "lattice (cells per step)"}, {"solid_fraction", 1, "1"}},
+                   fluid->output_slab_cells(), [&](const CellBox& b, const std::vector<double*>& out) {
+                     fluid->macroscopic_box(b, out[0], out[1]);
+                     cs.solid_fraction_box(b, out[2]);
+                   });
   };
   cases::ParticleSeries series(c.outdir + "/series.csv", cs, suspension_stats_spec(c), c.units.dt);
   series.average_from(c.steps / 2);  // the mean slip of summary.json: the run's second half
@@ -707,8 +763,20 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
   cs.check_overflow();
   const double secs = std::chrono::duration<double>(clk::now() - t0).count();
   if (c.output_interval == 0 || step % c.output_interval != 0) write_output(step);
+  if (bg) bg->wait();  // every snapshot on disk (a write failure surfaces here) before the summary
   const bool interrupted = step < c.steps;
-  const std::string js = particles_summary(c, series, dem.size(), step, secs, double(N), backend, interrupted);
+  std::string js = particles_summary(c, series, dem.size(), step, secs, double(N), backend, interrupted);
+  {
+    // Device memory held by the fluid and the coupling (their buffers), by component.
+    MemoryUse held = fluid->memory_use();
+    held.add(cs.memory_use());
+    std::ostringstream mj;
+    mj << ",\n  \"memory_bytes\": {";
+    for (std::size_t i = 0; i < held.items.size(); ++i)
+      mj << (i ? ", " : "") << "\"" << held.items[i].name << "\": " << held.items[i].bytes;
+    mj << "},\n  \"memory_bytes_per_cell\": " << double(held.total()) / double(N) << "\n}\n";
+    js = js.substr(0, js.rfind("\n}")) + mj.str();
+  }
   io::write_text_atomically(c.outdir + "/summary.json", js);
   if (interrupted) {
     spdlog::warn("stopped by {} at step {} of {}; output up to that step is in {}", stop_signal_name(), step, c.steps,

@@ -302,8 +302,65 @@ Backend planned_backend(const RunOptions& opt) {
 double lbm_grid_bytes(const lbm::LbmSetup& s, double cells) {
   const double tsize = lbm::storage_bytes(s.precision);
   const double lattices = s.streaming == lbm::StreamKind::AA ? 1 : 2;
-  // As lbm_memory_estimate: populations, rho + u for output, one flag byte.
-  return cells * (lbm::lattice_q(s.lattice) * tsize * lattices + 4 * sizeof(double) + 1);
+  // As lbm::lbm_memory: populations, one flag byte, the output staging (rho + u of one slab).
+  return cells * (lbm::lattice_q(s.lattice) * tsize * lattices + 1) +
+         4.0 * sizeof(double) * std::min(cells, static_cast<double>(kOutputSlabCells));
+}
+
+// DEM device memory of a coupled scene per particle, an upper bound from the
+// DEM's layout (dem/src/particle_store.hpp, neighbour_list.hpp): 23 records
+// of 32 bytes (state, its reorder copy, previous forces and velocities,
+// coupling input) plus id and type twice; eight ints of sort and list
+// bookkeeping; and the neighbour list at its first capacity of 32 slots
+// (fitted down after the first build), each an index and a tangential
+// history (24 bytes) and their copies from the previous build. The cell
+// grid of the DEM (a few bytes per particle cell) is not counted.
+constexpr double kCoupledDemBytesPerParticle = 23 * 32 + 2 * (8 + 4) + 8 * 4 + 32 * 2 * (4 + 24);
+
+MemoryUse coupled_memory(const lbm::LbmSetup& fluid, const imb::CoupledParams& cp, double particles, Backend b) {
+  const auto n = static_cast<Index>(std::max(0.0, std::ceil(particles)));
+  MemoryUse m = lbm::lbm_memory(fluid);
+  m.add(imb::psm_memory(fluid, cp.slots, cp.psm, n, b == Backend::Cuda));
+  if (n > 0)
+    m.add("DEM particles and lists", static_cast<std::size_t>(static_cast<double>(n) * kCoupledDemBytesPerParticle));
+  return m;
+}
+
+std::string memory_table(const MemoryUse& m, double cells) {
+  std::string out;
+  char line[160];
+  auto row = [&](const std::string& name, double bytes) {
+    std::snprintf(line, sizeof line, "  %-26s %9.2f B/cell %12.1f MiB\n", name.c_str(), bytes / std::max(cells, 1.0),
+                  bytes / 1048576.0);
+    out += line;
+  };
+  for (const auto& it : m.items) row(it.name, static_cast<double>(it.bytes));
+  row("total", static_cast<double>(m.total()));
+  return out;
+}
+
+void check_coupled_memory(const Config& root, const lbm::LbmSetup& fluid, const imb::CoupledParams& cp,
+                          double particles, const RunOptions& opt) {
+  double cells = 1;
+  for (int a = 0; a < 3; ++a) cells *= static_cast<double>(fluid.domain.global[static_cast<std::size_t>(a)]);
+  const Backend b = planned_backend(opt);
+  // Absurd sizes first, in double (the exact sum below is in 64-bit integers).
+  check_memory(root, b, lbm_grid_bytes(fluid, cells) + particles * kDemDeviceBytesPerParticle,
+               cells * (1 + 4 * sizeof(double)) + particles * kDemHostBytesPerParticle, "domain.cells, particles",
+               "the grid of " + num(cells) + " cells with " + num(particles) + " particles",
+               "use fewer cells or particles, or precision: fp32");
+  const MemoryUse m = coupled_memory(fluid, cp, particles, b);
+  std::vector<MemoryItem> big = m.items;
+  std::sort(big.begin(), big.end(), [](const MemoryItem& x, const MemoryItem& y) { return x.bytes > y.bytes; });
+  std::string parts;
+  for (std::size_t i = 0; i < big.size() && i < 3; ++i)
+    parts += (i ? ", " : "") + big[i].name + " " + num(static_cast<double>(big[i].bytes) / cells) + " B/cell";
+  // Host: the set-up fields of initialize() (flag byte, rho, u per cell) and the particles' host copies.
+  check_memory(root, b, static_cast<double>(m.total()),
+               cells * (1 + 4 * sizeof(double)) + particles * kDemHostBytesPerParticle, "domain.cells, particles",
+               "the grid of " + num(cells) + " cells with " + num(particles) + " particles (" +
+                   num(static_cast<double>(m.total()) / cells) + " B/cell: " + parts + ")",
+               "use fewer cells or particles, or precision: fp32");
 }
 
 void check_memory(const Config& root, Backend b, double device_bytes, double host_bytes, const std::string& key,
@@ -482,8 +539,8 @@ void check_particles_memory(const Config& root, const lbm::LbmSetup& fluid, doub
   double cells = 1;
   for (int a = 0; a < 3; ++a) cells *= static_cast<double>(fluid.domain.global[static_cast<std::size_t>(a)]);
   const double dev = lbm_grid_bytes(fluid, cells) + particles * kDemDeviceBytesPerParticle;
-  // Host: set-up flags, rho, u and the output copies (as the fluid scenes), the particles' host copies.
-  const double host = cells * (1 + 5 * sizeof(double)) + particles * kDemHostBytesPerParticle;
+  // Host: the set-up fields of initialize() (flags, rho, u), the particles' host copies.
+  const double host = cells * (1 + 4 * sizeof(double)) + particles * kDemHostBytesPerParticle;
   check_memory(root, planned_backend(opt), dev, host, particles > 0 ? "domain.cells, particles.solid_fraction" : "domain.cells",
                "the grid of " + num(cells) + " cells" + (particles > 0 ? " with about " + num(particles) + " particles" : ""),
                "use fewer cells" + std::string(particles > 0 ? ", a lower solid fraction or larger particles" : "") +
@@ -523,7 +580,7 @@ void check_particles_scene(const Config& root, const lbm::LbmSetup& fluid, const
   for (int a = 0; a < 3; ++a) cells *= static_cast<double>(fluid.domain.global[static_cast<std::size_t>(a)]);
   const double n = static_cast<double>(p.x.size());
   check_memory(root, planned_backend(opt), lbm_grid_bytes(fluid, cells) + n * kDemDeviceBytesPerParticle,
-               cells * (1 + 5 * sizeof(double)) + n * kDemHostBytesPerParticle, "domain.cells, particles",
+               cells * (1 + 4 * sizeof(double)) + n * kDemHostBytesPerParticle, "domain.cells, particles",
                "the grid of " + num(cells) + " cells with " + num(n) + " particles",
                "use fewer cells or particles, or precision: fp32");
   check_plan(root, opt, double(steps), cells, n * dem_substeps, opt.steps ? "--steps" : "time.steps");

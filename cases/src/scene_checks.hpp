@@ -29,6 +29,7 @@
 #include "core/exec.hpp"
 #include "dem/particles.hpp"
 #include "dem/system.hpp"
+#include "imb/coupled.hpp"
 #include "lbm/solver.hpp"
 
 namespace lbdem::cases {
@@ -94,9 +95,22 @@ void check_particles_mach(const Config& root, const lbm::LbmSetup& fluid, const 
 // The backend a run with these options will use (as resolve_backend, without
 // its log line).
 Backend planned_backend(const RunOptions& opt);
-// Bytes of a lattice Boltzmann grid of `cells` cells (lbm_memory_estimate per
+// Bytes of a lattice Boltzmann grid of `cells` cells (lbm::lbm_memory per
 // cell, in double so that absurd sizes do not wrap).
 double lbm_grid_bytes(const lbm::LbmSetup& s, double cells);
+// Device memory of a coupled run by component, before anything is allocated:
+// the fluid's (lbm::lbm_memory), the PSM coupling's (imb::psm_memory, for
+// `particles` particles of the largest radius cp.psm.map.max_radius) and the
+// DEM's ("DEM particles and lists": an upper bound per particle from the
+// DEM's layout; its neighbour-list capacity is fitted at the first build).
+MemoryUse coupled_memory(const lbm::LbmSetup& fluid, const imb::CoupledParams& cp, double particles, Backend b);
+// The table `lbdem check` prints: one line per component (bytes per cell and
+// total), then the total.
+std::string memory_table(const MemoryUse& m, double cells);
+// Refuses (ResourceError, exit 4) a coupled run whose coupled_memory() does
+// not fit the backend's free memory, naming the biggest components.
+void check_coupled_memory(const Config& root, const lbm::LbmSetup& fluid, const imb::CoupledParams& cp,
+                          double particles, const RunOptions& opt);
 // Bytes per DEM particle: host copies (the case's HostParticles and the
 // solver's download) and the solver's own arrays (state, sort, cell and
 // neighbour lists): a lower bound, so that a refusal is certain.

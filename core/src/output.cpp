@@ -44,6 +44,8 @@ class H5Id {
   }
   H5Id(const H5Id&) = delete;
   H5Id& operator=(const H5Id&) = delete;
+  H5Id(H5Id&& o) noexcept : id_(o.id_), close_(o.close_) { o.id_ = -1; }
+  H5Id& operator=(H5Id&&) = delete;
   hid_t get() const { return id_; }
   bool ok() const { return id_ >= 0; }
   // Closes now and returns the status (closing a file writes what HDF5 still caches).
@@ -117,20 +119,16 @@ void check_name(const std::string& name, const std::string& file) {
                 "' is not valid: use a non-empty name without '/', '\"', '<' or '&'");
 }
 
-// Writes a float64 dataset of the given shape, with an optional `units` string attribute.
-void write_dataset(hid_t file, const std::string& path, const std::string& name, const std::vector<hsize_t>& dims,
-                   const double* data, const std::string& units) {
-  hsize_t total = 1;
-  for (hsize_t d : dims) total *= d;
-  if (total > 0 && data == nullptr) throw Error("output field '" + name + "' for '" + path + "' has no data");
+// Creates a dataset of the given shape, float64 (or float32: HDF5 converts the
+// doubles handed to H5Dwrite), with an optional `units` string attribute.
+H5Id create_dataset(hid_t file, const std::string& path, const std::string& name, const std::vector<hsize_t>& dims,
+                    bool fp32, const std::string& units) {
   H5Id space(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr), H5Sclose);
   if (!space.ok()) h5_fail(path, "H5Screate_simple for '" + name + "'");
-  H5Id dset(H5Dcreate2(file, name.c_str(), H5T_IEEE_F64LE, space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+  H5Id dset(H5Dcreate2(file, name.c_str(), fp32 ? H5T_IEEE_F32LE : H5T_IEEE_F64LE, space.get(), H5P_DEFAULT,
+                       H5P_DEFAULT, H5P_DEFAULT),
             H5Dclose);
   if (!dset.ok()) h5_fail(path, "H5Dcreate2 of dataset '" + name + "'");
-  if (total > 0)
-    h5_check(H5Dwrite(dset.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, data), path,
-             "H5Dwrite of dataset '" + name + "'");
   if (!units.empty()) {
     H5Id type(H5Tcopy(H5T_C_S1), H5Tclose);
     if (!type.ok()) h5_fail(path, "H5Tcopy");
@@ -142,6 +140,38 @@ void write_dataset(hid_t file, const std::string& path, const std::string& name,
     if (!attr.ok()) h5_fail(path, "H5Acreate2 'units' on '" + name + "'");
     h5_check(H5Awrite(attr.get(), type.get(), units.c_str()), path, "H5Awrite 'units' on '" + name + "'");
   }
+  return dset;
+}
+
+// Writes a whole dataset of the given shape (float64, or float32 converted from the doubles).
+void write_dataset(hid_t file, const std::string& path, const std::string& name, const std::vector<hsize_t>& dims,
+                   const double* data, const std::string& units, bool fp32 = false) {
+  hsize_t total = 1;
+  for (hsize_t d : dims) total *= d;
+  if (total > 0 && data == nullptr) throw Error("output field '" + name + "' for '" + path + "' has no data");
+  H5Id dset = create_dataset(file, path, name, dims, fp32, units);
+  if (total > 0)
+    h5_check(H5Dwrite(dset.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, data), path,
+             "H5Dwrite of dataset '" + name + "'");
+}
+
+// Writes the cells of `box` (cells z y x of the dataset, x fastest, then the
+// components) from `data` into an open dataset of shape (nz, ny, nx[, comps]).
+void write_box(hid_t dset, const std::string& path, const std::string& name, const CellBox& box, int comps,
+               const double* data) {
+  H5Id fspace(H5Dget_space(dset), H5Sclose);
+  if (!fspace.ok()) h5_fail(path, "H5Dget_space of '" + name + "'");
+  const hsize_t start[4] = {static_cast<hsize_t>(box.lo[2]), static_cast<hsize_t>(box.lo[1]),
+                            static_cast<hsize_t>(box.lo[0]), 0};
+  const hsize_t count[4] = {static_cast<hsize_t>(box.ext[2]), static_cast<hsize_t>(box.ext[1]),
+                            static_cast<hsize_t>(box.ext[0]), static_cast<hsize_t>(comps)};
+  h5_check(H5Sselect_hyperslab(fspace.get(), H5S_SELECT_SET, start, nullptr, count, nullptr), path,
+           "H5Sselect_hyperslab of '" + name + "'");
+  const hsize_t m = static_cast<hsize_t>(box.size()) * static_cast<hsize_t>(comps);
+  H5Id mspace(H5Screate_simple(1, &m, nullptr), H5Sclose);
+  if (!mspace.ok()) h5_fail(path, "H5Screate_simple for '" + name + "'");
+  h5_check(H5Dwrite(dset, H5T_NATIVE_DOUBLE, mspace.get(), fspace.get(), H5P_DEFAULT, data), path,
+           "H5Dwrite of a slab of dataset '" + name + "'");
 }
 
 // The Polyvertex connectivity of n points: 0, 1, ..., n-1 as 64-bit integers.
@@ -279,12 +309,12 @@ const char* xdmf_tail() { return "  </Grid>\n </Domain>\n</Xdmf>\n"; }
 // One <Attribute> of a grid: `dims` the data's leading dimensions (cells z y x,
 // or the particle count), a trailing component count for non-scalars.
 void xdmf_attribute(std::ostream& x, const std::string& name, int comps, const char* center, const std::string& dims,
-                    const std::string& file) {
+                    const std::string& file, int bytes = 8) {
   x << "    <Attribute Name=\"" << name << "\" AttributeType=\"" << attribute_type(comps) << "\" Center=\"" << center
     << "\">\n";
   x << "     <DataItem Dimensions=\"" << dims;
   if (comps > 1) x << ' ' << comps;
-  x << "\" NumberType=\"Float\" Precision=\"8\" Format=\"HDF\">" << file << ":/" << name << "</DataItem>\n";
+  x << "\" NumberType=\"Float\" Precision=\"" << bytes << "\" Format=\"HDF\">" << file << ":/" << name << "</DataItem>\n";
   x << "    </Attribute>\n";
 }
 
@@ -320,31 +350,72 @@ GridWriter::GridWriter(std::string dir, std::string prefix, const Grid& grid)
     : GridWriter(std::move(dir), std::move(prefix), whole_grid_for_output(grid).global, grid.origin,
                  {grid.spacing, grid.spacing, grid.spacing}) {}
 
+namespace {
+void check_fields(const std::vector<std::pair<std::string, int>>& fields, const std::string& path) {
+  std::set<std::string> seen;
+  for (const auto& [name, comps] : fields) {
+    check_name(name, path);
+    if (!seen.insert(name).second) throw Error("output field '" + name + "' given twice for '" + path + "'");
+    if (comps < 1) throw Error("output field '" + name + "' has components = " + std::to_string(comps) + " (must be >= 1)");
+  }
+}
+}  // namespace
+
 std::string GridWriter::write(long step, double time, const std::vector<GridField>& fields) {
+  std::vector<std::pair<std::string, int>> names;
+  for (const auto& f : fields) names.emplace_back(f.name, f.components);
+  return write_file(step, time, names, [&](hid_t h5, const std::string& path) {
+    for (const auto& f : fields) write_dataset(h5, path, f.name, shape(f.components), f.data, f.units, fp32_);
+  });
+}
+
+std::string GridWriter::write_slabs(long step, double time, const std::vector<SlabField>& fields, Index slab_cells,
+                                    const SlabFill& fill) {
+  std::vector<std::pair<std::string, int>> names;
+  for (const auto& f : fields) names.emplace_back(f.name, f.components);
+  CellBox all;
+  for (int a = 0; a < 3; ++a) all.ext[a] = static_cast<int>(dims_[static_cast<std::size_t>(a)]);
+  const std::vector<CellBox> slabs = slabs_of(all, slab_cells);
+  // Host slab buffers: grown once to the largest request, then reused.
+  if (slab_.size() < fields.size()) slab_.resize(fields.size());
+  std::vector<double*> out(fields.size());
+  for (std::size_t f = 0; f < fields.size(); ++f) {
+    const auto need = static_cast<std::size_t>(std::max<Index>(slab_cells, 1)) * static_cast<std::size_t>(std::max(fields[f].components, 1));
+    if (slab_[f].size() < need) slab_[f].resize(need);
+    out[f] = slab_[f].data();
+  }
+  return write_file(step, time, names, [&](hid_t h5, const std::string& path) {
+    std::vector<H5Id> dsets;
+    dsets.reserve(fields.size());
+    for (const auto& f : fields) dsets.push_back(create_dataset(h5, path, f.name, shape(f.components), fp32_, f.units));
+    for (const CellBox& b : slabs) {
+      fill(b, out);
+      for (std::size_t f = 0; f < fields.size(); ++f) write_box(dsets[f].get(), path, fields[f].name, b, fields[f].components, out[f]);
+    }
+  });
+}
+
+std::vector<unsigned long long> GridWriter::shape(int components) const {
+  std::vector<unsigned long long> s{static_cast<unsigned long long>(dims_[2]), static_cast<unsigned long long>(dims_[1]),
+                                    static_cast<unsigned long long>(dims_[0])};
+  if (components > 1) s.push_back(static_cast<unsigned long long>(components));
+  return s;
+}
+
+std::string GridWriter::write_file(long step, double time, const std::vector<std::pair<std::string, int>>& fields,
+                                   const std::function<void(std::int64_t, const std::string&)>& body) {
   const std::string file = prefix_ + "_" + step_tag(step) + ".h5";
   const std::string path = (fs::path(dir_) / file).string();
-  std::set<std::string> seen;
-  for (const auto& f : fields) {
-    check_name(f.name, path);
-    if (!seen.insert(f.name).second) throw Error("output field '" + f.name + "' given twice for '" + path + "'");
-    if (f.components < 1)
-      throw Error("output field '" + f.name + "' has components = " + std::to_string(f.components) + " (must be >= 1)");
-  }
+  check_fields(fields, path);
   // Re-writing a step (restart) replaces its entry instead of duplicating it.
   auto it = std::find_if(entries_.begin(), entries_.end(), [&](const Entry& x) { return x.step == step; });
   if (it == entries_.end()) record_in_manifest(dir_, file);
   write_h5_atomically(path, [&](hid_t h5) {
     write_scalar_attr(h5, path, "time", time);
     write_scalar_attr(h5, path, "step", static_cast<double>(step));
-    for (const auto& f : fields) {
-      std::vector<hsize_t> shape{static_cast<hsize_t>(dims_[2]), static_cast<hsize_t>(dims_[1]),
-                                 static_cast<hsize_t>(dims_[0])};
-      if (f.components > 1) shape.push_back(static_cast<hsize_t>(f.components));
-      write_dataset(h5, path, f.name, shape, f.data, f.units);
-    }
+    body(h5, path);
   });
-  Entry e{step, time, file, {}};
-  for (const auto& f : fields) e.fields.emplace_back(f.name, f.components);
+  Entry e{step, time, file, fields, fp32_ ? 4 : 8};
   if (it != entries_.end()) {
     *it = e;
   } else {
@@ -373,7 +444,7 @@ void GridWriter::write_xdmf() {
     x << "     <DataItem Dimensions=\"3\" NumberType=\"Float\" Precision=\"8\" Format=\"XML\">" << num(spacing_[2])
       << " " << num(spacing_[1]) << " " << num(spacing_[0]) << "</DataItem>\n";
     x << "    </Geometry>\n";
-    for (const auto& [name, comps] : e.fields) xdmf_attribute(x, name, comps, "Cell", cell_dims, e.file);
+    for (const auto& [name, comps] : e.fields) xdmf_attribute(x, name, comps, "Cell", cell_dims, e.file, e.bytes);
     x << "   </Grid>\n";
   }
   x << xdmf_tail();

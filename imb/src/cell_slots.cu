@@ -540,6 +540,33 @@ void CellSlots::throw_if_overflow() const {
   if (r.overflow || r.radius_too_large) throw ResourceError(r.message);
 }
 
+namespace {
+struct SlotEpsBox {
+  CellSlotsView s;
+  CellBox box;
+  double* out;
+  LBDEM_HD void operator()(Index cell, int x, int y, int z) const {
+    out[(x - box.lo[0]) + static_cast<Index>(box.ext[0]) * ((y - box.lo[1]) + static_cast<Index>(box.ext[1]) * (z - box.lo[2]))] =
+        s.total_eps(cell);
+  }
+};
+}  // namespace
+
+void CellSlots::total_eps_box(const Exec& ex, const CellBox& box, double* out) const {
+  if (box.empty()) return;
+  for_each_cell(ex, gv_, box, SlotEpsBox{view(), box, out});
+}
+
+MemoryUse CellSlots::memory_use() const {
+  MemoryUse m;
+  m.add("cell slots", count_.bytes() + particle_.bytes() + eps_.bytes() + vel_.bytes());
+  m.add("slot pairs", pair_.bytes());
+  m.add("overflow logs", flags_.bytes() + log_cell_.bytes() + log_particle_.bytes());
+  m.add("fraction table", global_table_.bytes());
+  m.add("exact queue", queue_.bytes());
+  return m;
+}
+
 std::vector<double> CellSlots::total_eps_host() const {
   const auto cnt = counts_host();
   const auto eps = eps_host();

@@ -177,6 +177,10 @@ std::vector<double> xyz_host(Backend b, const dem::Real4* d, Index n) {
 
 std::vector<double> CoupledSolver::solid_fraction_host() { return output_slots().total_eps_host(); }
 
+void CoupledSolver::solid_fraction_box(const CellBox& box, double* eps) {
+  psm_->solid_fraction_box(particle_view(), p_.psm, box, eps);
+}
+
 const CellSlots& CoupledSolver::output_slots() { return psm_->output_slots(particle_view(), p_.psm); }
 
 std::vector<double> CoupledSolver::hydro_force_host() const {

@@ -1,5 +1,8 @@
 #include "imb/psm_coupling.hpp"
 
+#include <algorithm>
+#include <cmath>
+
 #include "psm_fused_impl.hpp"
 
 namespace lbdem::imb {
@@ -56,6 +59,7 @@ PsmPipeline resolve_pipeline(const PsmOptions& o, int K) {
 PsmCoupling::PsmCoupling(lbm::LbmSolver& solver, int K)
     : solver_(solver), K_(K), ex_(solver.backend()) {
   if (K < 1) throw ConfigError("PSM slots per cell K = " + std::to_string(K) + ": must be >= 1");
+  stage_ = Buffer<double>(solver.backend(), solver.output_slab_cells());
 }
 
 PsmCoupling::~PsmCoupling() = default;
@@ -253,6 +257,97 @@ const CellSlots& PsmCoupling::output_slots(const PsmParticles& p, const PsmOptio
     mapped_slots().map(ex_, p, m);  // output only: not in the time loop's path
   }
   return *slots_;
+}
+
+void PsmCoupling::solid_fraction_box(const PsmParticles& p, const PsmOptions& opt, const CellBox& box, double* eps) {
+  if (box.empty()) return;
+  if (box.size() > stage_.size())
+    throw Error("PsmCoupling::solid_fraction_box: a box of " + std::to_string(box.size()) +
+                " cells exceeds the output staging buffer of " + std::to_string(stage_.size()) + " cells");
+  const auto m = static_cast<std::size_t>(box.size());
+  if (pipeline_ == PsmPipeline::Fused && tiles_) {
+    const float* values = nullptr;
+    if (opt.map.method == FractionMethod::Table && opt.map.table)
+      values = ex_.on_device() ? table_.data() : opt.map.table->values.data();
+    tiles_->total_eps(ex_, p, opt.map.method, opt.map.table, values, opt.map.linear_normalised, box, stage_.data());
+  } else if (slots_ && p.n > 0) {
+    slots_->total_eps_box(ex_, box, stage_.data());
+  } else {
+    std::fill(eps, eps + m, 0.0);  // nothing mapped: no solid
+    return;
+  }
+  ex_.synchronize();
+  backend_copy_to_host(ex_.backend(), eps, stage_.data(), m * sizeof(double));
+}
+
+MemoryUse PsmCoupling::memory_use() const {
+  MemoryUse m;
+  if (tiles_) m.add(tiles_->memory_use());
+  if (slots_) m.add(slots_->memory_use());
+  if (slot_forces_.size()) m.add("slot forces", slot_forces_.bytes());
+  if (table_.size()) m.add("fraction table", table_.bytes());
+  m.add("output staging", stage_.bytes());
+  MemoryUse r;  // zero-byte components dropped (as psm_memory)
+  for (const auto& it : m.items)
+    if (it.bytes > 0) r.add(it.name, it.bytes);
+  return r;
+}
+
+namespace {
+// Floats of the default fraction table (build_fraction_table's node counts:
+// 3D 32 x 11 x 11, 2D 64 x 32, two coefficients a node).
+std::size_t fraction_table_values(int dim) {
+  TableGeometry g;
+  g.dim = dim;
+  g.nt = dim == 3 ? 32 : 64;
+  g.nu = dim == 3 ? 11 : 32;
+  g.nv = dim == 3 ? 11 : 1;
+  return static_cast<std::size_t>(g.floats());
+}
+}  // namespace
+
+MemoryUse psm_memory(const lbm::LbmSetup& s, int K, const PsmOptions& opt, Index particles, bool device) {
+  const GridView g = s.domain.view();
+  const int dim = s.lattice == lbm::LatticeKind::D2Q9 ? 2 : 3;
+  const auto n = static_cast<std::size_t>(g.n);
+  const auto np = static_cast<std::size_t>(particles);
+  const int B = static_cast<int>(std::floor(2.0 * std::max(opt.map.max_radius, 0.0))) + 2;
+  const std::size_t table_bytes =
+      opt.map.method == FractionMethod::Table ? (opt.map.table ? opt.map.table->values.size() : fraction_table_values(dim)) *
+                                                    sizeof(float)
+                                              : 0;
+  constexpr std::size_t kLog = 1024;  // overflow log entries (TileMap, CellSlots defaults)
+  MemoryUse m;
+  if (resolve_pipeline(opt, K) == PsmPipeline::Fused) {
+    const TileShape t = TileShape::for_dim(dim);
+    auto tiles_on = [](Index cells, int T) { return static_cast<std::size_t>((cells + T - 1) / T); };
+    const std::size_t tiles = tiles_on(g.nx, t.tx) * tiles_on(g.ny, t.ty) * tiles_on(g.nz, t.tz);
+    const auto cap = static_cast<std::size_t>(opt.tile_capacity);
+    m.add("tile lists", tiles * sizeof(int) + 2 * tiles * cap * sizeof(int));
+    const std::size_t max_tiles = static_cast<std::size_t>(2 + (B - 1) / t.tx) * static_cast<std::size_t>(2 + (B - 1) / t.ty) *
+                                  (dim == 3 ? static_cast<std::size_t>(2 + (B - 1) / t.tz) : 1);
+    m.add("tile partial forces", np * max_tiles * 6 * sizeof(double));
+    m.add("overflow logs", 4 * sizeof(int) + 2 * kLog * (sizeof(Index) + sizeof(int)));
+    if (device) m.add("fraction table", table_bytes);
+  } else if (np > 0) {
+    const auto k = static_cast<std::size_t>(K);
+    m.add("cell slots", n * (sizeof(int) + k * (sizeof(int) + sizeof(double) + 3 * sizeof(float))));
+    m.add("slot pairs", np * static_cast<std::size_t>(dim == 3 ? B * B * B : B * B) * sizeof(int));
+    m.add("overflow logs", 4 * sizeof(int) + kLog * (sizeof(Index) + sizeof(int)));
+    if (device && !opt.map.table_in_constant) m.add("fraction table", table_bytes);
+    if (opt.map.method == FractionMethod::Exact && opt.map.defer_exact) {
+      const double rmax = std::max(opt.map.max_radius, 0.0);
+      const double ro = rmax + std::sqrt(static_cast<double>(dim)), ri = std::max(rmax - std::sqrt(double(dim)), 0.0);
+      const double shell = dim == 3 ? 4.0 / 3.0 * M_PI * (ro * ro * ro - ri * ri * ri) : M_PI * (ro * ro - ri * ri);
+      m.add("exact queue", np * static_cast<std::size_t>(std::ceil(shell)) * sizeof(Index));
+    }
+    m.add("slot forces", static_cast<std::size_t>(SlotForceView::kComponents) * k * n * sizeof(double));
+  }
+  m.add("output staging", static_cast<std::size_t>(lbm::lbm_stage_cells(s)) * sizeof(double));
+  MemoryUse r;
+  for (const auto& it : m.items)
+    if (it.bytes > 0) r.add(it.name, it.bytes);
+  return r;
 }
 
 std::vector<double> PsmCoupling::solid_fraction_host(const PsmParticles& p, const PsmOptions& opt) {

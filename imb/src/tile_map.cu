@@ -9,6 +9,7 @@
 
 #include "core/algorithms.hpp"
 #include "core/error.hpp"
+#include "imb/fraction_eval.hpp"
 #include "imb/psm_coupling.hpp"
 #include "map_functors.hpp"
 
@@ -23,6 +24,15 @@ LBDEM_HD inline int atomic_add(int* p, int v) {
   return __atomic_fetch_add(p, v, __ATOMIC_RELAXED);
 #endif
 }
+
+// Zeros the box-ordered output of a box (no particles: no solid).
+struct ZeroBox {
+  CellBox box;
+  double* out;
+  LBDEM_HD void operator()(Index, int x, int y, int z) const {
+    out[(x - box.lo[0]) + static_cast<Index>(box.ext[0]) * ((y - box.lo[1]) + static_cast<Index>(box.ext[1]) * (z - box.lo[2]))] = 0.0;
+  }
+};
 
 LBDEM_HD inline Index wrap_index(Index i, Index n) {
   i %= n;
@@ -241,6 +251,128 @@ void TileMap::finish(const Exec& ex, const SphereView& p, const ForceOut& out) c
 }
 
 void TileMap::clear_overflow(const Exec& ex) { for_each(ex, flags_.size(), ZeroInts{flags_.data()}); }
+
+namespace {
+
+// Total solid fraction of the cells of a box from the tile lists, for output:
+// per cell, its tile's candidates, each tested over the cells of its bounding
+// box [floor(c - R), floor(c + R)] with the image and the offsets the slot map
+// takes (cell_slots.cu: the image nearest this piece, the unwrapped cell
+// index, offsets formed in the global frame), ε in double, the overlaps kept in
+// particle-index order and the first K summed: the slot map's sorted slots
+// and CellSlotsView::total_eps, bit for bit, without per-cell slot arrays.
+template <int Dim, FractionMethod M>
+struct TileEpsKernel {
+  static constexpr int kKept = 2 * kFusedMaxSlots;  // more than K overlaps is an overflow (reported by the step)
+  TileView tv;
+  SphereView p;
+  FractionOf<Dim, M, PointerTableAccess, double> frac;
+  int K;
+  CellBox box;
+  double* out;  // box.size() values, box x-fastest
+
+  // Unwrapped index of storage cell x in the particle's box [i0, i1] on an
+  // axis of n cells, or false when the box misses it.
+  LBDEM_HD static bool image(Index x, Index i0, Index i1, Index n, bool periodic, Index& gi) {
+    gi = periodic ? i0 + wrap_index(x - i0, n) : x;
+    return gi >= i0 && gi <= i1;
+  }
+
+  LBDEM_HD void operator()(Index, int x, int y, int z) const {
+    const GridView& g = tv.g;
+    const Index o = (x - box.lo[0]) + static_cast<Index>(box.ext[0]) * ((y - box.lo[1]) + static_cast<Index>(box.ext[1]) * (z - box.lo[2]));
+    const Index tile = x / tv.t.tx + static_cast<Index>(tv.ntx) * (y / tv.t.ty + static_cast<Index>(tv.nty) * (z / tv.t.tz));
+    const int nc = tv.count[tile] < tv.capacity ? tv.count[tile] : tv.capacity;
+    int kept_p[kKept];
+    double kept_e[kKept];
+    int m = 0;
+    for (int c = 0; c < nc; ++c) {
+      const int pi = tv.particle[tile * tv.capacity + c];
+      const Index po = static_cast<Index>(pi) * p.stride;
+      const double R = p.r[po];
+      const double xg = g.nearest_image(0, p.x[po]), yg = g.nearest_image(1, p.y[po]);
+      const double zg = Dim == 3 ? g.nearest_image(2, p.z[po]) : 0.5;
+      const double cx = xg - g.shift[0], cy = yg - g.shift[1], cz = Dim == 3 ? zg - g.shift[2] : 0.5;
+      Index gi, gj, gk = 0;
+      if (!image(x, static_cast<Index>(floor(cx - R)), static_cast<Index>(floor(cx + R)), g.nx, g.periodic[0], gi)) continue;
+      if (!image(y, static_cast<Index>(floor(cy - R)), static_cast<Index>(floor(cy + R)), g.ny, g.periodic[1], gj)) continue;
+      if (Dim == 3 &&
+          !image(z, static_cast<Index>(floor(cz - R)), static_cast<Index>(floor(cz + R)), g.nz, g.periodic[2], gk))
+        continue;
+      const double rx = (static_cast<double>(gi) + g.shift[0]) + 0.5 - xg;
+      const double ry = (static_cast<double>(gj) + g.shift[1]) + 0.5 - yg;
+      const double rz = Dim == 3 ? (static_cast<double>(gk) + g.shift[2]) + 0.5 - zg : gk + 0.5 - cz;
+      const double e = frac(rx, ry, rz, R);
+      if (!(e > 0.0)) continue;
+      // Insert in particle-index order, keeping the kKept smallest indices.
+      int at = m < kKept ? m : kKept;
+      while (at > 0 && kept_p[at - 1] > pi) --at;
+      if (at >= kKept) continue;
+      for (int k = (m < kKept ? m : kKept - 1); k > at; --k) {
+        kept_p[k] = kept_p[k - 1];
+        kept_e[k] = kept_e[k - 1];
+      }
+      kept_p[at] = pi;
+      kept_e[at] = e;
+      if (m < kKept) ++m;
+    }
+    double sum = 0.0;
+    for (int k = 0; k < m && k < K; ++k) sum += kept_e[k];
+    out[o] = sum;
+  }
+};
+
+template <int Dim, FractionMethod M>
+void launch_tile_eps(const Exec& ex, const TileView& tv, const SphereView& p, const FractionTable* table,
+                     const float* values, bool linear_normalised, int K, const CellBox& box, double* out) {
+  TileEpsKernel<Dim, M> k{};
+  k.tv = tv;
+  k.p = p;
+  k.frac.linear_normalised = linear_normalised;
+  if (table) k.frac.g = table->geometry;
+  k.frac.tab.p = values;
+  k.K = K;
+  k.box = box;
+  k.out = out;
+  for_each_cell(ex, tv.g, box, k);
+}
+
+}  // namespace
+
+void TileMap::total_eps(const Exec& ex, const SphereView& p, FractionMethod method, const FractionTable* table,
+                        const float* table_values, bool linear_normalised, const CellBox& box, double* out) const {
+  if (box.empty()) return;
+  if (method == FractionMethod::Exact)
+    throw ConfigError("TileMap::total_eps: the fused pipeline has no exact fractions");
+  if (method == FractionMethod::Table && (!table || !table_values))
+    throw ConfigError("TileMap::total_eps: solid-fraction method 'table' needs a table");
+  if (p.n == 0 || built_particles_ != p.n) {
+    for_each_cell(ex, gv_, box, ZeroBox{box, out});
+    return;
+  }
+  const TileView tv = view();
+  const int dim = grid_.dim();
+  if (dim == 3) {
+    if (method == FractionMethod::Table)
+      launch_tile_eps<3, FractionMethod::Table>(ex, tv, p, table, table_values, linear_normalised, K_, box, out);
+    else
+      launch_tile_eps<3, FractionMethod::Linear>(ex, tv, p, table, table_values, linear_normalised, K_, box, out);
+  } else {
+    if (method == FractionMethod::Table)
+      launch_tile_eps<2, FractionMethod::Table>(ex, tv, p, table, table_values, linear_normalised, K_, box, out);
+    else
+      launch_tile_eps<2, FractionMethod::Linear>(ex, tv, p, table, table_values, linear_normalised, K_, box, out);
+  }
+}
+
+MemoryUse TileMap::memory_use() const {
+  MemoryUse m;
+  m.add("tile lists", count_.bytes() + particle_.bytes() + entry_.bytes());
+  m.add("tile partial forces", partial_.bytes());
+  m.add("overflow logs", flags_.bytes() + log_cell_.bytes() + log_particle_.bytes() + log_tile_.bytes() +
+                             log_tile_particle_.bytes());
+  return m;
+}
 
 OverflowReport TileMap::overflow() const {
   OverflowReport r;

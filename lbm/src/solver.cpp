@@ -1,5 +1,6 @@
 #include "lbm/solver.hpp"
 
+#include <algorithm>
 #include <stdexcept>
 
 #include "core/error.hpp"
@@ -43,15 +44,21 @@ int storage_bytes(Precision p) {
 const char* to_string(CollisionKind k) { return k == CollisionKind::BGK ? "bgk" : "trt"; }
 const char* to_string(StreamKind k) { return k == StreamKind::AA ? "aa" : "two_lattice"; }
 
-std::size_t lbm_memory_estimate(const LbmSetup& s) {
+Index lbm_stage_cells(const LbmSetup& s) { return std::min<Index>(kOutputSlabCells, s.domain.view().n); }
+
+MemoryUse lbm_memory(const LbmSetup& s) {
   const GridView g = s.domain.view();
   const std::size_t stride = static_cast<std::size_t>((g.n + 63) / 64 * 64);
   const auto tsize = static_cast<std::size_t>(storage_bytes(s.precision));
   const std::size_t lattices = s.streaming == StreamKind::AA ? 1 : 2;
-  const std::size_t pops = stride * static_cast<std::size_t>(lattice_q(s.lattice)) * tsize * lattices;
-  const std::size_t macro = static_cast<std::size_t>(g.n) * 4 * sizeof(double);  // rho + u for output
-  return pops + macro + static_cast<std::size_t>(g.n);
+  MemoryUse m;
+  m.add("populations", stride * static_cast<std::size_t>(lattice_q(s.lattice)) * tsize * lattices);
+  m.add("flags", static_cast<std::size_t>(g.n));
+  m.add("output staging", 4 * static_cast<std::size_t>(lbm_stage_cells(s)) * sizeof(double));
+  return m;
 }
+
+std::size_t lbm_memory_estimate(const LbmSetup& s) { return lbm_memory(s).total(); }
 
 std::unique_ptr<LbmSolver> make_lbm_solver(const LbmSetup& s, Backend b) {
   if (s.tau <= 0.5) throw ConfigError("tau = " + std::to_string(s.tau) + ": must be > 0.5 (viscosity (tau-1/2)/3 > 0)");

@@ -39,6 +39,9 @@ class SolverImpl final : public LbmSolver {
     f0_ = Buffer<T>(b, stride_ * L::Q);
     if (s_.streaming == StreamKind::TwoLattice) f1_ = Buffer<T>(b, stride_ * L::Q);
     flags_ = Buffer<std::uint8_t>(b, g_.n);
+    // Output and initial state pass through this buffer a slab at a time
+    // (lbm_memory): reserved now, so that no output ever allocates.
+    stage_ = Buffer<double>(b, 4 * lbm_stage_cells(s_));
     flags_.fill_zero();
     f0_.fill_zero();
     if (f1_.size()) f1_.fill_zero();
@@ -63,16 +66,33 @@ class SolverImpl final : public LbmSolver {
       if (v != 0 && v != kGhostFlag && static_cast<int>(v) > s_.boundaries.count)
         throw Error("LbmSolver::initialize: cell flag " + std::to_string(v) + " names no boundary entry (the case has " +
                     std::to_string(s_.boundaries.count) + ")");
-    ensure_macro_buffers();
-    rho_d_.copy_from_host(rho);
-    u_d_.copy_from_host(u);
+    // Slab by slab over every storage cell (ghosts included) through the staging buffer.
     const PopView<T> dst{f0_.data(), stride_};
-    if (s_.streaming == StreamKind::AA)
-      for_each(ex_, g_.n, InitKernel<L, T, StreamKind::AA>{dst, g_, rho_d_.data(), u_d_.data()});
-    else
-      for_each(ex_, g_.n, InitKernel<L, T, StreamKind::TwoLattice>{dst, g_, rho_d_.data(), u_d_.data()});
+    CellBox all;
+    all.ext[0] = g_.nx;
+    all.ext[1] = g_.ny;
+    all.ext[2] = g_.nz;
+    const Index cap = stage_.size() / 4;
+    std::vector<double> hr(static_cast<std::size_t>(cap)), hu(3 * static_cast<std::size_t>(cap));
+    for (const CellBox& box : slabs_of(all, cap)) {
+      const Index m = box.size();
+      Index o = 0;
+      for (int z = box.lo[2]; z < box.lo[2] + box.ext[2]; ++z)
+        for (int y = box.lo[1]; y < box.lo[1] + box.ext[1]; ++y, o += box.ext[0]) {
+          const auto c = static_cast<std::size_t>(g_.index(box.lo[0], y, z));
+          std::copy_n(rho.begin() + static_cast<long>(c), box.ext[0], hr.begin() + o);
+          std::copy_n(u.begin() + static_cast<long>(3 * c), 3 * box.ext[0], hu.begin() + 3 * o);
+        }
+      backend_copy_from_host(ex_.backend(), stage_.data(), hr.data(), static_cast<std::size_t>(m) * sizeof(double));
+      backend_copy_from_host(ex_.backend(), stage_.data() + cap, hu.data(), 3 * static_cast<std::size_t>(m) * sizeof(double));
+      if (s_.streaming == StreamKind::AA)
+        for_each_cell(ex_, g_, box, InitKernel<L, T, StreamKind::AA>{dst, g_, box, stage_.data(), stage_.data() + cap});
+      else
+        for_each_cell(ex_, g_, box,
+                      InitKernel<L, T, StreamKind::TwoLattice>{dst, g_, box, stage_.data(), stage_.data() + cap});
+      ex_.synchronize();  // the staging buffer is reused by the next slab
+    }
     t_ = 0;
-    ex_.synchronize();
   }
 
   void step(long n) override {
@@ -113,16 +133,43 @@ class SolverImpl final : public LbmSolver {
   }
 
   void macroscopic(std::vector<double>& rho, std::vector<double>& u) override {
-    ensure_macro_buffers();
+    // Every storage cell; ghosts (never computed) stay 0.
+    rho.assign(static_cast<std::size_t>(g_.n), 0.0);
+    u.assign(3 * static_cast<std::size_t>(g_.n), 0.0);
+    const Index cap = stage_.size() / 4;
+    std::vector<double> hr(static_cast<std::size_t>(cap)), hu(3 * static_cast<std::size_t>(cap));
+    for (const CellBox& box : slabs_of(owned_, cap)) {
+      macroscopic_box(box, hr.data(), hu.data());
+      Index o = 0;
+      for (int z = box.lo[2]; z < box.lo[2] + box.ext[2]; ++z)
+        for (int y = box.lo[1]; y < box.lo[1] + box.ext[1]; ++y, o += box.ext[0]) {
+          const auto c = static_cast<std::size_t>(g_.index(box.lo[0], y, z));
+          std::copy_n(hr.begin() + o, box.ext[0], rho.begin() + static_cast<long>(c));
+          std::copy_n(hu.begin() + 3 * o, 3 * box.ext[0], u.begin() + static_cast<long>(3 * c));
+        }
+    }
+  }
+
+  void macroscopic_box(const CellBox& box, double* rho, double* u) override {
+    const Index cap = stage_.size() / 4;
+    for (int a = 0; a < 3; ++a)
+      if (box.lo[a] < 0 || box.ext[a] < 0 || box.lo[a] + box.ext[a] > g_.extent(a))
+        throw Error("LbmSolver::macroscopic_box: the box leaves the storage cells along axis " + std::to_string(a));
+    if (box.size() > cap)
+      throw Error("LbmSolver::macroscopic_box: a box of " + std::to_string(box.size()) +
+                  " cells exceeds the output staging buffer of " + std::to_string(cap) + " cells");
+    if (box.empty()) return;
     with_parity([&](auto S, auto P) {
-      for_each_cell(ex_, g_, owned_,
-               MacroKernel<L, T, decltype(S)::value, decltype(P)::value>{
-                   src_view(), g_, has_bnd_ ? flags_.data() : nullptr,
-                   {s_.body_force[0], s_.body_force[1], s_.body_force[2]}, rho_d_.data(), u_d_.data()});
+      for_each_cell(ex_, g_, box,
+                    MacroKernel<L, T, decltype(S)::value, decltype(P)::value>{
+                        src_view(), g_, has_bnd_ ? flags_.data() : nullptr,
+                        {s_.body_force[0], s_.body_force[1], s_.body_force[2]}, box, stage_.data(),
+                        stage_.data() + cap});
     });
     ex_.synchronize();
-    rho = rho_d_.to_vector();
-    u = u_d_.to_vector();
+    const auto m = static_cast<std::size_t>(box.size());
+    backend_copy_to_host(ex_.backend(), rho, stage_.data(), m * sizeof(double));
+    backend_copy_to_host(ex_.backend(), u, stage_.data() + cap, 3 * m * sizeof(double));
   }
 
   LbmDiagnostics diagnostics() override {
@@ -163,8 +210,13 @@ class SolverImpl final : public LbmSolver {
 
   void synchronize() override { ex_.synchronize(); }
   long steps_done() const override { return t_; }
-  std::size_t memory_bytes() const override {
-    return f0_.bytes() + f1_.bytes() + flags_.bytes() + rho_d_.bytes() + u_d_.bytes();
+  std::size_t memory_bytes() const override { return memory_use().total(); }
+  MemoryUse memory_use() const override {
+    MemoryUse m;
+    m.add("populations", f0_.bytes() + f1_.bytes());
+    m.add("flags", flags_.bytes());
+    m.add("output staging", stage_.bytes());
+    return m;
   }
   const LbmSetup& setup() const override { return s_; }
   Backend backend() const override { return ex_.backend(); }
@@ -201,18 +253,6 @@ class SolverImpl final : public LbmSolver {
 
   PopView<T> src_view() const { return PopView<T>{f0_.data(), stride_}; }
 
-  void ensure_macro_buffers() {
-    // Zeroed once: cells outside the owned box (ghosts) are never written.
-    if (rho_d_.size() != g_.n) {
-      rho_d_ = Buffer<double>(ex_.backend(), g_.n);
-      rho_d_.fill_zero();
-    }
-    if (u_d_.size() != 3 * g_.n) {
-      u_d_ = Buffer<double>(ex_.backend(), 3 * g_.n);
-      u_d_.fill_zero();
-    }
-  }
-
   template <StreamKind S, int P, bool B, bool F>
   void run(const CellBox& box, const Exec& ex) {
     StepKernel<L, T, S, P, B, F> k;
@@ -237,7 +277,7 @@ class SolverImpl final : public LbmSolver {
   Index stride_ = 0;
   Buffer<T> f0_, f1_;
   Buffer<std::uint8_t> flags_;
-  Buffer<double> rho_d_, u_d_;
+  Buffer<double> stage_;  // output staging: rho [0, cap), u [cap, 4 cap)
   Scratch scratch_;
   bool has_bnd_ = false;
   bool force_ = false;

@@ -19,10 +19,13 @@
 #include <array>
 #include <cstdint>
 #include <fstream>
+#include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/grid.hpp"
+#include "core/memory_use.hpp"
 
 namespace lbdem::io {
 
@@ -34,6 +37,17 @@ struct GridField {
   const double* data = nullptr;  // host, size nx*ny*nz*components
   std::string units;             // stored as an HDF5 attribute
 };
+
+// A field written slab by slab (GridWriter::write_slabs).
+struct SlabField {
+  std::string name;
+  int components = 1;
+  std::string units;
+};
+// Fills the values of every field for the cells of `box` (global cell
+// coordinates): out[f] receives box.size() * components doubles, box
+// x-fastest, a cell's components side by side.
+using SlabFill = std::function<void(const CellBox& box, const std::vector<double*>& out)>;
 
 // Structured grid output (2D grids use nz = 1).
 class GridWriter {
@@ -49,15 +63,39 @@ class GridWriter {
   // Writes one step; fields are written as float64 datasets of shape
   // (nz, ny, nx[, components]). Returns the .h5 path.
   std::string write(long step, double time, const std::vector<GridField>& fields);
+  // Writes one step slab by slab: the grid is cut into boxes of at most
+  // slab_cells cells (slabs_of, core/memory_use.hpp); for each box `fill`
+  // hands in every field's values, which go to the file as hyperslabs of
+  // the same datasets write() makes. Host memory: one slab per field, kept
+  // between calls; no whole-grid array anywhere. Returns the .h5 path.
+  std::string write_slabs(long step, double time, const std::vector<SlabField>& fields, Index slab_cells,
+                          const SlabFill& fill);
+  // Store fields as float32 (HDF5 rounds the doubles handed in; the XDMF
+  // index says Precision 4): half the disk for a run whose populations are
+  // fp32 anyway. Default float64.
+  void set_float32(bool on) { fp32_ = on; }
+  bool float32() const { return fp32_; }
   const std::vector<std::string>& files() const { return files_; }
 
  private:
   void write_xdmf();
+  std::vector<unsigned long long> shape(int components) const;  // (nz, ny, nx[, components])
+  // Creates the step's file; `body` writes its datasets into the open file.
+  std::string write_file(long step, double time, const std::vector<std::pair<std::string, int>>& fields,
+                         const std::function<void(std::int64_t, const std::string&)>& body);
+  bool fp32_ = false;
+  std::vector<std::vector<double>> slab_;  // write_slabs: one slab per field
   std::string dir_, prefix_;
   bool xdmf_recorded_ = false;  // the .xdmf name is in the manifest
   std::array<long, 3> dims_;
   std::array<double, 3> origin_, spacing_;
-  struct Entry { long step; double time; std::string file; std::vector<std::pair<std::string, int>> fields; };
+  struct Entry {
+    long step;
+    double time;
+    std::string file;
+    std::vector<std::pair<std::string, int>> fields;
+    int bytes;  // per stored value: 8 float64, 4 float32
+  };
   std::vector<Entry> entries_;
   std::vector<std::string> files_;
 };

@@ -37,6 +37,7 @@
 #include "core/buffer.hpp"
 #include "core/grid.hpp"
 #include "core/exec.hpp"
+#include "core/memory_use.hpp"
 #include "imb/fraction_table.hpp"
 #include "imb/particle_view.hpp"
 #include "imb/solid_fraction.hpp"
@@ -151,6 +152,11 @@ class CellSlots {
   std::vector<double> eps_host() const { return eps_.to_vector(); }
   // Solid-fraction field Σ_k ε_k per cell (host copy), e.g. for output.
   std::vector<double> total_eps_host() const;
+  // The same for the cells of `box` (storage coordinates) into `out` (backend
+  // memory, box.size() values, box x-fastest). Asynchronous.
+  void total_eps_box(const Exec& ex, const CellBox& box, double* out) const;
+  // Bytes of each buffer held, by component (psm_memory()).
+  MemoryUse memory_use() const;
 
  private:
   Backend backend_;

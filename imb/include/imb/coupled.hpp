@@ -78,7 +78,15 @@ class CoupledSolver : private dem::FluidCoupling {
   std::vector<double> hydro_torque_host() const;  // 3 per particle
   // Total solid fraction per cell at the current positions (host copy, output).
   std::vector<double> solid_fraction_host();
-  // Cell slots at the current positions (imb::PsmCoupling::output_slots): output, diagnostics.
+  // Total solid fraction of the cells of `box` (storage coordinates, at most
+  // fluid().output_slab_cells() cells) at the current positions, to the host
+  // array eps (box x-fastest); allocates nothing (PsmCoupling::solid_fraction_box).
+  void solid_fraction_box(const CellBox& box, double* eps);
+  // Bytes of the coupling's buffers by component (imb::psm_memory()); the
+  // fluid and the DEM report their own.
+  MemoryUse memory_use() const { return psm_->memory_use(); }
+  // Cell slots at the current positions (imb::PsmCoupling::output_slots): tests,
+  // diagnostics (in the fused pipeline it allocates slots for the whole grid).
   const CellSlots& output_slots();
   // Throws ResourceError naming the cell and the particles' global ids if any
   // map since the last check overflowed its K slots. Synchronous.

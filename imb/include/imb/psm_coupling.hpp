@@ -96,6 +96,15 @@ class PsmCoupling {
   // Slots at the particles' current positions for output and diagnostics: the
   // mapped pipeline's own, or (fused pipeline) a mapped-pipeline map made now.
   const CellSlots& output_slots(const PsmParticles& p, const PsmOptions& opt);
+  // Total solid fraction of the cells of `box` (storage coordinates, at most
+  // solver.output_slab_cells() cells) at the particles' current positions, to
+  // the host array eps (box.size() values, box x-fastest): the mapped
+  // pipeline's slots, or the fused pipeline's tile lists (TileMap::total_eps,
+  // the same values). Through a staging buffer reserved at construction:
+  // allocates nothing. Synchronous. Valid after map().
+  void solid_fraction_box(const PsmParticles& p, const PsmOptions& opt, const CellBox& box, double* eps);
+  // Bytes of each buffer held, by component (psm_memory()).
+  MemoryUse memory_use() const;
   // Overflow of the pipeline in use (cell slots, tile lists, radius); synchronous.
   OverflowReport overflow() const;
   void clear_overflow();
@@ -118,7 +127,24 @@ class PsmCoupling {
   bool parts_ready_ = false;
   Parts compute_parts() const;
   Exec ex_;
+  Buffer<double> stage_;  // output staging (solid_fraction_box)
 };
+
+// What a PsmCoupling on a solver of setup `s` allocates, by component, before
+// anything is allocated, for `particles` particles of largest radius
+// opt.map.max_radius (lattice units) and K slots per cell; `device`: the run
+// is on the GPU (the fraction table gets a device copy there).
+//   fused:  "tile lists" (count + candidates + entries per tile), "tile
+//           partial forces" (6 doubles per particle and tile its box can touch),
+//           "overflow logs", "fraction table";
+//   mapped: "cell slots" (count, K particle indices, K ε in double, K solid
+//           velocities in float per cell), "slot forces" (3 K doubles per cell),
+//           "slot pairs" (one int per particle and cell of its box), "overflow
+//           logs", "fraction table", "exact queue" (exact method);
+//   both:   "output staging" (one double per cell of an output slab).
+// PsmCoupling::memory_use() reports the same list from its buffers once the
+// particles have been mapped and stepped.
+MemoryUse psm_memory(const lbm::LbmSetup& s, int K, const PsmOptions& opt, Index particles, bool device);
 
 // Per-(lattice, precision) kernels (psm_*.cu).
 void psm_fluid_step(const Exec& ex, const lbm::LbmSetup& s, const lbm::LbmRaw& raw, const CellSlotsView& slots,

@@ -30,6 +30,7 @@
 
 #include "core/buffer.hpp"
 #include "core/exec.hpp"
+#include "core/memory_use.hpp"
 #include "imb/cell_slots.hpp"
 #include "imb/particle_view.hpp"
 
@@ -92,6 +93,16 @@ class TileMap {
   int capacity() const { return capacity_; }
   const Grid& grid() const { return grid_; }
   Backend backend() const { return backend_; }
+
+  // Total solid fraction Σ ε of the cells of `box` (storage coordinates) at
+  // the positions of the last build(), into `out` (backend memory, box.size()
+  // values, box x-fastest): the values the slot map's total_eps gives
+  // (particle-index order, first K), for output without per-cell slots.
+  // table_values: the table on the backend (method table). Asynchronous.
+  void total_eps(const Exec& ex, const SphereView& p, FractionMethod method, const FractionTable* table,
+                 const float* table_values, bool linear_normalised, const CellBox& box, double* out) const;
+  // Bytes of each buffer held, by component (psm_memory()).
+  MemoryUse memory_use() const;
 
   // Synchronises and reads the overflow counters: K slots of a cell (found by
   // the fused kernel) or a tile's candidate list (found by build).

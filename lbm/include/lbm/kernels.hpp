@@ -190,12 +190,16 @@ template <class L, class T, StreamKind S>
 struct InitKernel {
   PopView<T> dst;
   GridView g;
-  const double* rho;  // per cell, lattice units
-  const double* u;    // 3 per cell
-  LBDEM_HD void operator()(Index cell) const {
+  // rho (lattice units) and u (3 per cell) of the cells of `box` (storage
+  // coordinates), box x-fastest: a slab of the grid at a time.
+  CellBox box;
+  const double* rho;
+  const double* u;
+  LBDEM_HD void operator()(Index cell, int x, int y, int z) const {
     const Neighbours nb = neighbours<L>(g, cell);
-    const double r = rho[cell];
-    const double ux = u[3 * cell], uy = u[3 * cell + 1], uz = u[3 * cell + 2];
+    const Index o = (x - box.lo[0]) + static_cast<Index>(box.ext[0]) * ((y - box.lo[1]) + static_cast<Index>(box.ext[1]) * (z - box.lo[2]));
+    const double r = rho[o];
+    const double ux = u[3 * o], uy = u[3 * o + 1], uz = u[3 * o + 2];
     const double usq = ux * ux + uy * uy + uz * uz;
     LBDEM_UNROLL
     for (int q = 0; q < L::Q; ++q) {
@@ -218,12 +222,16 @@ struct MacroKernel {
   GridView g;
   const std::uint8_t* flags;  // may be null
   double F[3];
+  // Outputs for the cells of `box` (storage coordinates), box x-fastest: a
+  // slab of the grid at a time through a small staging buffer.
+  CellBox box;
   double* rho;
   double* u;
   LBDEM_HD void operator()(Index cell, int x, int y, int z) const {
+    const Index o = (x - box.lo[0]) + static_cast<Index>(box.ext[0]) * ((y - box.lo[1]) + static_cast<Index>(box.ext[1]) * (z - box.lo[2]));
     if (flags && flags[cell] != 0) {
-      rho[cell] = 0;
-      u[3 * cell] = u[3 * cell + 1] = u[3 * cell + 2] = 0;
+      rho[o] = 0;
+      u[3 * o] = u[3 * o + 1] = u[3 * o + 2] = 0;
       return;
     }
     const Neighbours nb = neighbours_at<L>(g, x, y, z);
@@ -232,8 +240,8 @@ struct MacroKernel {
     double d, j[3];
     moments<L>(f, d, j);
     const double r = 1.0 + d;
-    rho[cell] = r;
-    for (int a = 0; a < 3; ++a) u[3 * cell + a] = (j[a] + 0.5 * F[a]) / r;
+    rho[o] = r;
+    for (int a = 0; a < 3; ++a) u[3 * o + a] = (j[a] + 0.5 * F[a]) / r;
   }
 };
 

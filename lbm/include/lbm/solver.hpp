@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "core/exec.hpp"
+#include "core/memory_use.hpp"
 #include "lbm/boundary.hpp"
 #include "lbm/collision.hpp"
 #include "lbm/grid.hpp"
@@ -69,6 +70,8 @@ struct LbmRaw {
 // queue on the host).
 enum class Lane { Main, Edge };
 
+Index lbm_stage_cells(const LbmSetup& s);
+
 class LbmSolver {
  public:
   virtual ~LbmSolver() = default;
@@ -96,12 +99,21 @@ class LbmSolver {
   virtual void pack_halo(const HaloBlock& b, void* buf) = 0;
   virtual void unpack_halo(const HaloBlock& b, const void* buf) = 0;
   virtual int storage_bytes() const = 0;  // bytes of one stored population
-  virtual void macroscopic(std::vector<double>& rho, std::vector<double>& u) = 0;  // to host
+  // rho and u (3 per cell) of every storage cell, to host (ghost cells 0);
+  // computed slab by slab through the output staging buffer.
+  virtual void macroscopic(std::vector<double>& rho, std::vector<double>& u) = 0;
+  // rho and u of the cells of `box` (storage coordinates, at most
+  // output_slab_cells() cells) into host arrays of box.size() and
+  // 3 box.size() values, box x-fastest. Synchronous; allocates nothing.
+  virtual void macroscopic_box(const CellBox& box, double* rho, double* u) = 0;
+  Index output_slab_cells() const { return lbm_stage_cells(setup()); }
   virtual LbmDiagnostics diagnostics() = 0;          // synchronous
   virtual std::vector<double> populations() = 0;     // incoming f (not shifted), [q*cells + cell]
   virtual void synchronize() = 0;
   virtual long steps_done() const = 0;
-  virtual std::size_t memory_bytes() const = 0;
+  virtual std::size_t memory_bytes() const = 0;      // memory_use().total()
+  // Bytes of each buffer the solver holds, by component (lbm_memory()).
+  virtual MemoryUse memory_use() const = 0;
   virtual const LbmSetup& setup() const = 0;
   virtual Backend backend() const = 0;
   // Bytes a step must move per fluid cell (populations read + written), for
@@ -114,8 +126,17 @@ class LbmSolver {
   virtual void commit_external_step() = 0;
 };
 
-// Bytes the solver will allocate for this setup (to refuse cases that cannot fit).
+// What the solver allocates for this setup, by component, before anything is
+// allocated: "populations" (Q per cell, one lattice for A-A streaming, two
+// for the two-lattice scheme, rows padded to 64 cells), "flags" (one byte per
+// storage cell), "output staging" (rho + u of lbm_stage_cells() cells, in
+// double). LbmSolver::memory_use() reports the same list from its buffers.
+MemoryUse lbm_memory(const LbmSetup& s);
+// lbm_memory(s).total(), to refuse cases that cannot fit.
 std::size_t lbm_memory_estimate(const LbmSetup& s);
+// Cells of one output slab of this setup: kOutputSlabCells, or every storage
+// cell of a smaller grid.
+Index lbm_stage_cells(const LbmSetup& s);
 
 std::unique_ptr<LbmSolver> make_lbm_solver(const LbmSetup& setup, Backend backend);
 

@@ -1,0 +1,77 @@
+#!/usr/bin/env bash
+# Device memory and coupled speed of a periodic suspension on one GPU, against
+# lbdem's own estimate (issue 16: the estimate must be exact, the footprint
+# <= 100 B/cell in fp32 and <= 175 B/cell in fp64, and output must not need
+# device memory the run did not reserve at start).
+#   scripts/memory_gpu.sh BUILD OUT_DIR [N] [steps]
+#     BUILD    a CUDA build folder (holds cases/lbdem)
+#     OUT_DIR  results: memory_gpu.jsonl (one line per precision), the case
+#              files, the logs and the runs' summary.json
+#     N        cells per axis of the cube (default 256)
+#     steps    coupled steps (default 400)
+# The scene: N^3 cells, fully periodic, spheres of d/l = 10 at solid fraction
+# 0.128 (the first paper's 3D suspension, Table 2), density ratio 100, table
+# fractions, fused pipeline, K = 4. For fp32 and fp64: `lbdem check` prints
+# the estimate by component; the run writes its fields at step 0 and at the
+# end (the slab output path) while nvidia-smi samples the memory in use every
+# 20 ms. Each JSON line: the used memory before the run (MiB), the peak during
+# it, the peak minus the idle use per cell, the estimate's total per cell, the
+# bytes the fluid and the coupling hold (summary.json memory_bytes) and the
+# coupled MLUPS.
+set -uo pipefail
+build="${1:?build dir}"
+out="${2:?output dir}"
+n="${3:-256}"
+steps="${4:-400}"
+lbdem="$build/cases/lbdem"
+[ -x "$lbdem" ] || { echo "memory_gpu: $lbdem not found (build the lbdem target with CUDA)"; exit 1; }
+nvidia-smi -L >/dev/null 2>&1 || { echo "memory_gpu: no GPU"; exit 1; }
+mkdir -p "$out"
+: > "$out/memory_gpu.jsonl"
+used_mib() { nvidia-smi --query-gpu=memory.used --format=csv,noheader,nounits -i 0 | head -1 | tr -d ' '; }
+for prec in fp32 fp64; do
+  case_file="$out/suspension_${n}_${prec}.yaml"
+  cat > "$case_file" <<EOF
+scene: particles
+units: lattice
+domain: {cells: [$n, $n, $n], periodic: [1, 1, 1]}
+fluid: {tau: 0.6, collision: trt, magic: 1.0e-3, precision: $prec}
+physics: {gravity: [0, -1.0e-6, 0]}
+particles: {init: random, diameter: 10, density_ratio: 100, solid_fraction: 0.128, seed: 7}
+dem: {stiffness: 20000, restitution: 0.9, substeps: 25}
+psm: {fraction: table, pipeline: fused}
+time: {steps: $steps}
+output: {directory: $out/run_$prec, series_interval: 100, interval: $steps}
+EOF
+  "$lbdem" check "$case_file" > "$out/check_$prec.log" 2>&1
+  est=$(awk '$1 == "total" {print $2}' "$out/check_$prec.log")
+  idle=$(used_mib)
+  rm -rf "$out/run_$prec"
+  ( while :; do used_mib; sleep 0.02; done ) > "$out/samples_$prec.txt" 2>/dev/null &
+  sampler=$!
+  "$lbdem" run "$case_file" --backend cuda --overwrite > "$out/run_$prec.log" 2>&1
+  rc=$?
+  kill "$sampler" 2>/dev/null
+  wait "$sampler" 2>/dev/null
+  peak=$(sort -n "$out/samples_$prec.txt" | tail -1)
+  summary="$out/run_$prec/summary.json"
+  mlups=$(python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['coupled_mlups'])" "$summary" 2>/dev/null || echo null)
+  held=$(python3 -c "import json,sys; print(json.dumps(json.load(open(sys.argv[1]))['memory_bytes']))" "$summary" 2>/dev/null || echo null)
+  cp "$summary" "$out/summary_$prec.json" 2>/dev/null
+  python3 - "$prec" "$n" "$idle" "$peak" "${est:-null}" "$mlups" "$held" "$rc" >> "$out/memory_gpu.jsonl" <<'PY'
+import json, sys
+prec, n, idle, peak, est, mlups, held, rc = sys.argv[1:]
+cells = int(n) ** 3
+num = lambda s: None if s in ("", "null") else float(s)
+idle, peak = num(idle), num(peak)
+print(json.dumps({
+    "precision": prec, "cells": cells, "exit": int(rc),
+    "device_used_before_mib": idle, "device_peak_mib": peak,
+    "peak_minus_idle_bytes_per_cell": None if idle is None or peak is None else (peak - idle) * 1048576 / cells,
+    "estimate_bytes_per_cell": num(est),
+    "held_bytes": json.loads(held) if held not in ("", "null") else None,
+    "coupled_mlups": num(mlups),
+}))
+PY
+done
+cat "$out/memory_gpu.jsonl"
