@@ -5,7 +5,8 @@
 //
 //   1. fluid: one LBM step with the solid term of every mapped particle
 //      (imb/psm.hpp); the hydrodynamic force and torque of each particle, plus
-//      its buoyancy, are gathered straight into the DEM's coupling input
+//      its buoyancy and its share of the fluid body force, are gathered
+//      straight into the DEM's coupling input
 //      (ext_force / ext_torque), in the particles' current storage order;
 //   2. particles: N DEM sub-steps (contacts, walls, gravity) with that force
 //      held constant;
@@ -71,8 +72,9 @@ class CoupledSolver : private dem::FluidCoupling {
   void advance(long n);          // n coupled steps
   long steps() const { return loop_.steps(); }
 
-  // Hydrodynamic force and torque of the last fluid step (buoyancy included),
-  // per particle in the DEM's current storage order (host copies; not for the time loop).
+  // Hydrodynamic force and torque of the last fluid step (buoyancy and the
+  // body force's share included), per particle in the DEM's current storage
+  // order (host copies; not for the time loop).
   std::vector<double> hydro_force_host() const;   // 3 per particle
   std::vector<double> hydro_torque_host() const;  // 3 per particle
   // Total solid fraction per cell at the current positions (host copy, output).

@@ -14,8 +14,10 @@
 // V_k = v_k + w_k x (x_cell - x_k) the particle's velocity at the cell centre.
 // The hydrodynamic force on particle k from this cell is minus the momentum
 // the solid term gives the fluid: F_k = - sum_q B_k Omega^S_{q,k} c_q (lattice
-// units per step; the paper's Eq. 3 with the sign of the action on the solid),
-// torque (x_cell - x_k) x F_k. Forces are written per (slot, cell) and then
+// units per step; the paper's Eq. 3 with the sign of the action on the solid;
+// plus the particle's share B_k F of the body force where the body force is a
+// mean pressure gradient, PsmOptions::body_force_on_solid), torque
+// (x_cell - x_k) x F_k. Forces are written per (slot, cell) and then
 // gathered per particle (deterministic: no atomics).
 #include <cmath>
 #include <cstdint>
