@@ -332,7 +332,8 @@ TEST(PsmHardRefusal, PaperCaseMisconfigurationsRefused) {
   {
     Scene s = paper_scene();
     s.fluid.body_force = {0, 0, 0};  // weight not balanced: everything accelerates downwards for ever
-    expect_refused(s, {"fluid.body_force = (0, 0, 0)", "does not balance", "use fluid.body_force = (0, 4.71"});
+    // The fix is -W / V: W = 8 (692.3 - 1) (4/3 pi 5^3) 4.704e-7, V = 32^3.
+    expect_refused(s, {"fluid.body_force = (0, 0, 0)", "does not balance", "use fluid.body_force = (0, 4.15693e-05, 0)"});
   }
   {
     Scene s = paper_scene();
