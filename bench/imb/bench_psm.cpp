@@ -234,7 +234,7 @@ int suspension(int argc, char** argv) {
   rs.seed = 11;
   dem::HostParticles hp = dem::random_packing(rs);
   const std::array<double, 3> g{0, -4.704e-7, 0};  // first paper Table 2 (lattice units)
-  s.body_force = imb::balancing_body_force(hp, 3, g, 1.0, double(n) * n * n, s.tau);
+  s.body_force = imb::balancing_body_force(hp, 3, g, 1.0, double(n) * n * n);
   const auto N = static_cast<std::size_t>(n * n * n);
   const double cells = double(N);
   const double bw = bench::copy_bandwidth(b, b == Backend::Cuda ? std::size_t(2) << 30 : std::size_t(1) << 28);

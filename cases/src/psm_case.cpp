@@ -482,7 +482,7 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
   if (c.particles.size() == 0) throw ConfigError("particles: no particles given");
   if (c.balance) {
     const double V = double(ext[0]) * ext[1] * ext[2];
-    s.body_force = imb::balancing_body_force(c.particles, dim, c.coupling.gravity, 1.0, V, s.tau, c.coupling.psm.weight);
+    s.body_force = imb::balancing_body_force(c.particles, dim, c.coupling.gravity, 1.0, V);
   }
   // Refuse up front what would blow up (Mach, cell Reynolds number, light
   // particles, DEM sub-steps, unbalanced weight), naming the key to change.

@@ -1,13 +1,11 @@
 #include "imb/coupled.hpp"
 
 #include <cmath>
-#include <map>
 #include <sstream>
 #include <string>
 
 #include "core/buffer.hpp"
 #include "core/error.hpp"
-#include "imb/solid_fraction.hpp"
 
 namespace lbdem::imb {
 
@@ -17,67 +15,17 @@ double particle_volume(double r, int dim) {
 }
 }  // namespace
 
-double psm_weight_sum(double r, int dim, double tau, PsmWeight weight) {
-  if (!(r > 0)) return 0.0;
-  const double tm = tau - 0.5;
-  const int lo = -static_cast<int>(std::ceil(r)) - 1, hi = static_cast<int>(std::ceil(r)) + 1;
-  double total = 0;
-  int samples = 0;
-  for (int s = 0; s < (dim == 3 ? 8 : 4); ++s) {
-    // Centre offsets 1/4, 3/4 of a cell on each axis: the average over positions.
-    const double o[3] = {0.25 + 0.5 * (s & 1), 0.25 + 0.5 * ((s >> 1) & 1), dim == 3 ? 0.25 + 0.5 * ((s >> 2) & 1) : 0.0};
-    double sum = 0;
-    for (int k = dim == 3 ? lo : 0; k <= (dim == 3 ? hi : 0); ++k)
-      for (int j = lo; j <= hi; ++j)
-        for (int i = lo; i <= hi; ++i) {
-          const double rx = i + 0.5 - o[0], ry = j + 0.5 - o[1], rz = k + 0.5 - o[2];
-          const double e = dim == 3 ? exact_fraction_3d(rx, ry, rz, r) : exact_fraction_2d(rx, ry, r);
-          if (e <= 0) continue;
-          sum += psm_weight(e, tm, weight);
-        }
-    total += sum;
-    ++samples;
-  }
-  return total / samples;
-}
-
-double psm_fluid_weight(const dem::HostParticles& p, int dim, double total_volume, double tau, PsmWeight weight) {
-  if (!(tau > 0.5)) throw ConfigError("fluid.tau = " + std::to_string(tau) + ": must be > 1/2");
-  double solid_weight = 0;
-  std::map<double, double> weight_of_radius;  // S_B per distinct radius (monodisperse: one evaluation)
-  for (Index i = 0; i < p.size(); ++i) {
-    const double r = p.r[static_cast<std::size_t>(i)];
-    auto it = weight_of_radius.find(r);
-    if (it == weight_of_radius.end()) {
-      if (weight_of_radius.size() >= 64) {  // strongly polydisperse: S_B/V_p of the nearest radius computed
-        auto near = weight_of_radius.lower_bound(r);
-        if (near == weight_of_radius.end()) --near;
-        solid_weight += near->second / particle_volume(near->first, dim) * particle_volume(r, dim);
-        continue;
-      }
-      it = weight_of_radius.emplace(r, psm_weight_sum(r, dim, tau, weight)).first;
-    }
-    solid_weight += it->second;
-  }
-  return total_volume - solid_weight;
-}
-
 std::array<double, 3> balancing_body_force(const dem::HostParticles& p, int dim, const std::array<double, 3>& g,
-                                           double fluid_density, double total_volume, double tau, PsmWeight weight) {
+                                           double fluid_density, double total_volume) {
+  if (!(total_volume > 0))
+    throw ConfigError("balancing body force: domain volume " + std::to_string(total_volume) +
+                      " (lattice units) must be > 0");
   double net_mass = 0;
   for (Index i = 0; i < p.size(); ++i) {
     const auto k = static_cast<std::size_t>(i);
-    const double v = particle_volume(p.r[k], dim);
-    // In 2D the DEM mass is that of a sphere; the disk's areal mass is rho_s pi r^2.
-    const double rho_s = p.mass[k] / (4.0 / 3.0 * M_PI * p.r[k] * p.r[k] * p.r[k]);
-    const double m = dim == 3 ? p.mass[k] : rho_s * v;
-    net_mass += m - fluid_density * v;
+    net_mass += p.mass[k] - fluid_density * particle_volume(p.r[k], dim);
   }
-  const double vf = psm_fluid_weight(p, dim, total_volume, tau, weight);
-  if (!(vf > 0))
-    throw ConfigError("particles fill " + std::to_string(total_volume - vf) + " of the domain volume " +
-                      std::to_string(total_volume) + " (lattice units): no fluid left to balance their weight");
-  return {-net_mass * g[0] / vf, -net_mass * g[1] / vf, -net_mass * g[2] / vf};
+  return {-net_mass * g[0] / total_volume, -net_mass * g[1] / total_volume, -net_mass * g[2] / total_volume};
 }
 
 CoupledSolver::CoupledSolver(lbm::LbmSolver& fluid, dem::DemSystem& dem, const CoupledParams& params)
@@ -92,6 +40,9 @@ CoupledSolver::CoupledSolver(lbm::LbmSolver& fluid, dem::DemSystem& dem, const C
   dim_ = fluid_.setup().lattice == lbm::LatticeKind::D2Q9 ? 2 : 3;
   psm_ = std::make_unique<PsmCoupling>(fluid_, p_.slots);
   p_.psm.map.keep_overflow = true;
+  // A body force on the fluid here is the balancing mean pressure gradient
+  // (balancing_body_force): the particles take it on their share of each cell.
+  p_.psm.body_force_on_solid = true;
   map();
   check_overflow();
 }

@@ -235,21 +235,23 @@ CoupledScales check_coupled_setup(const lbm::LbmSetup& fluid, const dem::DemPara
     const double fb[3] = {dem.body_force.x, dem.body_force.y, dem.body_force.z};
     for (std::size_t i = 0; i < p.r.size(); ++i) {
       const double r = p.r[i];
-      // 2D: a disk of the particle's density (as balancing_body_force).
+      // The DEM's mass (its gravity's; a sphere's also in 2D) and the buoyancy's
+      // volume (2D: the disk's area), as balancing_body_force.
       const double v = dim == 3 ? sphere_volume(r) : kPi * r * r;
-      const double m = dim == 3 ? p.mass[i] : p.mass[i] / sphere_volume(r) * v;
+      const double m = p.mass[i];
       for (int a = 0; a < 3; ++a) weight[a] += (m - cp.fluid_density * v) * g[a] + fb[a];
       scale += std::abs(m - cp.fluid_density * v) * norm3(g) + norm3(fb);
     }
-    const double vf = psm_fluid_weight(p, dim, total, fluid.tau, cp.psm.weight);  // what the kernel weights by (1 - B)
+    // Fluid and particles together receive the body force on every cell
+    // (PsmOptions::body_force_on_solid, which CoupledSolver turns on).
     double net[3], fix[3];
     for (int a = 0; a < 3; ++a) {
-      net[a] = weight[a] + fluid.body_force[static_cast<std::size_t>(a)] * vf;
-      fix[a] = vf > 0 ? -weight[a] / vf : 0;
+      net[a] = weight[a] + fluid.body_force[static_cast<std::size_t>(a)] * total;
+      fix[a] = -weight[a] / total;
     }
-    scale += norm3(fluid.body_force.data()) * vf;
+    scale += norm3(fluid.body_force.data()) * total;
     if (scale > 0 && norm3(net) > lim.max_force_imbalance * scale) {
-      double mass = cp.fluid_density * vf;
+      double mass = cp.fluid_density * total;
       for (double m : p.mass) mass += m;
       throw ConfigError("fluid.body_force = " + vec(fluid.body_force.data()) +
                         " does not balance the particles' net weight in this fully periodic domain: the net force " +

@@ -8,7 +8,9 @@
 //    (first paper Eq. 2, the fluid term switched off);
 //  - the momentum the solid term gives the fluid is minus the closed-form force
 //    on the particle (psm_particle_force), for both operators, with and without
-//    a body force.
+//    a body force;
+//  - fluid and particle together gain (1 - B) F per step, or exactly F when the
+//    particle takes its share B F of the body force (PsmOptions::body_force_on_solid).
 // D3Q19 and D2Q9 in double: the tolerances are round-off of populations ~1e-2.
 #include <gtest/gtest.h>
 
@@ -114,9 +116,26 @@ void check_lattice(std::mt19937& rng) {
       const double solid = (g[q] - f[q]) - (1 - B) * (fluid[q] - f[q]);
       for (int a = 0; a < 3; ++a) solid_mom[a] += L::c(q, a) * solid;
     }
+    const double G0[3] = {0, 0, 0};
     double Fk[3];
-    psm_particle_force<double, Force, Var>(B, rho, V, u, F, coll.omega_m, Fk);
+    psm_particle_force<double, Force, Var>(B, rho, V, u, F, G0, coll.omega_m, Fk);
     for (int a = 0; a < 3; ++a) EXPECT_NEAR(Fk[a], -solid_mom[a], 1e-14) << "axis " << a;
+
+    // The cell's whole momentum gain, fluid plus particle: (1 - B) F without
+    // the particle's share of the body force, exactly F with it (G = F,
+    // PsmOptions::body_force_on_solid), whatever B is.
+    double fluid_mom[3] = {0, 0, 0};
+    for (int q = 0; q < L::Q; ++q)
+      for (int a = 0; a < 3; ++a) fluid_mom[a] += L::c(q, a) * (g[q] - f[q]);
+    double Fs[3];
+    psm_particle_force<double, Force, Var>(B, rho, V, u, F, F, coll.omega_m, Fs);
+    for (int a = 0; a < 3; ++a) {
+      EXPECT_NEAR(fluid_mom[a] + Fk[a], (1 - B) * F[a], 1e-14) << "axis " << a;
+      EXPECT_NEAR(fluid_mom[a] + Fs[a], F[a], 1e-14) << "axis " << a;
+      if (Force && F[a] != 0) {
+        EXPECT_NE(Fs[a], Fk[a]);  // the share is there
+      }
+    }
   }
 }
 

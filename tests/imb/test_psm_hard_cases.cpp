@@ -288,7 +288,7 @@ TEST(PsmHardRefusal, Tau0501FastSphereRefused) {
   // Settling at tau = 0.501 under the paper's gravity: a Schiller-Naumann speed of ~0.1 (cell Reynolds ~300).
   Scene g = tau0501_scene(0.0);
   set_gravity(g, {0, -kGPaper, 0});
-  g.fluid.body_force = imb::balancing_body_force(g.particles, 3, g.coupling.gravity, 1.0, 24.0 * 24 * 24, g.fluid.tau);
+  g.fluid.body_force = imb::balancing_body_force(g.particles, 3, g.coupling.gravity, 1.0, 24.0 * 24 * 24);
   expect_refused(g, {"fluid.tau = 0.501", "settling speed of particle id 0", "cell Reynolds"});
 }
 
@@ -312,7 +312,7 @@ Scene paper_scene() {
                         random_direction(rng, 5e-3));
   set_gravity(s, {0, -kGPaper, 0});
   set_substeps(s, 5);
-  s.fluid.body_force = imb::balancing_body_force(s.particles, 3, s.coupling.gravity, 1.0, double(L * L * L), s.fluid.tau);
+  s.fluid.body_force = imb::balancing_body_force(s.particles, 3, s.coupling.gravity, 1.0, double(L * L * L));
   return s;
 }
 
@@ -332,7 +332,8 @@ TEST(PsmHardRefusal, PaperCaseMisconfigurationsRefused) {
   {
     Scene s = paper_scene();
     s.fluid.body_force = {0, 0, 0};  // weight not balanced: everything accelerates downwards for ever
-    expect_refused(s, {"fluid.body_force = (0, 0, 0)", "does not balance", "use fluid.body_force = (0, 4.71"});
+    // The fix is -W / V: W = 8 (692.3 - 1) (4/3 pi 5^3) 4.704e-7, V = 32^3.
+    expect_refused(s, {"fluid.body_force = (0, 0, 0)", "does not balance", "use fluid.body_force = (0, 4.15693e-05, 0)"});
   }
   {
     Scene s = paper_scene();
@@ -375,7 +376,7 @@ TEST_P(PsmHard, RandomPackingPhi05Runs) {
   set_gravity(s, {0, -kGPaper, 0});
   set_substeps(s, 8);
   s.coupling.slots = 4;
-  s.fluid.body_force = imb::balancing_body_force(s.particles, 3, s.coupling.gravity, 1.0, double(L * L * L), s.fluid.tau);
+  s.fluid.body_force = imb::balancing_body_force(s.particles, 3, s.coupling.gravity, 1.0, double(L * L * L));
   int max_count = 0;
   const Outcome o = run_scene(s, GetParam(), kSteps, [&](imb::CoupledSolver& cs, long step) {
     if (step % 1000) return;
@@ -409,7 +410,7 @@ Scene re100_scene(double U, double drag_factor = 0.66) {
   const double re = U * d / nu, cd = 24 / re * (1 + 0.15 * std::pow(re, 0.687));
   const double drag = drag_factor * cd * 0.5 * U * U * kPi * d * d / 4;
   set_gravity(s, {drag / ((kRhoPaper - 1) * kPi * d * d * d / 6), 0, 0});
-  s.fluid.body_force = imb::balancing_body_force(s.particles, 3, s.coupling.gravity, 1.0, double(L * L * L), s.fluid.tau);
+  s.fluid.body_force = imb::balancing_body_force(s.particles, 3, s.coupling.gravity, 1.0, double(L * L * L));
   return s;
 }
 

@@ -5,7 +5,8 @@
 //
 //   1. fluid: one LBM step with the solid term of every mapped particle
 //      (imb/psm.hpp); the hydrodynamic force and torque of each particle, plus
-//      its buoyancy, are gathered straight into the DEM's coupling input
+//      its buoyancy and its share of the fluid body force, are gathered
+//      straight into the DEM's coupling input
 //      (ext_force / ext_torque), in the particles' current storage order;
 //   2. particles: N DEM sub-steps (contacts, walls, gravity) with that force
 //      held constant;
@@ -17,7 +18,13 @@
 // Gravity acts on the particles (DEM gravity); the fluid feels no gravity,
 // so each particle receives the buoyancy -rho_f V_p g explicitly. In a fully
 // periodic domain the net weight of the particles must be balanced by a body
-// force on the fluid (first paper, Sec. 3): balancing_body_force().
+// force on the fluid (first paper, Sec. 2), the stand-in for the mean pressure
+// gradient that carries the suspension's weight: balancing_body_force(). That
+// gradient acts on the particles' volume as well, so the coupled step gives
+// each particle the body force on its share B_k of every cell it covers
+// (PsmOptions::body_force_on_solid, on here): per step fluid and particles
+// together receive the body force F on every cell, F V in all, whatever the
+// solid fractions are, and F = -W / V balances the net weight W exactly.
 //
 // Nothing is allocated and nothing is copied to the host per step, except the
 // overflow check of the cell slots every `overflow_check_every` steps (a few
@@ -45,23 +52,16 @@ struct CoupledParams {
   long overflow_check_every = 100;            // steps between slot-overflow reads
 };
 
-// Body force per unit volume that balances the particles' net weight
-// sum (m_p - rho_f V_p) g in a fully periodic domain of total volume V, so the
-// mean momentum of the system stays zero. The PSM kernel gives a cell the body
-// force weighted by (1 - B) (Noble-Torczynski), so the fluid receives g_b times
-// sum_cells (1 - B) = V - sum_p S_B(r_p): that, not V - sum V_p, is what must
-// balance the weight (B < eps in partial cells: with V - sum V_p the system
-// drifts by g_b sum (eps - B), about a percent of the weight in a dense suspension).
-// S_B(r) = sum over cells of B(eps) for one particle, averaged over 8 sub-cell
-// positions with exact fractions (fluctuates with position by ~1e-3 of S_B).
+// Body force per unit volume on the fluid that balances the particles' net
+// weight W = sum_p (m_p - rho_f V_p) g in a fully periodic domain of total
+// volume V (lattice units: cells; 2D: area): F = -W / V. The total momentum
+// of fluid + particles then stays at its initial value: per step the system
+// receives W from gravity and buoyancy and F V from the body force (fluid and
+// particles together, PsmOptions::body_force_on_solid). m_p is the DEM's mass,
+// the one its gravity acts on and its velocities carry (a sphere's also in
+// 2D); V_p the volume the buoyancy uses (sphere; 2D: disk area pi r^2).
 std::array<double, 3> balancing_body_force(const dem::HostParticles& p, int dim, const std::array<double, 3>& g,
-                                           double fluid_density, double total_volume, double tau,
-                                           PsmWeight weight = PsmWeight::NobleTorczynski);
-// sum over cells of B for one particle of radius r (lattice units), averaged
-// over sub-cell positions of its centre.
-double psm_weight_sum(double r, int dim, double tau, PsmWeight weight);
-// V - sum_p S_B(r_p): the volume over which the fluid receives a body force.
-double psm_fluid_weight(const dem::HostParticles& p, int dim, double total_volume, double tau, PsmWeight weight);
+                                           double fluid_density, double total_volume);
 
 class CoupledSolver : private dem::FluidCoupling {
  public:
@@ -72,8 +72,9 @@ class CoupledSolver : private dem::FluidCoupling {
   void advance(long n);          // n coupled steps
   long steps() const { return loop_.steps(); }
 
-  // Hydrodynamic force and torque of the last fluid step (buoyancy included),
-  // per particle in the DEM's current storage order (host copies; not for the time loop).
+  // Hydrodynamic force and torque of the last fluid step (buoyancy and the
+  // body force's share included), per particle in the DEM's current storage
+  // order (host copies; not for the time loop).
   std::vector<double> hydro_force_host() const;   // 3 per particle
   std::vector<double> hydro_torque_host() const;  // 3 per particle
   // Total solid fraction per cell at the current positions (host copy, output).

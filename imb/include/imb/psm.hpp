@@ -14,8 +14,10 @@
 // V_k = v_k + w_k x (x_cell - x_k) the particle's velocity at the cell centre.
 // The hydrodynamic force on particle k from this cell is minus the momentum
 // the solid term gives the fluid: F_k = - sum_q B_k Omega^S_{q,k} c_q (lattice
-// units per step; the paper's Eq. 3 with the sign of the action on the solid),
-// torque (x_cell - x_k) x F_k. Forces are written per (slot, cell) and then
+// units per step; the paper's Eq. 3 with the sign of the action on the solid;
+// plus the particle's share B_k F of the body force where the body force is a
+// mean pressure gradient, PsmOptions::body_force_on_solid), torque
+// (x_cell - x_k) x F_k. Forces are written per (slot, cell) and then
 // gathered per particle (deterministic: no atomics).
 #include <cmath>
 #include <cstdint>
@@ -107,13 +109,22 @@ LBDEM_HD LBDEM_FORCEINLINE void add_solid_moments(R Bk, const R (&vs)[3], R (&M1
 //   NEBB:          sum_q c_q Omega^S_q = rho V_k - j + F/2 = rho (V_k - u) + F,
 //   superposition: sum_q c_q Omega^S_q = rho (V_k - u) - sum_q c_q (f_q - f^post_q)
 //                                      = rho (V_k - u) + omega_- F / 2,
-// F_k = -B_k sum_q c_q Omega^S_q (the momentum the solid term takes from the fluid).
+// F_k = -B_k (sum_q c_q Omega^S_q - G): minus the momentum the solid term
+// gives the fluid, plus the particle's share B_k G of the body force the
+// (1 - B) weighting withholds from the fluid in this cell (G = F where the
+// body force stands for a mean pressure gradient, PsmOptions::body_force_on_solid;
+// else G = 0). With G = F the cell's fluid and particles together receive
+// exactly F per step, whatever B is.
 template <class R, bool Force, PsmVariant V>
 LBDEM_HD LBDEM_FORCEINLINE void psm_particle_force(R Bk, R rho, const R (&vs)[3], const R (&u)[3], const R (&F)[3],
-                                                   R omega_m, R (&Fk)[3]) {
+                                                   const R (&G)[3], R omega_m, R (&Fk)[3]) {
   for (int a = 0; a < 3; ++a) {
-    const R extra = V == PsmVariant::NEBB ? (Force ? F[a] : R(0)) : (Force ? R(0.5) * omega_m * F[a] : R(0));
-    Fk[a] = -(Bk * (rho * (vs[a] - u[a]) + extra));
+    if constexpr (Force) {
+      const R extra = V == PsmVariant::NEBB ? F[a] : R(0.5) * omega_m * F[a];
+      Fk[a] = -(Bk * (rho * (vs[a] - u[a]) + extra - G[a]));
+    } else {
+      Fk[a] = -(Bk * (rho * (vs[a] - u[a]) + R(0)));  // no body force: G plays no part
+    }
   }
 }
 
@@ -239,12 +250,15 @@ struct PsmLatticeFields {
   const std::uint8_t* flags;
   lbm::BoundaryTable bt;
   C omega_p, omega_m, F[3];
-  C tm;  // tau - 1/2
+  C G[3];  // the body force the particles take on their share B of a cell (psm_particle_force)
+  C tm;    // tau - 1/2
   PsmWeight weight;
 
-  // From the solver's raw view (lbm::LbmRaw) and tau; host side, once per launch.
+  // From the solver's raw view (lbm::LbmRaw), tau, the weighting and whether
+  // the particles take the body force on their share of each cell
+  // (PsmOptions::body_force_on_solid); host side, once per launch.
   template <class Raw>
-  void set_lattice(const Raw& raw, double tau, PsmWeight w) {
+  void set_lattice(const Raw& raw, double tau, PsmWeight w, bool body_force_on_solid) {
     src = lbm::PopView<T>{static_cast<T*>(raw.src), raw.stride};
     dst = lbm::PopView<T>{static_cast<T*>(raw.dst), raw.stride};
     g = raw.grid;
@@ -253,6 +267,7 @@ struct PsmLatticeFields {
     omega_p = static_cast<C>(raw.omega_p);
     omega_m = static_cast<C>(raw.omega_m);
     for (int a = 0; a < 3; ++a) F[a] = static_cast<C>(raw.body_force[static_cast<std::size_t>(a)]);
+    for (int a = 0; a < 3; ++a) G[a] = body_force_on_solid ? F[a] : C(0);
     tm = static_cast<C>(tau - 0.5);
     weight = w;
   }
@@ -272,7 +287,8 @@ template <class L, class T, lbm::StreamKind S, int Parity, bool Bnd, bool Force,
 struct PsmStepKernel : PsmLatticeFields<T> {
   using R = lbm::compute_t<T>;
   using Lat = PsmLatticeFields<T>;  // the lattice side's members, by name (a dependent base)
-  using Lat::src, Lat::dst, Lat::g, Lat::flags, Lat::bt, Lat::omega_p, Lat::omega_m, Lat::F, Lat::tm, Lat::weight;
+  using Lat::src, Lat::dst, Lat::g, Lat::flags, Lat::bt, Lat::omega_p, Lat::omega_m, Lat::F, Lat::G, Lat::tm,
+      Lat::weight;
   CellSlotsView slots;
   SlotForceView out;
 
@@ -335,7 +351,7 @@ struct PsmStepKernel : PsmLatticeFields<T> {
     for (int k = 0; k < m; ++k) {
       R Bk, vs[3], Fk[3];
       slot_velocity(cell, k, B, eps_tot, Bk, vs);
-      psm_particle_force<R, Force, V>(Bk, rho, vs, u, F, omega_m, Fk);
+      psm_particle_force<R, Force, V>(Bk, rho, vs, u, F, G, omega_m, Fk);
       for (int a = 0; a < 3; ++a) out.at(a, k, cell) = double(Fk[a]);
     }
   }

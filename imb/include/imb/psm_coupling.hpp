@@ -45,6 +45,15 @@ struct PsmOptions {
   MapOptions map;  // fraction method, max radius, table
   PsmPipeline pipeline = PsmPipeline::Auto;
   int tile_capacity = 64;  // fused: candidate particles per tile (overflow is reported)
+  // The fluid's body force F stands for a mean pressure gradient, which acts
+  // on the particles' volume too: each particle also receives B_k F from
+  // every cell it covers (psm_particle_force), the part the (1 - B) weighting
+  // withholds from the fluid there. Fluid and particles then receive F on
+  // every cell, so the total momentum gain per step is F V, independent of
+  // the fractions (what a weight-balanced periodic suspension needs;
+  // CoupledSolver turns it on). Off: the particles feel the body force only
+  // through the flow (the fixed-sphere drag's convention).
+  bool body_force_on_solid = false;
 };
 
 // The pipeline a step with these options and K slots per cell runs; throws

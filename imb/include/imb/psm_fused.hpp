@@ -72,7 +72,8 @@ struct PsmFusedKernel : PsmLatticeFields<T> {
 
   static constexpr int kForceChunk = 16;  // candidates per shared-memory force pass
   using Lat = PsmLatticeFields<T>;  // the lattice side's members, by name (a dependent base)
-  using Lat::src, Lat::dst, Lat::g, Lat::flags, Lat::bt, Lat::omega_p, Lat::omega_m, Lat::F, Lat::tm, Lat::weight;
+  using Lat::src, Lat::dst, Lat::g, Lat::flags, Lat::bt, Lat::omega_p, Lat::omega_m, Lat::F, Lat::G, Lat::tm,
+      Lat::weight;
   int K;  // slots per cell in use (<= kFusedMaxSlots)
   TileView tv;
   CellBox tiles;  // the tiles this launch updates (a box in tile coordinates; PsmCoupling::parts)
@@ -292,7 +293,7 @@ struct PsmFusedKernel : PsmLatticeFields<T> {
     R vs[3];
     solid_velocity(q, r, vs);
     R Fk[3];
-    psm_particle_force<R, Force, V>(psm_slot_weight(s.B, s.eps_at(k), s.eps_tot), rho, vs, u, F, omega_m, Fk);
+    psm_particle_force<R, Force, V>(psm_slot_weight(s.B, s.eps_at(k), s.eps_tot), rho, vs, u, F, G, omega_m, Fk);
     out[0] = Fk[0];
     out[1] = Fk[1];
     out[2] = Fk[2];
