@@ -1,5 +1,6 @@
 // The `lbdem` command.
 //   lbdem run CASE.yaml [--backend cuda|cpu|auto] [--steps N] [--output DIR] [--overwrite] [--force] [--quiet]
+//                      [--restart RUN_DIR|CHECKPOINT]
 //   lbdem check CASE.yaml      validate a case file without running it
 //   lbdem info                 build, backends, devices
 // Exit codes: 0 ok, 2 invalid input, 3 diverged, 4 resources (memory, disk full),
@@ -9,11 +10,14 @@
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
 #include <thread>
 
 #include "cases/scenes.hpp"
+#include "core/checkpoint.hpp"
 #include "core/exec.hpp"
 #include "core/signals.hpp"
 #include "halo/comm.hpp"
@@ -58,6 +62,10 @@ int main(int argc, char** argv) {
                 "start a run even when it is planned to take more than a year of wall time at the fastest speed this "
                 "code reaches");
   run->add_flag("--quiet", opt.quiet, "no progress lines");
+  std::string restart;
+  auto* restart_opt = run->add_option(
+      "--restart", restart,
+      "continue the run whose checkpoint is in this run folder (or this checkpoint file), bit for bit, in that folder");
 
   auto* check = app.add_subcommand("check", "validate a case file without running it");
   check->add_option("case", case_file, "case file (YAML)")->required();
@@ -100,6 +108,17 @@ int main(int argc, char** argv) {
     const Config cfg = Config::load_file(case_file);
     if (steps > 0) opt.steps = steps;
     if (output_opt->count() > 0) opt.output = output;
+    if (restart_opt->count() > 0) {
+      // The run goes on in the checkpoint's folder (--output, if given, must name it).
+      opt.restart = ckpt::resolve(restart);
+      if (!opt.output) opt.output = std::filesystem::path(*opt.restart).parent_path().string();
+      if (opt.output->empty()) opt.output = ".";
+      const std::string scene = cfg.text("scene");
+      const auto fluid = lbm_scene_names();
+      if (scene != "particles" && scene != "dem" && std::find(fluid.begin(), fluid.end(), scene) == fluid.end())
+        throw ConfigError("--restart: scene '" + scene + "' does not write checkpoints; scenes that do: particles, "
+                          "dem and the fluid scenes");
+    }
     if (*check) {
       // Parse and check everything (keys, ranges, units, memory), then stop
       // before the output folder is touched.

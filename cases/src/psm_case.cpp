@@ -26,6 +26,7 @@
 #include "halo/decomposition.hpp"
 #include "cases/particle_output.hpp"
 #include "cases/scenes.hpp"
+#include "checkpoint_case.hpp"
 #include "scene_checks.hpp"
 #include "core/error.hpp"
 #include "core/output.hpp"
@@ -186,6 +187,7 @@ struct ParticlesCase {
   std::vector<std::int64_t> track;
   std::string outdir;
   double max_mach = 0.3;
+  ckpt::Policy checkpoint;
 };
 
 ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
@@ -303,6 +305,7 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
   c.output_interval = o.integer_in("interval", 0, 0, std::numeric_limits<long>::max());
   c.series_interval = o.integer_in("series_interval", 100, 1, std::numeric_limits<long>::max());
   o.finish();
+  c.checkpoint = ckpt::read_policy(root);
   root.accept("scene");
   root.finish();
   if (opt.steps) c.steps = *opt.steps;
@@ -327,7 +330,11 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
     throw ResourceError("key 'domain.cells': the grid needs " + std::to_string(need >> 20) + " MiB but " +
                       std::to_string(backend_free_bytes(backend) >> 20) + " MiB are free");
   if (opt.validate_only) return 0;
-  io::prepare_output_dir(c.outdir, opt.overwrite);
+  // A restart checks its checkpoint against this case before any output is touched.
+  ckpt::Run ck(c.outdir, c.checkpoint,
+               cases::fluid_identity("particles", c.setup).add("particles", std::to_string(c.particles.size())),
+               opt.restart);
+  ck.prepare_output(opt.overwrite);
   auto fluid = lbm::make_lbm_solver(c.setup, backend);
   const auto& n = c.setup.domain.local;
   const auto N = static_cast<std::size_t>(n[0] * n[1] * n[2]);
@@ -359,11 +366,11 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
                  imb::to_string(c.coupling.psm.map.method), imb::to_string(cs.coupling().pipeline()), c.outdir);
   io::ParticleWriter pw(c.outdir, "particles");
   io::GridWriter gw(c.outdir, "fields", c.setup.domain);
-  io::TimeSeries series(c.outdir + "/series.csv",
+  io::TimeSeries series = cases::open_series(ck, c.outdir + "/series.csv",
                         {"step", "fluid_mass_rel_change", "fluid_momentum_x", "fluid_momentum_y", "fluid_momentum_z",
                          "max_mach", "particle_momentum_x", "particle_momentum_y", "particle_momentum_z",
                          "mean_vx", "mean_vy", "mean_vz", "x0", "y0", "z0", "vx0", "vy0", "vz0", "wx0", "wy0", "wz0",
-                         "fx0", "fy0", "fz0", "tx0", "ty0", "tz0"});
+                         "fx0", "fy0", "fz0", "tx0", "ty0", "tz0"}, c.series_interval);
   std::vector<double> rho, u;
   auto write_output = [&](long step) {
     const auto hf = cs.hydro_force_host();
@@ -374,7 +381,19 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
              {{"density", 1, rho.data(), "lattice"}, {"velocity", 3, u.data(), "lattice (cells per step)"},
               {"solid_fraction", 1, eps.data(), "1"}});
   };
-  const auto d0 = fluid->diagnostics();
+  auto d0 = fluid->diagnostics();
+  long step = 0;
+  if (ck.restarting()) {  // the state of the checkpoint's step; its series and snapshots are kept
+    d0.mass = cases::load_coupled(ck.reader(), *fluid, dem, cs).at(0);
+    step = ck.restart_step();
+    pw.resume(step);
+    gw.resume(step);
+  }
+  const long step0 = step;
+  auto checkpoint = [&](bool stopping) {
+    if (ck.due(step, stopping))
+      ck.write(step, double(step), [&](ckpt::Writer& w) { cases::save_coupled(w, *fluid, dem, cs, {d0.mass}); });
+  };
   auto series_row = [&](long step) {
     const auto d = fluid->diagnostics();
     const auto hp = dem.download();
@@ -407,12 +426,11 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
                             "viscous fluid settles the particles slower); a finer grid (a larger particles.diameter "
                             "in cells for the same particle)");
   };
-  if (c.output_interval > 0) write_output(0);
-  series_row(0);
+  if (step0 == 0 && c.output_interval > 0) write_output(0);
+  if (step0 == 0) series_row(0);
   Progress prog("particles", c.steps, 5.0, opt.quiet);
   using clk = std::chrono::steady_clock;
   const auto t0 = clk::now();
-  long step = 0;
   // One coupled step per advance() call (the same steps as one longer call):
   // a stop signal (core/signals.hpp) ends the run after the step in progress.
   while (step < c.steps && !stop_requested()) {
@@ -421,6 +439,7 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
     for (; step < next && !stop_requested(); ++step) cs.advance(1);
     if (step % c.series_interval == 0 || step == c.steps || stop_requested()) series_row(step);
     if (c.output_interval > 0 && step % c.output_interval == 0) write_output(step);
+    checkpoint(stop_requested());
     if (prog.due()) {
       fluid->synchronize();
       prog.report(step, double(step), double(N) / 1e6, "MLUPS (coupled)");
@@ -430,11 +449,13 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
   cs.check_overflow();
   const double secs = std::chrono::duration<double>(clk::now() - t0).count();
   if (c.output_interval == 0 || step % c.output_interval != 0) write_output(step);
+  if (step == c.steps) checkpoint(false);
   const bool interrupted = step < c.steps;
   std::ostringstream js;
   js << "{\n  \"scene\": \"particles\",\n  \"particles\": " << dem.size() << ",\n  \"steps\": " << step
-     << ",\n  \"steps_planned\": " << c.steps << ",\n  \"seconds\": " << secs << ",\n  \"coupled_mlups\": "
-     << double(N) * step / std::max(secs, 1e-12) / 1e6 << ",\n  \"backend\": \"" << to_string(backend)
+     << ",\n  \"steps_planned\": " << c.steps << ",\n  \"restarted_from_step\": " << step0
+     << ",\n  \"seconds\": " << secs << ",\n  \"coupled_mlups\": "
+     << double(N) * (step - step0) / std::max(secs, 1e-12) / 1e6 << ",\n  \"backend\": \"" << to_string(backend)
      << "\",\n  \"interrupted\": " << (interrupted ? "true" : "false") << "\n}\n";
   io::write_text_atomically(c.outdir + "/summary.json", js.str());
   if (interrupted) {
@@ -445,7 +466,7 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
   if (!opt.quiet)
     spdlog::info("done: {} coupled steps in {:.1f} s ({:.1f} MLUPS coupled); results: {}/fields.xdmf, "
                  "{}/particles.xdmf (ParaView), {}/series.csv (lattice units)",
-                 step, secs, double(N) * step / std::max(secs, 1e-12) / 1e6, c.outdir, c.outdir, c.outdir);
+                 step - step0, secs, double(N) * (step - step0) / std::max(secs, 1e-12) / 1e6, c.outdir, c.outdir, c.outdir);
   return 0;
 }
 
