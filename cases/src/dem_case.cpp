@@ -345,8 +345,8 @@ int run_dem_case(const Config& root, const RunOptions& opt) {
     const std::vector<double> row = series_row(sys, 0, c.track);
     if (series) series->append(row);
   }
-  auto checkpoint = [&](bool stopping) {
-    if (ck.due(step, stopping))
+  auto checkpoint = [&](bool stopping, bool finished = false) {
+    if (ck.due(step, stopping, finished))
       ck.write(step, sys.time(), [&](ckpt::Writer& cw) { cases::save_dem(cw, sys, {}); });
   };
   Progress prog("dem", c.steps, 5.0, quiet);
@@ -380,7 +380,7 @@ int run_dem_case(const Config& root, const RunOptions& opt) {
     }
   }
   const bool interrupted = step < c.steps;
-  if (!interrupted) checkpoint(false);
+  checkpoint(false, !interrupted);
   const auto st = sys.stats();
   std::ostringstream js;
   js << "{\n  \"scene\": \"dem\",\n  \"particles\": " << n_particles << ",\n  \"steps\": " << step

@@ -426,8 +426,8 @@ int run_parsed(LbmCase& c, const RunOptions& opt) {
     if (writer) writer->resume(step);
   }
   const long step0 = step;
-  auto checkpoint = [&](bool stopping) {
-    if (ck.due(step, stopping))
+  auto checkpoint = [&](bool stopping, bool finished = false) {
+    if (ck.due(step, stopping, finished))
       ck.write(step, step * U.dt, [&](ckpt::Writer& w) { cases::save_fluid(w, fluid.local(), {d0.mass}); });
   };
   Progress prog(c.scene, c.steps, 5.0, opt.quiet);
@@ -493,7 +493,7 @@ int run_parsed(LbmCase& c, const RunOptions& opt) {
   }
   // Final state always written (also when a stop signal ended the loop early).
   const bool interrupted = step < c.steps;
-  if (!interrupted) checkpoint(false);
+  checkpoint(false, !interrupted);
   if (c.out_interval == 0 || step % c.out_interval != 0) {
     auto t = clk::now();
     write_fields(step);

@@ -390,8 +390,8 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
     gw.resume(step);
   }
   const long step0 = step;
-  auto checkpoint = [&](bool stopping) {
-    if (ck.due(step, stopping))
+  auto checkpoint = [&](bool stopping, bool finished = false) {
+    if (ck.due(step, stopping, finished))
       ck.write(step, double(step), [&](ckpt::Writer& w) { cases::save_coupled(w, *fluid, dem, cs, {d0.mass}); });
   };
   auto series_row = [&](long step) {
@@ -449,11 +449,12 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
   cs.check_overflow();
   const double secs = std::chrono::duration<double>(clk::now() - t0).count();
   if (c.output_interval == 0 || step % c.output_interval != 0) write_output(step);
-  if (step == c.steps) checkpoint(false);
+  checkpoint(false, step == c.steps);
   const bool interrupted = step < c.steps;
   std::ostringstream js;
   js << "{\n  \"scene\": \"particles\",\n  \"particles\": " << dem.size() << ",\n  \"steps\": " << step
      << ",\n  \"steps_planned\": " << c.steps << ",\n  \"restarted_from_step\": " << step0
+     << ",\n  \"dem_rebuilds\": " << dem.stats().rebuilds
      << ",\n  \"seconds\": " << secs << ",\n  \"coupled_mlups\": "
      << double(N) * (step - step0) / std::max(secs, 1e-12) / 1e6 << ",\n  \"backend\": \"" << to_string(backend)
      << "\",\n  \"interrupted\": " << (interrupted ? "true" : "false") << "\n}\n";

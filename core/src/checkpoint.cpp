@@ -368,9 +368,10 @@ void Run::prepare_output(bool overwrite) {
   }
 }
 
-bool Run::due(long step, bool stopping) const {
+bool Run::due(long step, bool stopping, bool finished) const {
   if (step == last_step_) return false;
   if (stopping) return policy_.on_signal;
+  if (finished) return policy_.interval > 0 || policy_.minutes > 0;
   if (policy_.interval > 0 && step % policy_.interval == 0) return true;
   if (policy_.minutes > 0 &&
       std::chrono::duration<double>(std::chrono::steady_clock::now() - last_).count() >= 60.0 * policy_.minutes)

@@ -248,9 +248,11 @@ class Run {
   // restart keeps the folder and removes the output files of steps after
   // the checkpoint (named in the run manifest: "<prefix>_<step>.h5").
   void prepare_output(bool overwrite);
-  // Whether a checkpoint is due after `step` (interval or wall time; a
-  // stop request when `stopping`). Reads the clock only: no device work.
-  bool due(long step, bool stopping) const;
+  // Whether a checkpoint is due after `step`: interval or wall time; a stop
+  // request when `stopping`; the end of the run when `finished` (with an
+  // interval or minutes set, so that a longer run can go on from it). Reads
+  // the clock only: no device work.
+  bool due(long step, bool stopping, bool finished = false) const;
   // Writes a checkpoint of `step`: fill(writer) writes the sections.
   template <class Fill>
   void write(long step, double time, Fill&& fill) {
