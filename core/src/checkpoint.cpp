@@ -359,12 +359,23 @@ void Run::prepare_output(bool overwrite) {
     io::prepare_output_dir(outdir_, overwrite);
     return;
   }
-  // Output of steps after the checkpoint is recomputed by the restarted run.
+  // Output of steps after the checkpoint is recomputed by the restarted run;
+  // temporaries left by a killed write ("<name>.tmp<pid>" of a file the
+  // manifest names) are dropped.
   const long s = reader_->step();
   std::error_code ec;
-  for (const auto& name : io::read_manifest(outdir_)) {
+  const auto ours = io::read_manifest(outdir_);
+  const std::set<std::string> names(ours.begin(), ours.end());
+  for (const auto& name : ours) {
     const long k = output_step(name);
     if (k > s) fs::remove(fs::path(outdir_) / name, ec);
+  }
+  for (fs::directory_iterator it(outdir_, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string n = it->path().filename().string();
+    const auto t = n.rfind(".tmp");
+    if (t == std::string::npos || t + 4 >= n.size() || !names.count(n.substr(0, t))) continue;
+    if (n.find_first_not_of("0123456789", t + 4) != std::string::npos) continue;
+    if (it->is_regular_file(ec) && !it->is_symlink(ec)) fs::remove(it->path(), ec);
   }
 }
 

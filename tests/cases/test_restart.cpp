@@ -29,6 +29,7 @@
 #include <vector>
 
 #include "core/checkpoint.hpp"
+#include "core/exec.hpp"
 #include "core/output.hpp"
 #include "run_lbdem.hpp"
 
@@ -65,8 +66,9 @@ class Restart : public ::testing::Test {
     return p.string();
   }
   // `lbdem run` on the host backend, quiet; returns the exit code, output to `log`.
-  test::Result lbdem(const std::string& args) { return run("run " + args + " --backend cpu --quiet"); }
+  test::Result lbdem(const std::string& args) { return run("run " + args + " --backend " + backend_ + " --quiet"); }
   fs::path dir_;
+  std::string backend_ = "cpu";
 };
 
 // A coupled scene with friction, walls on y, particles moving fast enough
@@ -168,6 +170,18 @@ TEST_F(Restart, ParticlesStraightEqualsHalfPlusRestartBitwise) {
   // goes on from the checkpoint's).
   EXPECT_GE(json_long(first, "dem_rebuilds"), 1) << first;
   EXPECT_GT(json_long(js, "dem_rebuilds"), json_long(first, "dem_rebuilds")) << js;
+}
+
+// The same on the GPU (where one is usable): the device state streamed
+// through the host in slabs, the rebuild reports' page-locked ring.
+TEST_F(Restart, ParticlesCudaStraightEqualsHalfPlusRestartBitwise) {
+  if (!cuda_unavailable_reason().empty()) GTEST_SKIP() << "no usable GPU: " << cuda_unavailable_reason();
+  backend_ = "cuda";
+  const fs::path A = dir_ / "A", B = dir_ / "B";
+  const std::string first = straight_vs_restart(*this, write_case(kParticles), 20, "series.csv", A, B);
+  if (HasFatalFailure()) return;
+  expect_same_datasets(A / "fields_00000040.h5", B / "fields_00000040.h5", {"density", "velocity", "solid_fraction"});
+  EXPECT_GE(json_long(first, "dem_rebuilds"), 1) << first;
 }
 
 TEST_F(Restart, DemStraightEqualsHalfPlusRestartBitwise) {
@@ -366,4 +380,37 @@ output: {directory: unused}
 )",
                                          "fs.yaml");
   expect_refused(fs_case + " --restart " + R_.string(), "does not write checkpoints");
+}
+
+// When checkpoints are due (ckpt::Run::due): the interval, the wall-clock
+// minutes, a stop signal, the end of the run; never twice at one step.
+TEST(CheckpointPolicy, DueByIntervalMinutesSignalAndEnd) {
+  const fs::path dir = fs::temp_directory_path() / ("lbdem_ckpt_policy_" + std::to_string(::getpid()));
+  ckpt::Policy p;
+  p.interval = 10;
+  ckpt::Run by_steps(dir.string(), p, {}, std::nullopt);
+  EXPECT_FALSE(by_steps.due(5, false));
+  EXPECT_TRUE(by_steps.due(10, false));
+  EXPECT_TRUE(by_steps.due(7, true));    // stop signal
+  EXPECT_TRUE(by_steps.due(13, false, true));  // end of the run
+  p.on_signal = false;
+  ckpt::Run quiet(dir.string(), p, {}, std::nullopt);
+  EXPECT_FALSE(quiet.due(7, true));
+  ckpt::Policy t;
+  t.minutes = 1e-6;  // due as soon as the clock has moved
+  ckpt::Run by_time(dir.string(), t, {}, std::nullopt);
+  std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  EXPECT_TRUE(by_time.due(3, false));
+  ckpt::Run none(dir.string(), ckpt::Policy{0, 0, true}, {}, std::nullopt);
+  EXPECT_FALSE(none.due(100, false));
+  EXPECT_FALSE(none.due(100, false, true));  // nothing asked for: no checkpoint at the end
+  fs::create_directories(dir);
+  none.write(100, 1.0, [](ckpt::Writer& w) {
+    w.section("x");
+    w.put<int>(1);
+  });
+  EXPECT_FALSE(none.due(100, true));  // already written at this step
+  EXPECT_EQ(ckpt::Reader(none.path()).step(), 100);
+  std::error_code ec;
+  fs::remove_all(dir, ec);
 }
