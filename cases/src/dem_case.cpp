@@ -22,6 +22,7 @@
 
 #include "cases/particle_output.hpp"
 #include "cases/scenes.hpp"
+#include "checkpoint_case.hpp"
 #include "scene_checks.hpp"
 #include "core/error.hpp"
 #include "core/output.hpp"
@@ -50,6 +51,7 @@ struct DemCase {
   long series_interval = 0;  // time-series rows every N steps
   std::vector<std::int64_t> track;  // ids whose position/velocity go into the series
   std::array<int, 3> decomposition{0, 0, 0};  // ranks per axis ({0, 0, 0}: chosen)
+  ckpt::Policy checkpoint;
 };
 
 HostParticles read_particles(const Config& pc, const DemParams& p, std::uint64_t& seed_out) {
@@ -229,6 +231,7 @@ DemCase read_case(const Config& root, const RunOptions& opt) {
     const auto d = root.integers("decomposition", 3, 3, 1, 1 << 20);
     for (std::size_t k = 0; k < 3; ++k) c.decomposition[k] = static_cast<int>(d[k]);
   }
+  c.checkpoint = ckpt::read_policy(root);
   root.accept("scene");
   root.finish();
   if (opt.steps) c.steps = *opt.steps;
@@ -290,11 +293,19 @@ int run_dem_case(const Config& root, const RunOptions& opt) {
                                     : dem::DemDomain{};
   if (opt.validate_only) return 0;
   const bool writer_rank = comm.root();
+  cases::refuse_distributed(opt.restart, c.checkpoint, domain.decomposed() || comm.size() > 1);
+  ckpt::Run ck(c.outdir, c.checkpoint,
+               ckpt::Identity{}
+                   .add("scene", "dem")
+                   .add("particles", std::to_string(c.particles.size()))
+                   .add("friction", c.params.friction ? "on" : "off")
+                   .add("force_path", dem::to_string(c.params.path)),
+               opt.restart);
   {
     std::exception_ptr failed;
     if (writer_rank) {
       try {
-        io::prepare_output_dir(c.outdir, opt.overwrite);
+        ck.prepare_output(opt.overwrite);
       } catch (...) {
         failed = std::current_exception();
       }
@@ -322,15 +333,23 @@ int run_dem_case(const Config& root, const RunOptions& opt) {
   for (std::int64_t id : c.track)
     for (const char* q : {"x", "y", "z", "vx", "vy", "vz"}) cols.push_back(std::string(q) + "_" + std::to_string(id));
   std::optional<io::TimeSeries> series;
-  if (writer_rank) series.emplace(c.outdir + "/series.csv", cols);
+  if (writer_rank) series.emplace(cases::open_series(ck, c.outdir + "/series.csv", cols, c.series_interval));
   io::ParticleWriter* w = writer ? &*writer : nullptr;
-  write_particles(w, sys, 0);
-  {
+  long step = 0;
+  if (ck.restarting()) {  // the state of the checkpoint's step; its series and snapshots are kept
+    cases::load_dem(ck.reader(), sys);
+    step = ck.restart_step();
+    if (writer) writer->resume(step);
+  } else {
+    write_particles(w, sys, 0);
     const std::vector<double> row = series_row(sys, 0, c.track);
     if (series) series->append(row);
   }
+  auto checkpoint = [&](bool stopping, bool finished = false) {
+    if (ck.due(step, stopping, finished))
+      ck.write(step, sys.time(), [&](ckpt::Writer& cw) { cases::save_dem(cw, sys, {}); });
+  };
   Progress prog("dem", c.steps, 5.0, quiet);
-  long step = 0;
   // A stop signal (core/signals.hpp) is honoured between advance() calls: the
   // chunk lengths, and with them the neighbour-list rebuild schedule, stay
   // those of an uninterrupted run. A signal reaching any rank stops all of
@@ -354,12 +373,14 @@ int run_dem_case(const Config& root, const RunOptions& opt) {
                               " s): lower time.dt or check the material and the initial overlaps");
     }
     if ((c.output_interval > 0 && step % c.output_interval == 0) || last) write_particles(w, sys, step);
+    checkpoint(stop);
     if (prog.due()) {
       sys.synchronize();
       prog.report(step, sys.time(), static_cast<double>(n_particles), "particle-steps/s");
     }
   }
   const bool interrupted = step < c.steps;
+  checkpoint(false, !interrupted);
   const auto st = sys.stats();
   std::ostringstream js;
   js << "{\n  \"scene\": \"dem\",\n  \"particles\": " << n_particles << ",\n  \"steps\": " << step

@@ -11,6 +11,7 @@
 
 #include "cases/parallel.hpp"
 #include "cases/scenes.hpp"
+#include "checkpoint_case.hpp"
 #include "scene_checks.hpp"
 #include "core/buffer.hpp"
 #include "core/output.hpp"
@@ -48,6 +49,7 @@ struct LbmCase {
   ParallelOptions parallel;
   std::vector<std::uint8_t> flags;
   std::vector<double> rho, u;
+  ckpt::Policy checkpoint;
   // Scene-specific reference, evaluated at the end (lattice units in/out).
   std::function<std::vector<Verification>(long step, const std::vector<double>& rho, const std::vector<double>& u)> verify;
 };
@@ -168,6 +170,7 @@ LbmCase parse(const Config& root, const RunOptions& opt) {
     u_ref = sc.positive("reference_velocity", u_ref > 0 ? u_ref : 1e-3);
   }
   sc.finish();
+  c.checkpoint = ckpt::read_policy(root);
   root.finish();
 
   UnitsRequest ur;
@@ -381,7 +384,10 @@ int run_parsed(LbmCase& c, const RunOptions& opt) {
   if (opt.validate_only) return 0;
   const halo::Comm& comm = halo::Comm::world();
   const bool root = comm.root();
-  if (root) io::prepare_output_dir(c.outdir, opt.overwrite);
+  cases::refuse_distributed(opt.restart, c.checkpoint, comm.distributed());
+  // A restart checks its checkpoint against this case before any output is touched.
+  ckpt::Run ck(c.outdir, c.checkpoint, cases::fluid_identity(c.scene, s), opt.restart);
+  if (root) ck.prepare_output(opt.overwrite);
 
   const Units& U = c.units;
   const auto& n = s.domain.local;
@@ -403,9 +409,10 @@ int run_parsed(LbmCase& c, const RunOptions& opt) {
   std::optional<io::TimeSeries> series;
   if (root) {
     writer.emplace(c.outdir, "fields", s.domain);
-    series.emplace(c.outdir + "/diagnostics.csv",
-                   std::vector<std::string>{"step", "time_s", "mass_rel_change", "momentum_x", "momentum_y", "momentum_z",
-                                            "max_speed_m_s", "max_mach"});
+    series.emplace(cases::open_series(ck, c.outdir + "/diagnostics.csv",
+                                      {"step", "time_s", "mass_rel_change", "momentum_x", "momentum_y", "momentum_z",
+                                       "max_speed_m_s", "max_mach"},
+                                      c.diag_interval));
   }
   std::vector<double> rho, u, flagd(c.flags.begin(), c.flags.end()), p;
   auto write_fields = [&](long step) {
@@ -450,10 +457,20 @@ int run_parsed(LbmCase& c, const RunOptions& opt) {
   PhaseTimer phases;
   using clk = std::chrono::steady_clock;
   auto secs = [](clk::time_point a) { return std::chrono::duration<double>(clk::now() - a).count(); };
-  const auto d0 = solver->diagnostics();
-  Progress prog(c.scene, c.steps, 5.0, opt.quiet);
+  auto d0 = solver->diagnostics();
   long step = 0;
-  if (c.out_interval > 0) {
+  if (ck.restarting()) {  // the state of the checkpoint's step; its series and fields are kept
+    d0.mass = cases::load_fluid(ck.reader(), fluid.local()).at(0);
+    step = ck.restart_step();
+    if (writer) writer->resume(step);
+  }
+  const long step0 = step;
+  auto checkpoint = [&](bool stopping, bool finished = false) {
+    if (ck.due(step, stopping, finished))
+      ck.write(step, step * U.dt, [&](ckpt::Writer& w) { cases::save_fluid(w, fluid.local(), {d0.mass}); });
+  };
+  Progress prog(c.scene, c.steps, 5.0, opt.quiet);
+  if (c.out_interval > 0 && step0 == 0) {
     auto t = clk::now();
     write_fields(0);
     phases.add("output", secs(t));
@@ -510,10 +527,12 @@ int run_parsed(LbmCase& c, const RunOptions& opt) {
       write_fields(step);
       phases.add("output", secs(t));
     }
+    checkpoint(stop);
     if (prog.due()) prog.report(step, step * U.dt, fluid_cells / 1e6, "MLUPS");
   }
   // Final state always written (also when a stop signal ended the loop early).
   const bool interrupted = step < c.steps;
+  checkpoint(false, !interrupted);
   if (c.out_interval == 0 || step % c.out_interval != 0) {
     auto t = clk::now();
     write_fields(step);
@@ -524,7 +543,7 @@ int run_parsed(LbmCase& c, const RunOptions& opt) {
   const std::size_t memory = solver->memory_bytes();
 
   const double lbm_s = phases.phases().count("lbm") ? phases.phases().at("lbm") : 0;
-  const double mlups = lbm_s > 0 ? fluid_cells * static_cast<double>(step) / lbm_s / 1e6 : 0;
+  const double mlups = lbm_s > 0 ? fluid_cells * static_cast<double>(step - step0) / lbm_s / 1e6 : 0;
   std::ostringstream js;
   js << "{\n  \"scene\": \"" << c.scene << "\",\n  \"lattice\": \"" << to_string(s.lattice) << "\",\n  \"collision\": \""
      << to_string(s.collision) << "\",\n  \"precision\": \"" << to_string(s.precision) << "\",\n  \"streaming\": \""

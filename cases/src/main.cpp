@@ -1,5 +1,6 @@
 // The `lbdem` command.
 //   lbdem run CASE.yaml [--backend cuda|cpu|auto] [--steps N] [--output DIR] [--overwrite] [--force] [--quiet]
+//                      [--memory SIZE] [--restart RUN_DIR|CHECKPOINT]
 //   lbdem check CASE.yaml [--memory SIZE]   validate a case file without running it
 //                              (SIZE: check the memory against a machine with
 //                              that much free memory, device and host, e.g. 80GiB)
@@ -12,12 +13,15 @@
 
 #include <CLI/CLI.hpp>
 #include <cctype>
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
 #include <thread>
 
 #include "cases/scenes.hpp"
 #include "core/buffer.hpp"
+#include "core/checkpoint.hpp"
 #include "core/exec.hpp"
 #include "core/signals.hpp"
 #include "halo/comm.hpp"
@@ -89,6 +93,10 @@ int main(int argc, char** argv) {
   run->add_option("--memory", memory,
                   "use at most this much memory (device and host), e.g. 40GiB: the memory checks refuse a case that "
                   "needs more");
+  std::string restart;
+  auto* restart_opt = run->add_option(
+      "--restart", restart,
+      "continue the run whose checkpoint is in this run folder (or this checkpoint file), bit for bit, in that folder");
 
   auto* check = app.add_subcommand("check", "validate a case file without running it");
   check->add_option("case", case_file, "case file (YAML)")->required();
@@ -136,6 +144,17 @@ int main(int argc, char** argv) {
     const Config cfg = Config::load_file(case_file);
     if (steps > 0) opt.steps = steps;
     if (output_opt->count() > 0) opt.output = output;
+    if (restart_opt->count() > 0) {
+      // The run goes on in the checkpoint's folder (--output, if given, must name it).
+      opt.restart = ckpt::resolve(restart);
+      if (!opt.output) opt.output = std::filesystem::path(*opt.restart).parent_path().string();
+      if (opt.output->empty()) opt.output = ".";
+      const std::string scene = cfg.text("scene");
+      const auto fluid = lbm_scene_names();
+      if (scene != "particles" && scene != "dem" && std::find(fluid.begin(), fluid.end(), scene) == fluid.end())
+        throw ConfigError("--restart: scene '" + scene + "' does not write checkpoints; scenes that do: particles, "
+                          "dem and the fluid scenes");
+    }
     if (*check) {
       // Parse and check everything (keys, ranges, units, memory), then stop
       // before the output folder is touched.

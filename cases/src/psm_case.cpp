@@ -37,6 +37,7 @@
 #include "cases/suspension.hpp"
 #include "core/units.hpp"
 #include "cases/scenes.hpp"
+#include "checkpoint_case.hpp"
 #include "scene_checks.hpp"
 #include "core/async_writer.hpp"
 #include "core/error.hpp"
@@ -218,6 +219,7 @@ struct ParticlesCase {
   std::array<long, 3> fluid_lo{0, 0, 0}, fluid_hi{1, 1, 1};
   bool fields_fp32 = false;  // output.field_precision
   bool async_output = false;  // output.background
+  ckpt::Policy checkpoint;
 };
 
 // The particle scene in SI units (units: physical): the keys whose meaning
@@ -475,6 +477,7 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
   // thread while the run goes on; off: written slab by slab, no host copy of the grid.
   c.async_output = o.boolean("background", false);
   o.finish();
+  c.checkpoint = ckpt::read_policy(root);
   root.accept("scene");
   root.finish();
   if (opt.steps) c.steps = *opt.steps;
@@ -583,7 +586,7 @@ std::string json_vec(const std::array<double, 3>& v) {
 // factors, the lattice parameters it ran with (17 digits: a physical-unit case
 // and its lattice-unit twin compare exactly), the statistics against Wen-Yu.
 std::string particles_summary(const ParticlesCase& c, const cases::ParticleSeries& series, Index particles, long step,
-                              double secs, double cells, Backend backend, bool interrupted) {
+                              long job_steps, double secs, double cells, Backend backend, bool interrupted) {
   const Units& U = c.units;
   const auto& n = c.setup.domain.global;
   const double wy = wen_yu_prediction(c);
@@ -592,8 +595,9 @@ std::string particles_summary(const ParticlesCase& c, const cases::ParticleSerie
   std::ostringstream js;
   js.precision(17);
   js << "{\n  \"scene\": \"particles\",\n  \"particles\": " << particles << ",\n  \"steps\": " << step
-     << ",\n  \"steps_planned\": " << c.steps << ",\n  \"seconds\": " << secs << ",\n  \"coupled_mlups\": "
-     << cells * step / std::max(secs, 1e-12) / 1e6 << ",\n  \"backend\": \"" << to_string(backend)
+     << ",\n  \"steps_planned\": " << c.steps << ",\n  \"restarted_from_step\": " << step - job_steps
+     << ",\n  \"seconds\": " << secs << ",\n  \"coupled_mlups\": "
+     << cells * double(job_steps) / std::max(secs, 1e-12) / 1e6 << ",\n  \"backend\": \"" << to_string(backend)
      << "\",\n  \"interrupted\": " << (interrupted ? "true" : "false");
   js << ",\n  \"units\": \"" << (c.physical ? "physical" : "lattice") << "\""
      << ",\n  \"conversion\": {\"dx_m\": " << U.dx << ", \"dt_s\": " << U.dt << ", \"dm_kg\": " << U.dm()
@@ -640,7 +644,11 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
                 static_cast<long long>(c.particles.size()), cases::memory_table(planned, cells).c_str());
     return 0;
   }
-  io::prepare_output_dir(c.outdir, opt.overwrite);
+  // A restart checks its checkpoint against this case before any output is touched.
+  ckpt::Run ck(c.outdir, c.checkpoint,
+               cases::fluid_identity("particles", c.setup).add("particles", std::to_string(c.particles.size())),
+               opt.restart);
+  ck.prepare_output(opt.overwrite);
   auto fluid = lbm::make_lbm_solver(c.setup, backend);
   const auto& n = c.setup.domain.local;
   const auto N = static_cast<std::size_t>(n[0] * n[1] * n[2]);
@@ -722,8 +730,23 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
                      cs.solid_fraction_box(b, out[2]);
                    });
   };
-  cases::ParticleSeries series(c.outdir + "/series.csv", cs, suspension_stats_spec(c), c.units.dt);
+  // A restart keeps the series rows up to its checkpoint and the series' accumulators.
+  cases::ParticleSeries series(c.outdir + "/series.csv", cs, suspension_stats_spec(c), c.units.dt, &ck,
+                               c.series_interval);
   series.average_from(c.steps / 2);  // the mean slip of summary.json: the run's second half
+  long step = 0;
+  if (ck.restarting()) {  // the state of the checkpoint's step; its series and snapshots are kept
+    series.restore(cases::load_coupled(ck.reader(), *fluid, dem, cs));
+    step = ck.restart_step();
+    pw.resume(step);
+    gw.resume(step);
+  }
+  const long step0 = step;
+  auto checkpoint = [&](bool stopping, bool finished = false) {
+    if (ck.due(step, stopping, finished))
+      ck.write(step, double(step) * c.units.dt,
+               [&](ckpt::Writer& w) { cases::save_coupled(w, *fluid, dem, cs, series.state()); });
+  };
   auto series_row = [&](long step) {
     const auto d = series.append(step);
     const double ma = d.max_speed * std::sqrt(3.0);
@@ -740,12 +763,11 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
                             "viscous fluid settles the particles slower); a finer grid (a larger particles.diameter "
                             "in cells for the same particle)");
   };
-  if (c.output_interval > 0) write_output(0);
-  series_row(0);
+  if (step0 == 0 && c.output_interval > 0) write_output(0);
+  if (step0 == 0) series_row(0);
   Progress prog("particles", c.steps, 5.0, opt.quiet);
   using clk = std::chrono::steady_clock;
   const auto t0 = clk::now();
-  long step = 0;
   // One coupled step per advance() call (the same steps as one longer call):
   // a stop signal (core/signals.hpp) ends the run after the step in progress.
   while (step < c.steps && !stop_requested()) {
@@ -754,6 +776,7 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
     for (; step < next && !stop_requested(); ++step) cs.advance(1);
     if (step % c.series_interval == 0 || step == c.steps || stop_requested()) series_row(step);
     if (c.output_interval > 0 && step % c.output_interval == 0) write_output(step);
+    checkpoint(stop_requested());
     if (prog.due()) {
       fluid->synchronize();
       prog.report(step, double(step) * c.units.dt, double(N) / 1e6, "MLUPS (coupled)");
@@ -763,9 +786,10 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
   cs.check_overflow();
   const double secs = std::chrono::duration<double>(clk::now() - t0).count();
   if (c.output_interval == 0 || step % c.output_interval != 0) write_output(step);
+  checkpoint(false, step == c.steps);
   if (bg) bg->wait();  // every snapshot on disk (a write failure surfaces here) before the summary
   const bool interrupted = step < c.steps;
-  std::string js = particles_summary(c, series, dem.size(), step, secs, double(N), backend, interrupted);
+  std::string js = particles_summary(c, series, dem.size(), step, step - step0, secs, double(N), backend, interrupted);
   {
     // Device memory held by the fluid and the coupling (their buffers), by component.
     MemoryUse held = fluid->memory_use();
@@ -774,7 +798,8 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
     mj << ",\n  \"memory_bytes\": {";
     for (std::size_t i = 0; i < held.items.size(); ++i)
       mj << (i ? ", " : "") << "\"" << held.items[i].name << "\": " << held.items[i].bytes;
-    mj << "},\n  \"memory_bytes_per_cell\": " << double(held.total()) / double(N) << "\n}\n";
+    mj << "},\n  \"memory_bytes_per_cell\": " << double(held.total()) / double(N)
+       << ",\n  \"dem_rebuilds\": " << dem.stats().rebuilds << "\n}\n";
     js = js.substr(0, js.rfind("\n}")) + mj.str();
   }
   io::write_text_atomically(c.outdir + "/summary.json", js);
@@ -787,7 +812,7 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
     spdlog::info("done: {} coupled steps in {:.1f} s ({:.1f} MLUPS coupled); statistics {:.2f}% of it; results: "
                  "{}/fields.xdmf, {}/particles.xdmf (ParaView), {}/series.csv (lattice units; summary.json "
                  "gives dx, dt, dm)",
-                 step, secs, double(N) * step / std::max(secs, 1e-12) / 1e6,
+                 step - step0, secs, double(N) * (step - step0) / std::max(secs, 1e-12) / 1e6,
                  100 * series.seconds() / std::max(secs, 1e-12), c.outdir, c.outdir, c.outdir);
     if (c.particles.size() > cases::ParticleSeries::kTrackedMax && series.averaged_samples() > 0)
       spdlog::info("mean slip over steps {}..{}: {:.4g} cells/step ({:.4g} x the Wen-Yu homogeneous slip {:.4g}); "

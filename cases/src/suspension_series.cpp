@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "cases/suspension.hpp"
+#include "checkpoint_case.hpp"
 #include "imb/coupled.hpp"
 
 namespace lbdem::cases {
@@ -22,15 +23,27 @@ std::vector<std::string> series_columns(const SuspensionStatistics& s, bool trac
 }  // namespace
 
 ParticleSeries::ParticleSeries(const std::string& path, imb::CoupledSolver& cs, const SuspensionStatsSpec& spec,
-                               double dt)
+                               double dt, const ckpt::Run* run, long interval)
     : cs_(cs),
       stats_(Exec(cs.dem().backend()), spec),
-      out_(path, series_columns(stats_, cs.dem().size() <= kTrackedMax)),
+      out_(run ? open_series(*run, path, series_columns(stats_, cs.dem().size() <= kTrackedMax), interval)
+               : io::TimeSeries(path, series_columns(stats_, cs.dem().size() <= kTrackedMax))),
       dt_(dt),
       track_(cs.dem().size() <= kTrackedMax) {
   const auto& g = spec.gravity;
   const double gn = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
   if (gn > 0) along_ = {-g[0] / gn, -g[1] / gn, -g[2] / gn};
+}
+
+void ParticleSeries::restore(const std::vector<double>& v) {
+  if (v.empty()) return;
+  d0_.mass = v[0];
+  have_d0_ = true;
+  if (v.size() >= 4) {
+    slip_sum_ = v[1];
+    drag_sum_ = v[2];
+    samples_ = static_cast<long>(v[3]);
+  }
 }
 
 lbm::LbmDiagnostics ParticleSeries::append(long step) {

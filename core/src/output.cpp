@@ -318,6 +318,29 @@ void xdmf_attribute(std::ostream& x, const std::string& name, int comps, const c
   x << "    </Attribute>\n";
 }
 
+// The <Grid> entries of steps <= up_to_step in an .xdmf index this file wrote
+// (one "   <Grid Name=\"<prefix>_<step>\"" block per step), for a restart.
+std::vector<std::pair<long, std::string>> xdmf_entries(const std::string& path, const std::string& prefix,
+                                                       long up_to_step) {
+  std::vector<std::pair<long, std::string>> out;
+  std::ifstream in(path);
+  const std::string open = "   <Grid Name=\"" + prefix + "_";
+  std::string line, block;
+  long step = -1;
+  while (std::getline(in, line)) {
+    if (line.rfind(open, 0) == 0) {
+      step = std::atol(line.c_str() + open.size());
+      block.clear();
+    }
+    if (step < 0) continue;
+    block += line + "\n";
+    if (line == "   </Grid>") {
+      if (step <= up_to_step) out.emplace_back(step, block);
+      step = -1;
+    }
+  }
+  return out;
+}
 
 }  // namespace
 
@@ -410,6 +433,7 @@ std::string GridWriter::write_file(long step, double time, const std::vector<std
   // Re-writing a step (restart) replaces its entry instead of duplicating it.
   auto it = std::find_if(entries_.begin(), entries_.end(), [&](const Entry& x) { return x.step == step; });
   if (it == entries_.end()) record_in_manifest(dir_, file);
+  std::erase_if(carried_, [&](const auto& c) { return c.first == step; });
   write_h5_atomically(path, [&](hid_t h5) {
     write_scalar_attr(h5, path, "time", time);
     write_scalar_attr(h5, path, "step", static_cast<double>(step));
@@ -426,6 +450,14 @@ std::string GridWriter::write_file(long step, double time, const std::vector<std
   return path;
 }
 
+void GridWriter::resume(long up_to_step) {
+  carried_ = xdmf_entries((fs::path(dir_) / (prefix_ + ".xdmf")).string(), prefix_, up_to_step);
+}
+
+void ParticleWriter::resume(long up_to_step) {
+  carried_ = xdmf_entries((fs::path(dir_) / (prefix_ + ".xdmf")).string(), prefix_, up_to_step);
+}
+
 void GridWriter::write_xdmf() {
   // XDMF orders structured dimensions slowest first (z y x). Cell data on a
   // CoRectMesh needs node dimensions = cells + 1 and Center="Cell".
@@ -434,6 +466,7 @@ void GridWriter::write_xdmf() {
   const std::string cell_dims = std::to_string(dims_[2]) + " " + std::to_string(dims_[1]) + " " + std::to_string(dims_[0]);
   std::ostringstream x;
   x << xdmf_head(prefix_);
+  for (const auto& c : carried_) x << c.second;
   for (const auto& e : entries_) {
     x << "   <Grid Name=\"" << prefix_ << "_" << step_tag(e.step) << "\" GridType=\"Uniform\">\n";
     x << "    <Time Value=\"" << num(e.time) << "\"/>\n";
@@ -477,6 +510,7 @@ std::string ParticleWriter::write(long step, double time, long n, const double* 
   }
   auto it = std::find_if(entries_.begin(), entries_.end(), [&](const Entry& x) { return x.step == step; });
   if (it == entries_.end()) record_in_manifest(dir_, file);
+  std::erase_if(carried_, [&](const auto& c) { return c.first == step; });
   write_h5_atomically(path, [&](hid_t h5) {
     write_scalar_attr(h5, path, "time", time);
     write_scalar_attr(h5, path, "step", static_cast<double>(step));
@@ -502,6 +536,7 @@ std::string ParticleWriter::write(long step, double time, long n, const double* 
 void ParticleWriter::write_xdmf() {
   std::ostringstream x;
   x << xdmf_head(prefix_);
+  for (const auto& c : carried_) x << c.second;
   for (const auto& e : entries_) {
     const std::string n = std::to_string(e.n);
     x << "   <Grid Name=\"" << prefix_ << "_" << step_tag(e.step) << "\" GridType=\"Uniform\">\n";

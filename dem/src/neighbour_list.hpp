@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "core/buffer.hpp"
+#include "core/checkpoint.hpp"
 #include "core/exec.hpp"
 #include "dem/geometry.hpp"
 #include "cell_grid.hpp"
@@ -56,6 +57,10 @@ class NeighbourList {
   bool fit_capacity(const Exec& ex, Scratch& scratch);
   // The list arrays of the kernel view.
   void bind(State& s) const;
+  // Checkpoint state: the list of the last build (rows, capacity, partners,
+  // tangential histories) and its flags (dem/src/system_state.cpp).
+  void save_state(ckpt::Sink& out) const;
+  void load_state(ckpt::Source& in, Backend be);
 
   CellGrid grid{};
   double skin = 0;  // Verlet skin [m]: the list holds pairs closer than r_i + r_j + skin

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "core/buffer.hpp"
+#include "core/checkpoint.hpp"
 #include "core/exec.hpp"
 #include "halo/comm.hpp"
 #include "report.hpp"
@@ -71,6 +72,12 @@ class RebuildScheduler {
   // Throws DivergenceError if a report that arrived (the device being
   // synchronised) shows a stale list (Lookahead; once).
   void check_arrived();
+
+  // Checkpoint state: the report ring (device slots and host copies), the
+  // reports pending and the last one read (dem/src/system_state.cpp).
+  // Synchronous.
+  void save_state(ckpt::Sink& out) const;
+  void load_state(ckpt::Source& in);
 
   // A decomposed run: every report read is reduced over the ranks (largest
   // values), so all ranks take the same decisions (null on one rank).

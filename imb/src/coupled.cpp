@@ -91,6 +91,13 @@ void CoupledSolver::after_step(long steps_done) {
   if (p_.overflow_check_every > 0 && steps_done % p_.overflow_check_every == 0) check_overflow();
 }
 
+void CoupledSolver::load_state(ckpt::Source& in) {
+  const auto steps = in.get<std::int64_t>();
+  if (steps < 0) in.mismatch("a negative coupled step count");
+  loop_.restore_steps(static_cast<long>(steps));
+  map();
+}
+
 void CoupledSolver::advance(long n) {
   for (long i = 0; i < n; ++i) step();
 }

@@ -243,6 +243,33 @@ class SolverImpl final : public LbmSolver {
     if (s_.streaming == StreamKind::TwoLattice) f0_.swap(f1_);
     ++t_;
   }
+  void save_state(ckpt::Sink& out) override {
+    ex_.synchronize();
+    out.put<std::int32_t>(L::Q);
+    out.put<std::int32_t>(static_cast<std::int32_t>(sizeof(T)));
+    out.put<std::int32_t>(static_cast<std::int32_t>(s_.streaming));
+    out.put<std::int64_t>(g_.n);
+    out.put<std::int64_t>(stride_);
+    out.put<std::int64_t>(t_);
+    out.put_buffer(flags_);
+    out.put_buffer(f0_);
+    if (s_.streaming == StreamKind::TwoLattice) out.put_buffer(f1_);
+  }
+  void load_state(ckpt::Source& in) override {
+    ex_.synchronize();
+    in.expect<std::int32_t>(L::Q, "the lattice's velocity count Q");
+    in.expect<std::int32_t>(static_cast<std::int32_t>(sizeof(T)), "the population precision (bytes)");
+    in.expect<std::int32_t>(static_cast<std::int32_t>(s_.streaming), "the streaming scheme");
+    in.expect<std::int64_t>(g_.n, "the grid's cell count");
+    in.expect<std::int64_t>(stride_, "the population stride");
+    const auto t = in.get<std::int64_t>();
+    if (t < 0) in.mismatch("a negative step count");
+    in.get_buffer(flags_);
+    in.get_buffer(f0_);
+    if (s_.streaming == StreamKind::TwoLattice) in.get_buffer(f1_);
+    t_ = static_cast<long>(t);
+    ex_.synchronize();
+  }
 
  private:
   // Calls fn(scheme, parity of the next step) as integral constants (lbm/dispatch.hpp).

@@ -18,6 +18,7 @@ struct RunOptions {
   bool quiet = false;               // no progress lines (tests)
   bool validate_only = false;       // parse and check everything, then return 0 before any output
   bool force = false;               // start a run planned to take longer than a year (cases/src/scene_checks.hpp)
+  std::optional<std::string> restart;  // checkpoint file to continue from (core/checkpoint.hpp; main resolves --restart)
 };
 
 // Each family: the scene names it knows and its runner (returns an exit code:

@@ -14,6 +14,7 @@
 #include "core/exec.hpp"
 #include "dem/particles.hpp"
 #include "dem/system.hpp"
+#include "core/checkpoint.hpp"
 #include "core/output.hpp"
 #include "lbm/solver.hpp"
 
@@ -126,7 +127,14 @@ class SuspensionStatistics {
 class ParticleSeries {
  public:
   static constexpr long kTrackedMax = 16;
-  ParticleSeries(const std::string& path, imb::CoupledSolver& cs, const SuspensionStatsSpec& spec, double dt);
+  // With `run` restarting, the rows up to its checkpoint are kept (a series
+  // of `interval` steps) and the file goes on from there.
+  ParticleSeries(const std::string& path, imb::CoupledSolver& cs, const SuspensionStatsSpec& spec, double dt,
+                 const ckpt::Run* run = nullptr, long interval = 1);
+  // What a checkpoint keeps of the series: the reference mass and the
+  // accumulators of the averages; restore() takes it back.
+  std::vector<double> state() const { return {d0_.mass, slip_sum_, drag_sum_, double(samples_)}; }
+  void restore(const std::vector<double>& v);
   // Appends the row of `step`; returns the fluid diagnostics it used, for the
   // caller's divergence checks.
   lbm::LbmDiagnostics append(long step);

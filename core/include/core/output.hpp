@@ -76,6 +76,9 @@ class GridWriter {
   void set_float32(bool on) { fp32_ = on; }
   bool float32() const { return fp32_; }
   const std::vector<std::string>& files() const { return files_; }
+  // Restart (core/checkpoint.hpp): keeps the entries of steps <= up_to_step
+  // of the folder's existing .xdmf index, so that it goes on listing them.
+  void resume(long up_to_step);
 
  private:
   void write_xdmf();
@@ -85,6 +88,7 @@ class GridWriter {
                          const std::function<void(std::int64_t, const std::string&)>& body);
   bool fp32_ = false;
   std::vector<std::vector<double>> slab_;  // write_slabs: one slab per field
+  std::vector<std::pair<long, std::string>> carried_;  // resume(): earlier entries, as XDMF text
   std::string dir_, prefix_;
   bool xdmf_recorded_ = false;  // the .xdmf name is in the manifest
   std::array<long, 3> dims_;
@@ -115,9 +119,12 @@ class ParticleWriter {
   // positions: 3n values (x,y,z interleaved). Returns the .h5 path.
   std::string write(long step, double time, long n, const double* positions,
                     const std::vector<ParticleField>& fields);
+  // Restart: as GridWriter::resume.
+  void resume(long up_to_step);
 
  private:
   void write_xdmf();
+  std::vector<std::pair<long, std::string>> carried_;
   std::string dir_, prefix_;
   bool xdmf_recorded_ = false;
   struct Entry { long step; double time; long n; std::string file; std::vector<std::pair<std::string, int>> fields; };

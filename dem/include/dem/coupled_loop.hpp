@@ -38,6 +38,8 @@ class CoupledLoop {
     fluid_.after_step(steps_);            // 4. periodic checks
   }
   long steps() const { return steps_; }
+  // Restart from a checkpoint (core/checkpoint.hpp): the steps done before.
+  void restore_steps(long steps) { steps_ = steps; }
 
  private:
   DemSystem& dem_;

@@ -9,6 +9,7 @@
 #include <utility>
 #include <vector>
 
+#include "core/checkpoint.hpp"
 #include "core/exec.hpp"
 #include "dem/contact.hpp"
 #include "dem/domain.hpp"
@@ -144,6 +145,16 @@ class DemSystem {
   void bench_rebuild();    // one full rebuild
   // Waits for the device; checks arrived reports for a stale list like download().
   void synchronize() const;
+  // Checkpoint state (core/checkpoint.hpp): every particle array in storage
+  // order (global ids, tangential histories, forces of the last two steps,
+  // positions at the last build), the Verlet list, the rebuild scheduler's
+  // reports and the step count and time, so that advance() goes on as if
+  // never stopped. Load into a system constructed from the same parameters
+  // and particles; a stored set of another size or layout is refused
+  // (ConfigError). One rank only (a decomposed system throws ConfigError).
+  // Synchronous.
+  void save_state(ckpt::Sink& out) const;
+  void load_state(ckpt::Source& in);
 
   struct Impl;  // opaque; defined in dem/src/system_impl.hpp
 

@@ -101,6 +101,15 @@ class CoupledSolver : private dem::FluidCoupling {
   // The DEM's particles as the PSM sees them (lattice units, current storage order).
   PsmParticles particle_view();
 
+  // Checkpoint state (core/checkpoint.hpp): the coupled step count. The fluid
+  // and the DEM save their own state (LbmSolver / DemSystem::save_state); the
+  // force and torque of the last fluid step are the DEM's coupling input and
+  // travel with it. load_state() comes after theirs: it sets the step count
+  // and maps the particles at their loaded positions (the cell map is a
+  // function of the positions alone).
+  void save_state(ckpt::Sink& out) const { out.put<std::int64_t>(loop_.steps()); }
+  void load_state(ckpt::Source& in);
+
  private:
   // The fluid side of the coupled loop (dem/coupled_loop.hpp).
   void fluid_step(const dem::ParticleView& v) override;

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "core/checkpoint.hpp"
 #include "core/exec.hpp"
 #include "core/memory_use.hpp"
 #include "lbm/boundary.hpp"
@@ -124,6 +125,14 @@ class LbmSolver {
   // two lattices of the two-lattice scheme).
   virtual LbmRaw raw() = 0;
   virtual void commit_external_step() = 0;
+  // Checkpoint state (core/checkpoint.hpp): the stored populations of every
+  // lattice, raw, in their storage precision and layout (A-A: as the parity
+  // of the step count left them), the cell flags and the step count. Load
+  // into a solver of the same set-up after initialize(); a stored lattice,
+  // precision, scheme or grid of another set-up is refused (ConfigError).
+  // Synchronous.
+  virtual void save_state(ckpt::Sink& out) = 0;
+  virtual void load_state(ckpt::Source& in) = 0;
 };
 
 // What the solver allocates for this setup, by component, before anything is
