@@ -19,7 +19,7 @@ double particle_volume(double r, int dim) {
 
 double psm_weight_sum(double r, int dim, double tau, PsmWeight weight) {
   if (!(r > 0)) return 0.0;
-  const double tm = tau - 0.5;
+  const double tm = psm_weight_t(tau, weight);
   const int lo = -static_cast<int>(std::ceil(r)) - 1, hi = static_cast<int>(std::ceil(r)) + 1;
   double total = 0;
   int samples = 0;

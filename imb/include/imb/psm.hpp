@@ -36,7 +36,11 @@ void dispatch_variant(PsmVariant v, Fn&& fn) {
   if (v == PsmVariant::NEBB) fn(std::integral_constant<PsmVariant, PsmVariant::NEBB>{});
   else fn(std::integral_constant<PsmVariant, PsmVariant::Superposition>{});
 }
-enum class PsmWeight { NobleTorczynski, Linear };
+// NobleTorczynski: B of first paper Eq. 1 with t = tau - 1/2. NobleTorczynskiWall:
+// the same form with t = psm_wall_weight_t(tau) (below), which keeps the PSM
+// wall where it sits as tau -> 1/2 for every tau; the kernels treat both alike
+// (only the host-side t differs). Linear: B = eps.
+enum class PsmWeight { NobleTorczynski, Linear, NobleTorczynskiWall };
 
 // Narrow particle view for the coupling (lattice units, SoA): centres, radii,
 // velocities (imb/particle_view.hpp).
@@ -54,10 +58,32 @@ struct SlotForceView {
 };
 
 // Noble-Torczynski weighting B(eps) = eps (tau - 1/2) / ((1 - eps) + (tau - 1/2))
-// (first paper Eq. 1), or B = eps; tm = tau - 1/2.
+// (first paper Eq. 1), or B = eps; tm = the weighting's t (psm_weight_t: tau - 1/2
+// for NT).
 template <class R>
 LBDEM_HD inline R psm_weight(R eps, R tm, PsmWeight w) {
   return w == PsmWeight::Linear ? eps : eps * tm / ((R(1) - eps) + tm);
+}
+
+// The weighting's t for tau under the wall rule (bench/imb/NOTES.md, "Where the
+// PSM wall sits"). With the NT weight and t = tau - 1/2 the PSM surface moves
+// into the solid as tau grows: the solid term B = eps t / ((1 - eps) + t)
+// grows slower than the viscosity (~ t), so the partial cells resist less, the
+// drag falls. As tau -> 1/2, B / t -> eps / (1 - eps) and the surface is where
+// the fixed-sphere study calibrated it. The rule t = m / (1 - k m),
+// m = tau - 1/2 (t -> m as tau -> 1/2), keeps B / m closer to that limit.
+// Plane walls (tangential flow) give k = 0.65; the sphere, whose surface also
+// sees the flow across the partial cells, needs k = 1.75 (k < 2 keeps t finite
+// up to tau = 1). Above tau = 1 (outside the map) t / m stays at its tau = 1 value.
+inline constexpr double kPsmWallRuleK = 1.75;
+inline double psm_wall_weight_t(double tau) {
+  const double m = tau - 0.5;
+  return m / (1.0 - kPsmWallRuleK * (m < 0.5 ? m : 0.5));
+}
+
+// The weighting's t for the given tau and weighting (NT: tau - 1/2).
+inline double psm_weight_t(double tau, PsmWeight w) {
+  return w == PsmWeight::NobleTorczynskiWall ? psm_wall_weight_t(tau) : tau - 0.5;
 }
 
 // Minimum-image displacement on a periodic axis of length n (cells).
@@ -236,7 +262,7 @@ struct PsmLatticeFields {
   const std::uint8_t* flags;
   lbm::BoundaryTable bt;
   T omega_p, omega_m, F[3];
-  T tm;  // tau - 1/2
+  T tm;  // the weighting's t (psm_weight_t: tau - 1/2 for NT)
   PsmWeight weight;
 
   // From the solver's raw view (lbm::LbmRaw) and tau; host side, once per launch.
@@ -250,7 +276,7 @@ struct PsmLatticeFields {
     omega_p = static_cast<T>(raw.omega_p);
     omega_m = static_cast<T>(raw.omega_m);
     for (int a = 0; a < 3; ++a) F[a] = static_cast<T>(raw.body_force[static_cast<std::size_t>(a)]);
-    tm = static_cast<T>(tau - 0.5);
+    tm = static_cast<T>(psm_weight_t(tau, w));
     weight = w;
   }
 
