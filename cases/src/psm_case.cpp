@@ -119,8 +119,9 @@ void read_psm(const Config& ps, imb::PsmOptions& o, int& slots, double& max_drag
 void report_expected_drag_error(const imb::DragErrorQuery& q, double max_drag_error, const RunOptions& opt) {
   const auto e = imb::expected_drag_error(q);
   const double limit = max_drag_error == kMaxDragErrorBar ? e.bar : max_drag_error;
+  const bool tell = opt.validate_only || !opt.quiet;  // `lbdem check` is quiet otherwise but tells this
   if (!e.known) {
-    if (!opt.quiet)
+    if (tell)
       spdlog::info("expected drag error at d/l = {}, tau = {}: no estimate ({})", q.diameter, q.tau, e.reason);
     return;
   }
@@ -128,7 +129,7 @@ void report_expected_drag_error(const imb::DragErrorQuery& q, double max_drag_er
     spdlog::warn("expected drag error at d/l = {}, tau = {}: {:+.2f}% ({}), above psm.max_expected_drag_error = {:.2f}%: "
                  "a larger particle diameter in cells (a finer grid) or a tau nearer 0.5 lowers it",
                  q.diameter, q.tau, 100 * e.error, e.reason, 100 * limit);
-  else if (!opt.quiet)
+  else if (tell)
     spdlog::info("expected drag error at d/l = {}, tau = {}: {:+.2f}% ({}; limit {:.2f}%)", q.diameter, q.tau,
                  100 * e.error, e.reason, 100 * limit);
 }
@@ -164,6 +165,7 @@ int run_fixed_sphere_case(const Config& root, const RunOptions& opt) {
   s.re_p = f.number_in("re_p", 0.2, 1e-4, 50.0, "target particle Reynolds number (sets the body force)");
   f.finish();
   imb::PsmOptions po;
+  po.weight = imb::PsmWeight::NobleTorczynskiWall;  // the default with or without a psm section
   double max_drag_error = kMaxDragErrorBar;
   if (auto ps = root.optional_section("psm")) {
     read_psm(*ps, po, s.slots, max_drag_error);
@@ -352,6 +354,7 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
   p.dt = 1.0 / c.coupling.dem_substeps;
   p.skin = 0.1 * diam;
   dm.finish();
+  c.coupling.psm.weight = imb::PsmWeight::NobleTorczynskiWall;  // the default with or without a psm section
   if (auto ps = root.optional_section("psm")) {
     read_psm(*ps, c.coupling.psm, c.coupling.slots, c.max_drag_error);
     ps->finish();
