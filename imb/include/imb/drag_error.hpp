@@ -75,7 +75,7 @@ inline constexpr double kDragMapError[8][7] = {
     {-6.93,  -7.76,  kNo,    -8.86,  kNo,    -11.50, -12.59},  // d/l 4
     {-2.06,  -2.43,  kNo,    -2.29,  kNo,    -2.30,  -1.56},   // 6
     {kNo,    -0.97,  kNo,    -0.34,  kNo,    +0.67,  +2.03},   // 8
-    {kNo,    -0.01,  kNo,    kNo,    kNo,    +1.68,  +3.12},   // 10
+    {kNo,    -0.01,  kNo,    +0.57,  kNo,    +1.68,  +3.12},   // 10
     {kNo,    -0.39,  kNo,    kNo,    kNo,    kNo,    kNo},     // 16
     {kNo,    -0.11,  kNo,    kNo,    kNo,    kNo,    kNo},     // 20
     {kNo,    +0.08,  kNo,    kNo,    kNo,    kNo,    kNo},     // 30

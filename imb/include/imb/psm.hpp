@@ -37,8 +37,8 @@ void dispatch_variant(PsmVariant v, Fn&& fn) {
   else fn(std::integral_constant<PsmVariant, PsmVariant::Superposition>{});
 }
 // NobleTorczynski: B of first paper Eq. 1 with t = tau - 1/2. NobleTorczynskiWall:
-// the same form with t = psm_wall_weight_t(tau) (below), which keeps the PSM
-// wall where it sits as tau -> 1/2 for every tau; the kernels treat both alike
+// the same form with t = psm_wall_weight_t(tau) (below), which moves the PSM
+// surface back toward where it sits as tau -> 1/2; the kernels treat both alike
 // (only the host-side t differs). Linear: B = eps.
 enum class PsmWeight { NobleTorczynski, Linear, NobleTorczynskiWall };
 
@@ -73,8 +73,9 @@ LBDEM_HD inline R psm_weight(R eps, R tm, PsmWeight w) {
 // the fixed-sphere study calibrated it. The rule t = m / (1 - k m),
 // m = tau - 1/2 (t -> m as tau -> 1/2), keeps B / m closer to that limit.
 // Plane walls (tangential flow) give k = 0.65; the sphere, whose surface also
-// sees the flow across the partial cells, needs k = 1.75 (k < 2 keeps t finite
-// up to tau = 1). Above tau = 1 (outside the map) t / m stays at its tau = 1 value.
+// sees the flow across the partial cells, needs k = 1.75 (fitted at d/l 6; it
+// over-corrects from d/l 8 up and under-corrects at d/l 4; k < 2 keeps t
+// finite up to tau = 1). Above tau = 1 (outside the map) t / m stays at its tau = 1 value.
 inline constexpr double kPsmWallRuleK = 1.75;
 inline double psm_wall_weight_t(double tau) {
   const double m = tau - 0.5;
