@@ -73,7 +73,7 @@ inline constexpr double kNo = std::numeric_limits<double>::quiet_NaN();
 inline constexpr double kDragMapError[8][7] = {
     // 0.505   0.52    0.55    0.6     0.7     0.8     1.0
     {-6.93,  -7.76,  kNo,    -8.86,  kNo,    -11.50, -12.59},  // d/l 4
-    {-2.06,  -2.43,  kNo,    -2.29,  kNo,    -2.30,  -1.56},   // 6
+    {-2.06,  -2.43,  kNo,    -2.29,  -2.38,  -2.30,  -1.56},   // 6
     {kNo,    -0.97,  kNo,    -0.34,  kNo,    +0.67,  +2.03},   // 8
     {kNo,    -0.01,  kNo,    +0.57,  kNo,    +1.68,  +3.12},   // 10
     {kNo,    -0.39,  kNo,    kNo,    kNo,    kNo,    kNo},     // 16
