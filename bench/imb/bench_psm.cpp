@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "bench_support.hpp"
+#include "psm_plane_wall.hpp"
 #include "cases/fixed_sphere.hpp"
 #include "core/error.hpp"
 #include "core/exec.hpp"
@@ -157,7 +158,9 @@ int sweep(int argc, char** argv) {
                       s.precision = lbm::precision_from_string(pr);
                       s.collision = co == "bgk" ? lbm::CollisionKind::BGK : lbm::CollisionKind::TRT;
                       s.variant = va == "super" ? imb::PsmVariant::Superposition : imb::PsmVariant::NEBB;
-                      s.weight = we == "eps" ? imb::PsmWeight::Linear : imb::PsmWeight::NobleTorczynski;
+                      s.weight = we == "eps"    ? imb::PsmWeight::Linear
+                                 : we == "ntw" ? imb::PsmWeight::NobleTorczynskiWall
+                                               : imb::PsmWeight::NobleTorczynski;
                       s.method = m == "table" ? imb::FractionMethod::Table
                                  : m == "linear" ? imb::FractionMethod::Linear
                                                  : imb::FractionMethod::Exact;
@@ -190,6 +193,68 @@ int sweep(int argc, char** argv) {
                       if (!out.empty()) std::ofstream(out) << head.str() << rows << "\n  ]\n}\n";
                     }
   if (!out.empty()) std::ofstream(out) << head.str() << rows << "\n  ]\n}\n";
+  return 0;
+}
+
+// Plane PSM walls (psm_plane_wall.hpp): the effective wall position against
+// tau, Lambda, the wall cell's solid fraction and the weighting. One JSON row
+// per combination; a table on stdout.
+int plane_wall(int argc, char** argv) {
+  std::string out, taus = "0.505,0.52,0.55,0.6,0.7,0.8,1.0", magics = "1e-4", epss = "0.1,0.3,0.5,0.7,0.9",
+                   flows = "poiseuille,couette", weights = "nt";
+  double gap = 16;
+  for (int i = 2; i < argc; ++i) {
+    const std::string k = argv[i];
+    auto next = [&] { return option_value(argc, argv, i); };
+    if (k == "--out") out = next();
+    else if (k == "--tau") taus = next();
+    else if (k == "--magic") magics = next();
+    else if (k == "--eps") epss = next();
+    else if (k == "--flows") flows = next();
+    else if (k == "--weights") weights = next();
+    else if (k == "--gap") gap = std::stod(next());
+    else throw ConfigError("unknown option " + k);
+  }
+  std::string rows;
+  std::printf("| flow | weight | tau | Lambda | eps | delta lo | delta hi | delta | steps |\n|---|---|---|---|---|---|---|---|---|\n");
+  for (const auto& fl : split(flows))
+    for (const auto& we : split(weights))
+      for (const auto& ts : split(taus))
+        for (const auto& ms : split(magics))
+          for (const auto& es : split(epss)) {
+            bench::PlaneWallSpec s;
+            s.couette = fl == "couette";
+            s.tau = std::stod(ts);
+            s.magic = std::stod(ms);
+            s.wall_eps = std::stod(es);
+            s.gap = gap;
+            if (we == "eps") s.weight = [](double e, double) { return e; };
+            else if (we == "ntw")
+              s.weight = [tau = s.tau](double e, double) {
+                return imb::psm_weight(e, imb::psm_wall_weight_t(tau), imb::PsmWeight::NobleTorczynski);
+              };
+            else if (we.rfind("t=", 0) == 0) {  // NT form with tau - 1/2 replaced by a given t
+              const double t = std::stod(we.substr(2));
+              s.weight = [t](double e, double) { return imb::psm_weight(e, t, imb::PsmWeight::NobleTorczynski); };
+            } else if (we.rfind("c=", 0) == 0) {  // B = min(1, eps t / ((1 - eps) + c t)), t = tau - 1/2
+              const double cc = std::stod(we.substr(2));
+              s.weight = [cc](double e, double t) { return std::min(1.0, e * t / ((1.0 - e) + cc * t)); };
+            } else if (we != "nt") throw ConfigError("--weights " + we + ": must be nt, ntw, eps or t=VALUE");
+            const auto r = bench::run_plane_wall(s);
+            std::printf("| %s | %s | %s | %.3g | %s | %+.5f | %+.5f | %+.5f | %ld%s |\n", fl.c_str(), we.c_str(), ts.c_str(),
+                        s.magic, es.c_str(), r.delta_lo, r.delta_hi, r.delta, r.steps, r.converged ? "" : "*");
+            std::fflush(stdout);
+            std::ostringstream row;
+            row << (rows.empty() ? "" : ",\n") << "    {\"flow\": \"" << fl << "\", \"weight\": \"" << we
+                << "\", \"tau\": " << s.tau << ", \"magic\": " << jnum(s.magic) << ", \"eps\": " << s.wall_eps
+                << ", \"delta\": " << jnum(r.delta) << ", \"delta_lo\": " << jnum(r.delta_lo)
+                << ", \"delta_hi\": " << jnum(r.delta_hi) << ", \"steps\": " << r.steps
+                << ", \"converged\": " << (r.converged ? "true" : "false") << "}";
+            rows += row.str();
+          }
+  if (!out.empty())
+    std::ofstream(out) << "{\n" << bench::json_header("lbdem_bench_psm wall", "host", {}) << ",\n  \"gap\": " << gap
+                       << ",\n  \"rows\": [\n" << rows << "\n  ]\n}\n";
   return 0;
 }
 
@@ -339,6 +404,7 @@ int main(int argc, char** argv) {
     const std::string mode = argc > 1 ? argv[1] : "sweep";
     if (mode == "sweep") return sweep(argc, argv);
     if (mode == "suspension") return suspension(argc, argv);
+    if (mode == "wall") return plane_wall(argc, argv);
     std::fprintf(stderr, "usage: lbdem_bench_psm sweep|suspension [options]\n");
     return 2;
   } catch (const std::exception& e) {

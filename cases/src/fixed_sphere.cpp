@@ -195,7 +195,7 @@ FixedSphereResult run_fixed_sphere(const FixedSphereSpec& c, Backend b) {
     const double e = std::min(1.0, eps[i]);
     usum += (1.0 - e) * u[3 * i];
     flux += rho[i] * u[3 * i];
-    const double B = imb::psm_weight(e, c.tau - 0.5, c.weight);
+    const double B = imb::psm_weight(e, imb::psm_weight_t(c.tau, c.weight), c.weight);
     fluid_weight += 1.0 - B;
   }
   const auto sums = global_sum({usum, flux, fluid_weight});

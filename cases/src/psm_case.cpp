@@ -49,6 +49,7 @@
 #include "dem/system.hpp"
 #include "imb/coupled.hpp"
 #include "imb/coupled_checks.hpp"
+#include "imb/drag_error.hpp"
 #include "imb/fraction_table.hpp"
 #include "lbm/storage_checks.hpp"
 
@@ -60,13 +61,26 @@ void require_lattice_units(const Config& root) {
   (void)u;
 }
 
+// fluid.magic: auto (the default) marks Lambda for the resolution rule
+// (imb::psm_magic_auto, set once the particle diameter is known).
+constexpr double kMagicAuto = -1.0;
+
 lbm::CollisionKind read_collision(const Config& f, double& magic, const std::string& def = "trt") {
   const auto c = f.choice("collision", def, {"bgk", "trt"});
-  // PSM drag accuracy improves as the TRT parameter Lambda -> 0 (bench/imb/NOTES.md);
-  // 1e-3 is the default of the resolved scenes.
-  magic = f.number_in("magic", 1e-3, 1e-6, 10.0, "TRT parameter Lambda (3/16: exact walls; PSM drag best near 1e-3)");
+  // The PSM drag depends on Lambda (bench/imb/NOTES.md, "Fixed-sphere drag"): auto
+  // takes 1e-4 below d/l 16 and 3e-2 from 16, the setting the drag map is built on.
+  if (!f.has("magic") || f.text("magic") == "auto") {
+    if (f.has("magic")) f.accept("magic");
+    magic = kMagicAuto;
+  } else {
+    magic = f.number_in("magic", 1e-6, 10.0,
+                        "TRT parameter Lambda, or auto (1e-4 below d/l 16, 3e-2 from 16: the mapped PSM setting)");
+  }
   return c == "bgk" ? lbm::CollisionKind::BGK : lbm::CollisionKind::TRT;
 }
+
+// Lambda of a PSM scene with particles of diameter d (cells): auto resolved.
+double resolve_magic(double magic, double d) { return magic == kMagicAuto ? imb::psm_magic_auto(d) : magic; }
 
 // tau, collision (with Lambda) and precision of a resolved scene's fluid
 // section (FixedSphereSpec and LbmSetup name these fields alike).
@@ -79,15 +93,23 @@ void read_fluid_common(const Config& f, S& s, bool read_tau = true) {
   s.precision = lbm::precision_from_string(f.choice("precision", "fp64", {"fp32", "fp64", "fp16s", "fp16c"}));
 }
 
-void read_psm(const Config& ps, imb::PsmOptions& o, int& slots) {
+// psm.max_expected_drag_error when not given: the half Table 1 bar at the scene's d/l.
+constexpr double kMaxDragErrorBar = -1.0;
+
+void read_psm(const Config& ps, imb::PsmOptions& o, int& slots, double& max_drag_error) {
   const auto fr = ps.choice("fraction", "exact", {"exact", "table", "linear"});
   o.map.method = fr == "table" ? imb::FractionMethod::Table : fr == "linear" ? imb::FractionMethod::Linear
                                                                              : imb::FractionMethod::Exact;
   o.variant = ps.choice("operator", "nebb", {"nebb", "superposition"}) == "nebb" ? imb::PsmVariant::NEBB
                                                                                  : imb::PsmVariant::Superposition;
-  o.weight = ps.choice("weight", "noble_torczynski", {"noble_torczynski", "linear"}) == "linear"
-                 ? imb::PsmWeight::Linear
-                 : imb::PsmWeight::NobleTorczynski;
+  const auto we = ps.choice("weight", "noble_torczynski_wall", {"noble_torczynski_wall", "noble_torczynski", "linear"});
+  o.weight = we == "linear"             ? imb::PsmWeight::Linear
+             : we == "noble_torczynski" ? imb::PsmWeight::NobleTorczynski
+                                        : imb::PsmWeight::NobleTorczynskiWall;
+  max_drag_error = ps.has("max_expected_drag_error")
+                       ? ps.number_in("max_expected_drag_error", 1e-6, 1.0,
+                                      "relative drag error (0.02 = 2 %) above which the start report warns")
+                       : kMaxDragErrorBar;
   o.map.table_in_constant = ps.boolean("table_in_constant", false);
   const auto pl = ps.choice("pipeline", "auto", {"auto", "fused", "mapped"});
   o.pipeline = pl == "fused" ? imb::PsmPipeline::Fused : pl == "mapped" ? imb::PsmPipeline::Mapped : imb::PsmPipeline::Auto;
@@ -102,6 +124,42 @@ void read_psm(const Config& ps, imb::PsmOptions& o, int& slots) {
       ps.fail("pipeline", e.what());
     }
   }
+}
+
+// The expected drag error of the scene as set up (imb/drag_error.hpp), told at
+// `lbdem check` and at the start of a run; a warning when it is above
+// psm.max_expected_drag_error (default: half the first paper's Table 1 error at
+// this d/l).
+void report_expected_drag_error(const imb::DragErrorQuery& q, double max_drag_error, const RunOptions& opt) {
+  const auto e = imb::expected_drag_error(q);
+  const double limit = max_drag_error == kMaxDragErrorBar ? e.bar : max_drag_error;
+  const bool tell = opt.validate_only || !opt.quiet;  // `lbdem check` is quiet otherwise but tells this
+  if (!e.known) {
+    if (tell)
+      spdlog::info("expected drag error at d/l = {}, tau = {}: no estimate ({})", q.diameter, q.tau, e.reason);
+    return;
+  }
+  if (std::abs(e.error) > limit)
+    spdlog::warn("expected drag error at d/l = {}, tau = {}: {:+.2f}% ({}), above psm.max_expected_drag_error = {:.2f}%: "
+                 "a larger particle diameter in cells (a finer grid) or a tau nearer 0.5 lowers it",
+                 q.diameter, q.tau, 100 * e.error, e.reason, 100 * limit);
+  else if (tell)
+    spdlog::info("expected drag error at d/l = {}, tau = {}: {:+.2f}% ({}; limit {:.2f}%)", q.diameter, q.tau,
+                 100 * e.error, e.reason, 100 * limit);
+}
+
+imb::DragErrorQuery drag_query(double d, double tau, lbm::CollisionKind coll, double magic, const imb::PsmOptions& o,
+                               lbm::Precision prec) {
+  imb::DragErrorQuery q;
+  q.diameter = d;
+  q.tau = tau;
+  q.trt = coll == lbm::CollisionKind::TRT;
+  q.magic = magic;
+  q.weight = o.weight;
+  q.variant = o.variant;
+  q.method = o.map.method;
+  q.fp32 = prec == lbm::Precision::FP32;
+  return q;
 }
 
 // ------------------------------------------------------------ fixed sphere
@@ -121,10 +179,13 @@ int run_fixed_sphere_case(const Config& root, const RunOptions& opt) {
   s.re_p = f.number_in("re_p", 0.2, 1e-4, 50.0, "target particle Reynolds number (sets the body force)");
   f.finish();
   imb::PsmOptions po;
+  po.weight = imb::PsmWeight::NobleTorczynskiWall;  // the default with or without a psm section
+  double max_drag_error = kMaxDragErrorBar;
   if (auto ps = root.optional_section("psm")) {
-    read_psm(*ps, po, s.slots);
+    read_psm(*ps, po, s.slots, max_drag_error);
     ps->finish();
   }
+  s.magic = resolve_magic(s.magic, s.diameter);
   s.method = po.map.method;
   s.pipeline = po.pipeline;
   s.variant = po.variant;
@@ -151,6 +212,8 @@ int run_fixed_sphere_case(const Config& root, const RunOptions& opt) {
     for (const auto& w : lbm::storage_warnings(fl, s.re_p * nu / s.diameter, s.diameter / s.chi, double(s.max_steps)))
       spdlog::warn("{}: {}", root.source(), w);
   }
+  if (s.dim == 3) report_expected_drag_error(drag_query(s.diameter, s.tau, s.collision, s.magic, po, s.precision),
+                                             max_drag_error, opt);
   const Backend backend = resolve_backend(opt.backend);
   const halo::Comm& comm = halo::Comm::world();
   s.comm = &comm;
@@ -220,6 +283,7 @@ struct ParticlesCase {
   bool fields_fp32 = false;  // output.field_precision
   bool async_output = false;  // output.background
   ckpt::Policy checkpoint;
+  double max_drag_error = kMaxDragErrorBar;
 };
 
 // The particle scene in SI units (units: physical): the keys whose meaning
@@ -446,11 +510,13 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
   p.dt = 1.0 / c.coupling.dem_substeps;
   p.skin = 0.1 * diam;
   dm.finish();
+  c.coupling.psm.weight = imb::PsmWeight::NobleTorczynskiWall;  // the default with or without a psm section
   if (auto ps = root.optional_section("psm")) {
-    read_psm(*ps, c.coupling.psm, c.coupling.slots);
+    read_psm(*ps, c.coupling.psm, c.coupling.slots, c.max_drag_error);
     ps->finish();
   }
   c.coupling.psm.map.max_radius = r;
+  s.magic = resolve_magic(s.magic, diam);
   if (c.physical) {
     // time.steps, or time.end in seconds.
     if (t.has("steps") == t.has("end"))
@@ -634,6 +700,10 @@ std::string particles_summary(const ParticlesCase& c, const cases::ParticleSerie
 
 int run_particles_case(const Config& root, const RunOptions& opt) {
   ParticlesCase c = parse_particles(root, opt);
+  if (c.setup.lattice == lbm::LatticeKind::D3Q19)
+    report_expected_drag_error(drag_query(2 * c.particles.r[0], c.setup.tau, c.setup.collision, c.setup.magic,
+                                          c.coupling.psm, c.setup.precision),
+                               c.max_drag_error, opt);
   const Backend backend = resolve_backend(opt.backend);
   const MemoryUse planned = cases::coupled_memory(c.setup, c.coupling, static_cast<double>(c.particles.size()), backend);
   const double cells = static_cast<double>(c.setup.domain.global_cells());

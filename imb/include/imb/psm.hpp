@@ -38,7 +38,11 @@ void dispatch_variant(PsmVariant v, Fn&& fn) {
   if (v == PsmVariant::NEBB) fn(std::integral_constant<PsmVariant, PsmVariant::NEBB>{});
   else fn(std::integral_constant<PsmVariant, PsmVariant::Superposition>{});
 }
-enum class PsmWeight { NobleTorczynski, Linear };
+// NobleTorczynski: B of first paper Eq. 1 with t = tau - 1/2. NobleTorczynskiWall:
+// the same form with t = psm_wall_weight_t(tau) (below), which moves the PSM
+// surface back toward where it sits as tau -> 1/2; the kernels treat both alike
+// (only the host-side t differs). Linear: B = eps.
+enum class PsmWeight { NobleTorczynski, Linear, NobleTorczynskiWall };
 
 // Narrow particle view for the coupling (lattice units, SoA): centres, radii,
 // velocities (imb/particle_view.hpp).
@@ -56,10 +60,33 @@ struct SlotForceView {
 };
 
 // Noble-Torczynski weighting B(eps) = eps (tau - 1/2) / ((1 - eps) + (tau - 1/2))
-// (first paper Eq. 1), or B = eps; tm = tau - 1/2.
+// (first paper Eq. 1), or B = eps; tm = the weighting's t (psm_weight_t: tau - 1/2
+// for NT).
 template <class R>
 LBDEM_HD inline R psm_weight(R eps, R tm, PsmWeight w) {
   return w == PsmWeight::Linear ? eps : eps * tm / ((R(1) - eps) + tm);
+}
+
+// The weighting's t for tau under the wall rule (bench/imb/NOTES.md, "Where the
+// PSM wall sits"). With the NT weight and t = tau - 1/2 the PSM surface moves
+// into the solid as tau grows: the solid term B = eps t / ((1 - eps) + t)
+// grows slower than the viscosity (~ t), so the partial cells resist less, the
+// drag falls. As tau -> 1/2, B / t -> eps / (1 - eps) and the surface is where
+// the fixed-sphere study calibrated it. The rule t = m / (1 - k m),
+// m = tau - 1/2 (t -> m as tau -> 1/2), keeps B / m closer to that limit.
+// Plane walls (tangential flow) give k = 0.65; the sphere, whose surface also
+// sees the flow across the partial cells, needs k = 1.75 (fitted at d/l 6; it
+// over-corrects from d/l 8 up and under-corrects at d/l 4; k < 2 keeps t
+// finite up to tau = 1). Above tau = 1 (outside the map) t / m stays at its tau = 1 value.
+inline constexpr double kPsmWallRuleK = 1.75;
+inline double psm_wall_weight_t(double tau) {
+  const double m = tau - 0.5;
+  return m / (1.0 - kPsmWallRuleK * (m < 0.5 ? m : 0.5));
+}
+
+// The weighting's t for the given tau and weighting (NT: tau - 1/2).
+inline double psm_weight_t(double tau, PsmWeight w) {
+  return w == PsmWeight::NobleTorczynskiWall ? psm_wall_weight_t(tau) : tau - 0.5;
 }
 
 // Minimum-image displacement on a periodic axis of length n (cells).
@@ -251,7 +278,7 @@ struct PsmLatticeFields {
   lbm::BoundaryTable bt;
   C omega_p, omega_m, F[3];
   C G[3];  // the body force the particles take on their share B of a cell (psm_particle_force)
-  C tm;    // tau - 1/2
+  C tm;    // the weighting's t (psm_weight_t: tau - 1/2 for NT)
   PsmWeight weight;
 
   // From the solver's raw view (lbm::LbmRaw), tau, the weighting and whether
@@ -268,7 +295,7 @@ struct PsmLatticeFields {
     omega_m = static_cast<C>(raw.omega_m);
     for (int a = 0; a < 3; ++a) F[a] = static_cast<C>(raw.body_force[static_cast<std::size_t>(a)]);
     for (int a = 0; a < 3; ++a) G[a] = body_force_on_solid ? F[a] : C(0);
-    tm = static_cast<C>(tau - 0.5);
+    tm = static_cast<C>(psm_weight_t(tau, w));
     weight = w;
   }
 

@@ -1,0 +1,102 @@
+#!/usr/bin/env bash
+# Fixed-sphere drag error map over d/l x tau for the PSM weightings (bench/imb/NOTES.md, "Where the PSM
+# wall sits"): the rule (noble_torczynski_wall, "ntw") and the classic NT weighting ("nt"), both with
+# Lambda auto (1e-4 below d/l 16, 3e-2 from 16), NEBB, sphere centre on a cell centre, chi = 0.5,
+# Re_p 0.2, against Sangani & Acrivos (1982). One JSON, one heat-map PNG per weighting.
+#
+#   scripts/drag_map.sh BIN OUTDIR PART...     PART: host | gpu-a | gpu-b | gpu-c | merge | plot
+#
+#   BIN     lbdem_bench_psm (host build for `host`, the CUDA build for the gpu parts)
+#   OUTDIR  receives drag_map_<part>_<k>.{json,md,log}; each JSON is rewritten after every run, so a
+#           part cut off by its time limit keeps the rows it finished; merge writes OUTDIR/drag_map.json,
+#           plot OUTDIR/drag_map_<weight>.png
+#   env     DRAG_MAP_LIMIT (s per part, default 520: one device call of at most 9 minutes)
+#
+# host    d/l 4, 6, 8, 10 x tau {0.505 ... 1.0}: ntw and nt exact fp64, ntw table fp64; the plane-wall
+#         runs (lbdem_bench_psm wall). About 20 min of one CPU core.
+# gpu-a   d/l 16, 20, 30 x every tau: ntw exact fp64, nt exact fp64; ntw table fp64 and exact fp32 at
+#         d/l 16 and 20 (fp32 is not a validation precision past d/l 20). About 7 min on an H200.
+# gpu-b   d/l 50 x tau 0.52 ... 1.0: ntw exact fp64. About 4 min on an H200.
+# gpu-c   d/l 50 at tau 0.505: ntw exact fp64 (5.2e6 steps). About 8 min on an H200.
+# merge   every OUTDIR/drag_map_*.json (sweep rows) into OUTDIR/drag_map.json.
+# plot    scripts/plot_drag_map.py OUTDIR/drag_map.json OUTDIR (needs python3-matplotlib).
+#
+# GPU (the lead's device calls, one part each):
+#   scripts/drag_map.sh build-cuda/bench/imb/lbdem_bench_psm $OUT gpu-a
+#   scripts/drag_map.sh build-cuda/bench/imb/lbdem_bench_psm $OUT gpu-b
+#   scripts/drag_map.sh build-cuda/bench/imb/lbdem_bench_psm $OUT gpu-c
+# then, here: copy the JSONs beside the host ones and run `merge plot`.
+set -uo pipefail
+if [ $# -lt 3 ]; then sed -n 2,31p "$0"; exit 2; fi
+bin="$1"
+out="$2"
+shift 2
+parts=("$@")
+here="$(cd "$(dirname "$0")/.." && pwd)"
+mkdir -p "$out"
+
+TAUS=0.505,0.52,0.55,0.6,0.7,0.8,1.0
+t0=$SECONDS
+limit=${DRAG_MAP_LIMIT:-520}
+
+# run NAME BACKEND SECONDS_CAP ARGS...: one sweep, stopped at the part's deadline or its own cap.
+run() {
+  local name="$1" backend="$2" cap="$3"
+  shift 3
+  local left=$((limit - (SECONDS - t0)))
+  [ "$left" -gt "$cap" ] && left=$cap
+  if [ "$left" -lt 10 ]; then echo "$name: skipped (part time limit)"; return; fi
+  timeout "$left" "$bin" sweep --backend "$backend" --re 0.2 --tol 1e-5 --start estimate --offset 0.5 \
+    --chi 0.5 --collisions trt --variants nebb --magic auto "$@" --out "$out/$name.json" > "$out/$name.md" 2> "$out/$name.log"
+  local rc=$?
+  echo "$name: exit $rc ($((SECONDS - t0)) s into the part)"
+  grep '^| [0-9]' "$out/$name.md" | cut -d'|' -f2-13 | sed 's/^/  /'
+}
+
+for p in "${parts[@]}"; do
+  t0=$SECONDS
+  [ "$p" = merge ] || [ "$p" = plot ] || [ -x "$bin" ] || { echo "drag_map: $bin is not an executable"; exit 2; }
+  case "$p" in
+    host)
+      limit=${DRAG_MAP_LIMIT:-2400}
+      "$bin" wall --out "$out/plane_wall.json" --magic 1e-4 > "$out/plane_wall.md" 2>&1
+      echo "plane walls: $out/plane_wall.md"
+      # Fast (large tau) first: a cut-off run keeps the rows it finished.
+      run drag_map_host_1 host 900 --d 4,6,8 --tau 1.0,0.8,0.7,0.6,0.55,0.52,0.505 --weights ntw,nt \
+        --methods exact --precisions fp64
+      run drag_map_host_2 host 900 --d 10 --tau 1.0,0.8,0.7,0.6,0.55,0.52,0.505 --weights ntw,nt \
+        --methods exact --precisions fp64
+      run drag_map_host_3 host 600 --d 4,6,8,10 --tau 1.0,0.8,0.6,0.52 --weights ntw --methods table \
+        --precisions fp64
+      ;;
+    gpu-a)
+      run drag_map_gpu_a1 cuda 240 --d 16,20,30 --tau "$TAUS" --weights ntw --methods exact --precisions fp64
+      run drag_map_gpu_a2 cuda 120 --d 16,20 --tau "$TAUS" --weights ntw --methods table --precisions fp64
+      run drag_map_gpu_a3 cuda 80 --d 16,20 --tau "$TAUS" --weights ntw --methods exact --precisions fp32
+      run drag_map_gpu_a4 cuda 240 --d 16,20,30 --tau 1.0,0.8,0.6,0.52 --weights nt --methods exact --precisions fp64
+      ;;
+    gpu-b)
+      run drag_map_gpu_b1 cuda 520 --d 50 --tau 1.0,0.8,0.7,0.6,0.55,0.52 --weights ntw --methods exact \
+        --precisions fp64
+      ;;
+    gpu-c)
+      run drag_map_gpu_c1 cuda 520 --d 50 --tau 0.505 --weights ntw --methods exact --precisions fp64
+      ;;
+    merge)
+      /usr/bin/python3 - "$out" <<'PY' && echo "merge: $out/drag_map.json" || echo "merge: failed"
+import glob, json, os, sys
+out = sys.argv[1]
+head, rows = None, []
+for f in sorted(glob.glob(os.path.join(out, "drag_map_*.json"))):
+    j = json.load(open(f))
+    head = head or {k: v for k, v in j.items() if k not in ("rows", "device", "backend")}
+    rows += [dict(r, source=os.path.basename(f), device=j.get("device")) for r in j.get("rows", [])]
+json.dump(dict(head or {}, rows=rows), open(os.path.join(out, "drag_map.json"), "w"), indent=1)
+PY
+      ;;
+    plot)
+      /usr/bin/python3 "$here/scripts/plot_drag_map.py" "$out/drag_map.json" "$out" || echo "plot: failed (python3-matplotlib missing?)"
+      ;;
+    *) echo "drag_map: unknown part $p (host, gpu-a, gpu-b, gpu-c, merge, plot)"; exit 2 ;;
+  esac
+done
