@@ -26,10 +26,12 @@ ParticleSeries::ParticleSeries(const std::string& path, imb::CoupledSolver& cs, 
                                double dt, const ckpt::Run* run, long interval)
     : cs_(cs),
       stats_(Exec(cs.dem().backend()), spec),
-      out_(run ? open_series(*run, path, series_columns(stats_, cs.dem().size() <= kTrackedMax), interval)
-               : io::TimeSeries(path, series_columns(stats_, cs.dem().size() <= kTrackedMax))),
+      columns_(series_columns(stats_, cs.dem().size() <= kTrackedMax)),
+      kept_(run ? run->kept_rows(path, columns_, interval) : std::vector<std::vector<double>>{}),
+      out_(path, columns_),
       dt_(dt),
       track_(cs.dem().size() <= kTrackedMax) {
+  for (const auto& row : kept_) out_.append(row);
   const auto& g = spec.gravity;
   const double gn = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
   if (gn > 0) along_ = {-g[0] / gn, -g[1] / gn, -g[2] / gn};
@@ -39,11 +41,23 @@ void ParticleSeries::restore(const std::vector<double>& v) {
   if (v.empty()) return;
   d0_.mass = v[0];
   have_d0_ = true;
-  if (v.size() >= 4) {
-    slip_sum_ = v[1];
-    drag_sum_ = v[2];
-    samples_ = static_cast<long>(v[3]);
+}
+
+void ParticleSeries::average_from(long step) {
+  average_from_ = step;
+  // The rows a restart kept enter the averages as if sampled in this job.
+  std::size_t is = columns_.size(), id = columns_.size();
+  for (std::size_t k = 0; k < columns_.size(); ++k) {
+    if (columns_[k] == "slip_x") is = k;
+    if (columns_[k] == "drag_over_weight") id = k;
   }
+  for (const auto& row : kept_) {
+    if (row.empty() || row[0] < double(step) || is + 2 >= row.size() || id >= row.size()) continue;
+    slip_sum_ += row[is] * along_[0] + row[is + 1] * along_[1] + row[is + 2] * along_[2];
+    drag_sum_ += row[id];
+    ++samples_;
+  }
+  kept_.clear();
 }
 
 lbm::LbmDiagnostics ParticleSeries::append(long step) {

@@ -91,6 +91,11 @@ class DemState : public ::testing::TestWithParam<StateCase> {
 
 TEST_P(DemState, StraightEqualsSaveLoadContinueBitwise) {
   const StateCase sc = GetParam();
+  // The pair path sums contact forces with atomics: on the GPU two straight
+  // runs already differ in the last bits (ForcePath::Pair), so a restart can
+  // be bitwise only on the particle path there (and on either path on the host).
+  if (sc.backend == Backend::Cuda && sc.path == ForcePath::Pair)
+    GTEST_SKIP() << "pair path on the GPU: atomic sums, not bitwise reproducible run to run";
   const Gas g = make_gas(sc.path, ContactOrder::Storage);
   const long N = 600, half = 300;
   DemSystem straight(Exec(sc.backend), g.p, g.h);

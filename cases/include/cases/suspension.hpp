@@ -131,15 +131,16 @@ class ParticleSeries {
   // of `interval` steps) and the file goes on from there.
   ParticleSeries(const std::string& path, imb::CoupledSolver& cs, const SuspensionStatsSpec& spec, double dt,
                  const ckpt::Run* run = nullptr, long interval = 1);
-  // What a checkpoint keeps of the series: the reference mass and the
-  // accumulators of the averages; restore() takes it back.
-  std::vector<double> state() const { return {d0_.mass, slip_sum_, drag_sum_, double(samples_)}; }
+  // What a checkpoint keeps of the series: the reference mass (the averages
+  // are taken again from the rows a restart keeps); restore() takes it back.
+  std::vector<double> state() const { return {d0_.mass}; }
   void restore(const std::vector<double>& v);
   // Appends the row of `step`; returns the fluid diagnostics it used, for the
   // caller's divergence checks.
   lbm::LbmDiagnostics append(long step);
-  // Samples at steps >= `step` enter the averages below.
-  void average_from(long step) { average_from_ = step; }
+  // Samples at steps >= `step` enter the averages below (the rows a restart
+  // kept included).
+  void average_from(long step);
   double mean_slip() const { return samples_ > 0 ? slip_sum_ / double(samples_) : 0.0; }  // along -g (y without gravity)
   double mean_drag_over_weight() const { return samples_ > 0 ? drag_sum_ / double(samples_) : 0.0; }
   long averaged_samples() const { return samples_; }
@@ -149,6 +150,8 @@ class ParticleSeries {
  private:
   imb::CoupledSolver& cs_;
   SuspensionStatistics stats_;
+  std::vector<std::string> columns_;
+  std::vector<std::vector<double>> kept_;  // rows a restart kept, until average_from() has taken them
   io::TimeSeries out_;
   double dt_;
   bool track_;
