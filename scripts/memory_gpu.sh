@@ -9,6 +9,9 @@
 #              files, the logs and the runs' summary.json
 #     N        cells per axis of the cube (default 256)
 #     steps    coupled steps (default 400)
+#   CASE=FILE   instead of the N^3 cube: this case file (e.g. cases/suspension/suspension_3d.yaml, the paper's
+#               full size), its precision, steps and output replaced per run (fields written once, at the end,
+#               as float32); PRECS="fp32 fp64" picks the precisions (default both)
 # The scene: N^3 cells, fully periodic, spheres of d/l = 10 at solid fraction
 # 0.128 (the first paper's 3D suspension, Table 2), density ratio 100, table
 # fractions, fused pipeline, K = 4. For fp32 and fp64: `lbdem check` prints
@@ -29,8 +32,20 @@ nvidia-smi -L >/dev/null 2>&1 || { echo "memory_gpu: no GPU"; exit 1; }
 mkdir -p "$out"
 : > "$out/memory_gpu.jsonl"
 used_mib() { nvidia-smi --query-gpu=memory.used --format=csv,noheader,nounits -i 0 | head -1 | tr -d ' '; }
-for prec in fp32 fp64; do
+for prec in ${PRECS:-fp32 fp64}; do
   case_file="$out/suspension_${n}_${prec}.yaml"
+  if [ -n "${CASE:-}" ]; then
+    case_file="$out/$(basename "$CASE" .yaml)_${prec}.yaml"
+    python3 - "$CASE" "$case_file" "$prec" "$steps" "$out/run_$prec" <<'PY'
+import re, sys
+src, dst, prec, steps, outdir = sys.argv[1:]
+t = open(src).read()
+t = re.sub(r"precision: *fp\w+", "precision: " + prec, t)
+t = re.sub(r"steps: *\d+", "steps: " + steps, t, count=1)
+t = re.sub(r"^output:.*$", "output: {directory: %s, series_interval: 100, interval: 0, field_precision: fp32}" % outdir, t, flags=re.M)
+open(dst, "w").write(t)
+PY
+  else
   cat > "$case_file" <<EOF
 scene: particles
 units: lattice
@@ -43,6 +58,7 @@ psm: {fraction: table, pipeline: fused}
 time: {steps: $steps}
 output: {directory: $out/run_$prec, series_interval: 100, interval: $steps}
 EOF
+  fi
   "$lbdem" check "$case_file" > "$out/check_$prec.log" 2>&1
   est=$(awk '$1 == "total" {print $2}' "$out/check_$prec.log")
   idle=$(used_mib)
@@ -58,14 +74,15 @@ EOF
   mlups=$(python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['coupled_mlups'])" "$summary" 2>/dev/null || echo null)
   held=$(python3 -c "import json,sys; print(json.dumps(json.load(open(sys.argv[1]))['memory_bytes']))" "$summary" 2>/dev/null || echo null)
   cp "$summary" "$out/summary_$prec.json" 2>/dev/null
-  python3 - "$prec" "$n" "$idle" "$peak" "${est:-null}" "$mlups" "$held" "$rc" >> "$out/memory_gpu.jsonl" <<'PY'
+  cells=$(grep -oE "[0-9.e+]+ cells" "$out/check_$prec.log" | head -1 | cut -d' ' -f1)
+  python3 - "$prec" "$n" "$idle" "$peak" "${est:-null}" "$mlups" "$held" "$rc" "${CASE:-}" "$cells" >> "$out/memory_gpu.jsonl" <<'PY'
 import json, sys
-prec, n, idle, peak, est, mlups, held, rc = sys.argv[1:]
-cells = int(n) ** 3
+prec, n, idle, peak, est, mlups, held, rc, case, cells_text = sys.argv[1:]
+cells = float(cells_text) if case and cells_text else int(n) ** 3
 num = lambda s: None if s in ("", "null") else float(s)
 idle, peak = num(idle), num(peak)
 print(json.dumps({
-    "precision": prec, "cells": cells, "exit": int(rc),
+    "case": case or "cube", "precision": prec, "cells": cells, "exit": int(rc),
     "device_used_before_mib": idle, "device_peak_mib": peak,
     "peak_minus_idle_bytes_per_cell": None if idle is None or peak is None else (peak - idle) * 1048576 / cells,
     "estimate_bytes_per_cell": num(est),
