@@ -41,7 +41,7 @@ import re, sys
 src, dst, prec, steps, outdir = sys.argv[1:]
 t = open(src).read()
 t = re.sub(r"precision: *fp\w+", "precision: " + prec, t)
-t = re.sub(r"steps: *\d+", "steps: " + steps, t, count=1)
+t = re.sub(r"(?<![a-z_])steps: *\d+", "steps: " + steps, t)
 t = re.sub(r"^output:.*$", "output: {directory: %s, series_interval: 100, interval: 0, field_precision: fp32}" % outdir, t, flags=re.M)
 open(dst, "w").write(t)
 PY
