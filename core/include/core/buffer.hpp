@@ -58,10 +58,13 @@ class Buffer {
     n_ = 0;
   }
   // Grows (never shrinks) to at least n elements; contents are not kept.
+  // Grows (contents discarded); a new allocation starts zeroed, so that host
+  // copies of a whole buffer never read memory no kernel wrote (initcheck).
   void reserve_discard(Backend b, Index n) {
     if (n <= n_ && b == backend_) return;
     reset();
     *this = Buffer(b, n);
+    fill_zero();
   }
 
   T* data() const { return ptr_; }
