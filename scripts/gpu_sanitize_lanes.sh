@@ -6,6 +6,9 @@
 #     SET  all (default): every tool over every test executable and scene, in one pass
 #          rest: a second call for what one call cannot hold: the long initcheck/racecheck runs split into
 #          narrower lanes, the scenes that took longest, cfd_tests, the 16-bit storage tests
+#          rest2: what `rest` could not finish: initcheck of lbm_tests split by suite, the 16-bit tests
+#          under memcheck, dem_tests under memcheck and initcheck, cfd_tests under all four tools, and
+#          racecheck of the fixed_disk scene, each lane with a longer limit
 #   OUT            logs, per-lane summaries and summary.txt (default ./out/sanitize)
 #   LBDEM_COMMIT   the commit named in the summaries
 # Every sanitizer run has its own time limit (CS_T seconds); a run cut off by it reports "exit 124,
@@ -31,8 +34,10 @@ S="$here/scripts/gpu_sanitize.sh"
 (cd "$here" && cmake --preset cuda > "$OUT/build.log" 2>&1 &&
   cmake --build build-gpu -j16 --target lbdem lbm_tests >> "$OUT/build.log" 2>&1)
 echo "build lbdem lbm_tests: exit $? at $(( $(date +%s) - t0 )) s"
-(cd "$here" && cmake --build build-gpu -j12 --target dem_tests imb_tests >> "$OUT/build2.log" 2>&1
- echo "build dem_tests imb_tests cfd_tests: exit $? at $(( $(date +%s) - t0 )) s" >> "$OUT/build2.log") &
+targets2="dem_tests imb_tests cfd_tests"
+[ "$set_" = rest2 ] && targets2="dem_tests cfd_tests cases_tests"
+(cd "$here" && cmake --build build-gpu -j12 --target $targets2 >> "$OUT/build2.log" 2>&1
+ echo "build $targets2: exit $? at $(( $(date +%s) - t0 )) s" >> "$OUT/build2.log") &
 builder=$!
 lane() {  # lane NAME [VAR=VALUE...] -- TOOL...
   local name="$1"; shift
@@ -43,7 +48,21 @@ lane() {  # lane NAME [VAR=VALUE...] -- TOOL...
   mkdir -p "$OUT/$name/tmp"
   env "${env[@]}" TMPDIR="$OUT/$name/tmp" OUT="$OUT/$name" timeout "$(left)" bash "$S" "$@" > "$OUT/$name/lane.log" 2>&1
 }
-if [ "$set_" = rest ]; then
+if [ "$set_" = rest2 ]; then
+  lane disk_race SCENES=1 SCENE_GLOB=fixed_disk TESTS=none CS_T=480 -- racecheck &
+  lane lbm_init_cons SCENES=0 TESTS=lbm CS_T=480 "FILTER=Backends/Conservation*/cuda*" -- initcheck &
+  lane lbm_init_tg SCENES=0 TESTS=lbm CS_T=480 "FILTER=Backends/TaylorGreen*/cuda*:Backends/Poiseuille*/cuda*" -- initcheck &
+  lane lbm_init_scenes SCENES=0 TESTS=lbm CS_T=480 "FILTER=Scenes/StreamingEquivalence*/cuda*:All/LbmState*/cuda*:CpuGpu*" -- initcheck &
+  lane lbm_init_fp16 SCENES=0 TESTS=lbm CS_T=480 "FILTER=Lbm/Fp16Storage*/cuda*" -- initcheck &
+  lane lbm_fp16 SCENES=0 TESTS=lbm CS_T=480 "FILTER=Lbm/Fp16Storage*/cuda*" -- memcheck &
+  wait $builder
+  tail -1 "$OUT/build2.log"
+  lane dem_mem SCENES=0 TESTS=dem CS_T=400 -- memcheck &
+  lane dem_init SCENES=0 TESTS=dem CS_T=400 -- initcheck &
+  lane cfd_mem SCENES=0 TESTS=cfd CS_T=400 -- memcheck &
+  lane cfd_init SCENES=0 TESTS=cfd CS_T=400 -- initcheck &
+  lane cfd_race_sync SCENES=0 TESTS=cfd CS_T=200 -- racecheck synccheck &
+elif [ "$set_" = rest ]; then
   lane sc_sphere SCENES=1 "SCENE_GLOB=*sphere*" TESTS=none CS_T=150 -- initcheck memcheck &
   lane sc_disk SCENES=1 SCENE_GLOB=fixed_disk TESTS=none CS_T=200 -- initcheck &
   lane sc_susp SCENES=1 SCENE_GLOB=suspension TESTS=none CS_T=200 -- initcheck &

@@ -119,6 +119,25 @@ void expect_same_datasets(const fs::path& a, const fs::path& b, const std::vecto
   }
 }
 
+// Where two checkpoints first differ: the byte offset and the section it lies
+// in (the last "u32 n + n-byte name" of a known section before it).
+std::string first_difference(const std::string& a, const std::string& b) {
+  std::size_t at = 0;
+  const std::size_t n = std::min(a.size(), b.size());
+  while (at < n && a[at] == b[at]) ++at;
+  if (at == n && a.size() == b.size()) return "none";
+  std::string section = "header";
+  std::size_t best = 0;
+  for (const char* name : {"run", "lbm", "dem", "coupling", "particles", "series", "statistics", "scheduler"}) {
+    const std::uint32_t len = static_cast<std::uint32_t>(std::strlen(name));
+    std::string key(reinterpret_cast<const char*>(&len), 4);
+    key += name;
+    const auto pos = a.rfind(key, at);
+    if (pos != std::string::npos && pos >= best) best = pos, section = name;
+  }
+  return "byte " + std::to_string(at) + " of " + std::to_string(a.size()) + ", in section '" + section + "'";
+}
+
 // Runs `yaml` straight to its planned steps in A, then to `first` steps and
 // --restart to the planned steps in B; the final checkpoints must be the same
 // bytes and the series the same text. Returns the first part's summary.json.
@@ -138,7 +157,8 @@ std::string straight_vs_restart(Restart& t, const std::string& yaml, long first,
   const std::string ca = slurp(A / ckpt::kFileName), cb = slurp(B / ckpt::kFileName);
   ASSERT_GT(ca.size(), 100u);
   EXPECT_EQ(ca.size(), cb.size());
-  EXPECT_TRUE(ca == cb) << "the final checkpoints differ: the restarted run is not in the straight run's state";
+  EXPECT_TRUE(ca == cb) << "the final checkpoints differ (" << first_difference(ca, cb)
+                        << "): the restarted run is not in the straight run's state";
   EXPECT_EQ(slurp(A / series), slurp(B / series));
   const std::string js = slurp(B / "summary.json");
   EXPECT_NE(js.find("\"interrupted\": false"), std::string::npos) << js;
