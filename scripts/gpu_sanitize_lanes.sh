@@ -9,6 +9,10 @@
 #          rest2: what `rest` could not finish: initcheck of lbm_tests split by suite, the 16-bit tests
 #          under memcheck, dem_tests under memcheck and initcheck, cfd_tests under all four tools, and
 #          racecheck of the fixed_disk scene, each lane with a longer limit
+#          rest3: the same less what rest2 finished, with the builds staged (lbm_tests, then lbdem, then the
+#          dem/cfd/cases tests) so that each lane starts as soon as its executable exists; cfd_tests without
+#          the long bed simulations (the fluidized_bed scenes cover those kernels); the Restart tests of
+#          cases_tests run as they are (no sanitizer) beside the lanes
 #   OUT            logs, per-lane summaries and summary.txt (default ./out/sanitize)
 #   LBDEM_COMMIT   the commit named in the summaries
 # Every sanitizer run has its own time limit (CS_T seconds); a run cut off by it reports "exit 124,
@@ -31,14 +35,28 @@ printf '#!/bin/sh\nexec timeout "${CS_T:-120}" %s "$@"\n' "$cs_real" > "$wrap"
 chmod +x "$wrap"
 export SANITIZER="$wrap" SCENE_STEPS="${SCENE_STEPS:-5}" OMP_NUM_THREADS=1
 S="$here/scripts/gpu_sanitize.sh"
+if [ "$set_" = rest3 ]; then
+  (cd "$here" && cmake --preset cuda > "$OUT/build.log" 2>&1 &&
+    cmake --build build-gpu -j16 --target lbm_tests >> "$OUT/build.log" 2>&1)
+  echo "build lbm_tests: exit $? at $(( $(date +%s) - t0 )) s"
+else
 (cd "$here" && cmake --preset cuda > "$OUT/build.log" 2>&1 &&
   cmake --build build-gpu -j16 --target lbdem lbm_tests >> "$OUT/build.log" 2>&1)
 echo "build lbdem lbm_tests: exit $? at $(( $(date +%s) - t0 )) s"
+fi
 targets2="dem_tests imb_tests cfd_tests"
 [ "$set_" = rest2 ] && targets2="dem_tests cfd_tests cases_tests"
+if [ "$set_" = rest3 ]; then
+  (cd "$here" && cmake --build build-gpu -j16 --target lbdem >> "$OUT/build2.log" 2>&1
+   echo "build lbdem: exit $? at $(( $(date +%s) - t0 )) s" >> "$OUT/build2.log"; touch "$OUT/.lbdem_built"
+   cmake --build build-gpu -j16 --target dem_tests cfd_tests cases_tests >> "$OUT/build2.log" 2>&1
+   echo "build dem_tests cfd_tests cases_tests: exit $? at $(( $(date +%s) - t0 )) s" >> "$OUT/build2.log") &
+  builder=$!
+else
 (cd "$here" && cmake --build build-gpu -j12 --target $targets2 >> "$OUT/build2.log" 2>&1
  echo "build $targets2: exit $? at $(( $(date +%s) - t0 )) s" >> "$OUT/build2.log") &
 builder=$!
+fi
 lane() {  # lane NAME [VAR=VALUE...] -- TOOL...
   local name="$1"; shift
   local env=()
@@ -48,7 +66,28 @@ lane() {  # lane NAME [VAR=VALUE...] -- TOOL...
   mkdir -p "$OUT/$name/tmp"
   env "${env[@]}" TMPDIR="$OUT/$name/tmp" OUT="$OUT/$name" timeout "$(left)" bash "$S" "$@" > "$OUT/$name/lane.log" 2>&1
 }
-if [ "$set_" = rest2 ]; then
+if [ "$set_" = rest3 ]; then
+  quick_cfd="All/Gas.*/cuda*:All/VoidFractionTest.*/cuda*"
+  lane lbm_init_tg SCENES=0 TESTS=lbm CS_T=540 "FILTER=Backends/TaylorGreen*/cuda*:Backends/Poiseuille*/cuda*" -- initcheck &
+  lane lbm_init_fp16 SCENES=0 TESTS=lbm CS_T=540 "FILTER=Lbm/Fp16Storage*/cuda*" -- initcheck &
+  lane lbm_fp16 SCENES=0 TESTS=lbm CS_T=540 "FILTER=Lbm/Fp16Storage*/cuda*" -- memcheck &
+  while [ ! -f "$OUT/.lbdem_built" ] && kill -0 $builder 2>/dev/null; do sleep 3; done
+  tail -1 "$OUT/build2.log"
+  lane disk_race SCENES=1 SCENE_GLOB=fixed_disk TESTS=none CS_T=480 -- racecheck &
+  lane bed_race_sync SCENES=1 "SCENE_GLOB=fluidized_bed*" TESTS=none CS_T=120 -- racecheck synccheck &
+  wait $builder
+  tail -1 "$OUT/build2.log"
+  lane dem_mem SCENES=0 TESTS=dem CS_T=400 -- memcheck &
+  lane dem_init SCENES=0 TESTS=dem CS_T=400 -- initcheck &
+  lane cfd_mem SCENES=0 TESTS=cfd CS_T=300 "FILTER=$quick_cfd" -- memcheck &
+  lane cfd_init SCENES=0 TESTS=cfd CS_T=300 "FILTER=$quick_cfd" -- initcheck &
+  lane cfd_race SCENES=0 TESTS=cfd CS_T=300 "FILTER=$quick_cfd" -- racecheck &
+  lane cfd_sync SCENES=0 TESTS=cfd CS_T=300 "FILTER=$quick_cfd" -- synccheck &
+  mkdir -p "$OUT/restart/tmp"
+  (cd "$OUT/restart" && TMPDIR="$OUT/restart/tmp" timeout "$(left)" "$build/tests/cases/cases_tests" \
+     --gtest_filter='Restart.*' > "$OUT/restart/restart.log" 2>&1
+   echo "Restart tests (cases_tests, no sanitizer): exit $?" > "$OUT/restart/summary.txt") &
+elif [ "$set_" = rest2 ]; then
   lane disk_race SCENES=1 SCENE_GLOB=fixed_disk TESTS=none CS_T=480 -- racecheck &
   lane lbm_init_cons SCENES=0 TESTS=lbm CS_T=480 "FILTER=Backends/Conservation*/cuda*" -- initcheck &
   lane lbm_init_tg SCENES=0 TESTS=lbm CS_T=480 "FILTER=Backends/TaylorGreen*/cuda*:Backends/Poiseuille*/cuda*" -- initcheck &
