@@ -7,7 +7,8 @@
 //   lbdem info                 build, backends, devices
 // Exit codes: 0 ok, 2 invalid input, 3 diverged, 4 resources (memory, disk full),
 // 5 stopped by SIGINT/SIGTERM (final output written, summary.json says
-// "interrupted": true; a second signal ends the process at once), 1 other error.
+// "interrupted": true; a second signal a second or more later ends the process
+// at once), 1 other error.
 #include <omp.h>
 #include <spdlog/spdlog.h>
 

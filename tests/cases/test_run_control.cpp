@@ -153,9 +153,11 @@ TEST_F(RunControl, MemoryOptionBoundsTheChecks) {
 }
 
 // ----------------------------------------------------------------- signals
-// The handler in-process: the first signal sets the flag, the second takes the
-// default action (terminates). Run in a child so the test process survives.
-TEST(StopSignals, FirstSetsFlagSecondTerminates) {
+// The handler in-process: the first signal sets the flag; a second one at once
+// (the same request delivered to the process and its group) changes nothing;
+// a second one later takes the default action (terminates). Run in a child so
+// the test process survives.
+TEST(StopSignals, FirstSetsFlagDuplicateIgnoredSecondTerminates) {
   const pid_t pid = fork();
   ASSERT_GE(pid, 0);
   if (pid == 0) {
@@ -163,7 +165,10 @@ TEST(StopSignals, FirstSetsFlagSecondTerminates) {
     if (stop_requested()) _exit(10);
     raise(SIGINT);
     if (!stop_requested() || stop_signal() != SIGINT) _exit(11);
-    raise(SIGTERM);  // default action now: the process ends here
+    raise(SIGTERM);  // within the duplicate window: ignored
+    if (stop_signal() != SIGINT) _exit(13);
+    std::this_thread::sleep_for(std::chrono::milliseconds(1200));
+    raise(SIGTERM);  // a second request: the process ends here
     _exit(12);
   }
   int st = 0;
@@ -253,6 +258,9 @@ TEST_P(StopOnSignal, FinishesStepWritesSummaryAndExits5) {
   }
   ASSERT_FALSE(exited) << "lbdem ended before the signal: " << slurp(log);
   if (!*sc.wait_for) std::this_thread::sleep_for(std::chrono::milliseconds(1000));  // into the loop
+  // Twice at once, as `timeout` and batch systems deliver it (to the process
+  // and to its group): one request, an orderly stop.
+  ASSERT_EQ(kill(pid, SIGTERM), 0);
   ASSERT_EQ(kill(pid, SIGTERM), 0);
   while (!exited && waited() < 240) {
     if (waitpid(pid, &st, WNOHANG) == pid) exited = true;

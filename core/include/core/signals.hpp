@@ -5,8 +5,10 @@
 // nothing else (the only async-signal-safe thing to do); the time loops read
 // the flag between steps (a host variable: no device round trip), finish the
 // step they are in, write their final output with "interrupted": true and
-// return kExitInterrupted. The handler also restores the default action of
-// both signals, so a second one ends the process at once.
+// return kExitInterrupted. A second signal ends the process at once, unless
+// it comes within a second of the first: that is the same request delivered
+// twice (to the process and to its process group, as `timeout`, shells and
+// batch systems do), and it is ignored.
 //
 // The flag is process-wide state by necessity: a signal handler can reach
 // nothing else.
