@@ -4,7 +4,7 @@
 //                   [--precisions fp64,fp32,fp16s,fp16c] [--collisions trt,bgk] [--variants nebb,super] [--weights nt,eps]
 //                   [--magic 1e-4 (or auto: 1e-4 below d/l 16, 3e-2 from 16)] [--offset 0.5,0] [--re 0.2] [--chi 0.5] [--tol 1e-5]
 //                   [--start estimate|rest] [--check N] [--max-steps N] [--backend host|cuda] [--dim 3] [-v]
-//   lbdem_bench_psm suspension [--out FILE.json] [--n 256] [--phi 0.128] [--d 10] [--steps 200]
+//   lbdem_bench_psm suspension [--out FILE.json] [--n 256 | --dims X,Y,Z] [--phi 0.128] [--d 10] [--steps 200]
 //                   [--substeps N (default: fewest accepted)] [--tau 0.6] [--precision fp32|fp64|fp16s|fp16c] [--fraction exact|table|linear]
 //                   [--pipeline auto|fused|mapped] [--backend host|cuda]
 //
@@ -14,6 +14,7 @@
 // state, and MLUPS. suspension: coupled MLUPS of a periodic suspension
 // against fluid-only MLUPS on the same grid.
 #include <cmath>
+#include <array>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
@@ -265,6 +266,7 @@ double wall() { return std::chrono::duration<double>(std::chrono::steady_clock::
 int suspension(int argc, char** argv) {
   std::string out, backend = "auto", prec = "fp32", fraction = "exact", pipeline = "auto";
   long n = 256, steps = 200;
+  std::array<long, 3> dims{0, 0, 0};  // --dims X,Y,Z: a box instead of the cube n^3
   double phi = 0.128, d = 10, tau = 0.6;
   int substeps = 0;  // 0: the fewest that check_coupled_setup accepts (t_c / 50 per sub-step)
   for (int i = 2; i < argc; ++i) {
@@ -272,6 +274,11 @@ int suspension(int argc, char** argv) {
     auto next = [&] { return option_value(argc, argv, i); };
     if (k == "--out") out = next();
     else if (k == "--n") n = std::stol(next());
+    else if (k == "--dims") {
+      const std::string v = next();
+      if (std::sscanf(v.c_str(), "%ld,%ld,%ld", &dims[0], &dims[1], &dims[2]) != 3 || dims[0] < 1 || dims[1] < 1 || dims[2] < 1)
+        throw ConfigError("--dims " + v + ": give three positive cell counts X,Y,Z");
+    }
     else if (k == "--steps") steps = std::stol(next());
     else if (k == "--phi") phi = std::stod(next());
     else if (k == "--d") d = std::stod(next());
@@ -290,17 +297,18 @@ int suspension(int argc, char** argv) {
   s.collision = lbm::CollisionKind::TRT;
   s.tau = tau;
   s.magic = 1e-3;
-  s.domain.global = s.domain.local = {n, n, n};
+  if (dims[0] == 0) dims = {n, n, n};
+  s.domain.global = s.domain.local = {dims[0], dims[1], dims[2]};
   dem::RandomPackingSpec rs;
-  rs.hi = {double(n), double(n), double(n)};
+  rs.hi = {double(dims[0]), double(dims[1]), double(dims[2])};
   rs.solid_fraction = phi;
   rs.r_min = rs.r_max = 0.5 * d;
   rs.density = 692.3;  // first paper Table 2
   rs.seed = 11;
   dem::HostParticles hp = dem::random_packing(rs);
   const std::array<double, 3> g{0, -4.704e-7, 0};  // first paper Table 2 (lattice units)
-  s.body_force = imb::balancing_body_force(hp, 3, g, 1.0, double(n) * n * n);
-  const auto N = static_cast<std::size_t>(n * n * n);
+  const auto N = static_cast<std::size_t>(dims[0] * dims[1] * dims[2]);
+  s.body_force = imb::balancing_body_force(hp, 3, g, 1.0, double(N));
   const double cells = double(N);
   const double bw = bench::copy_bandwidth(b, b == Backend::Cuda ? std::size_t(2) << 30 : std::size_t(1) << 28);
 
@@ -322,7 +330,7 @@ int suspension(int argc, char** argv) {
   fl->initialize(std::vector<std::uint8_t>(N, 0), std::vector<double>(N, 1.0), std::vector<double>(3 * N, 0.0));
   dem::DemParams dp;
   dp.lo = {0, 0, 0};
-  dp.hi = {double(n), double(n), double(n)};
+  dp.hi = {double(dims[0]), double(dims[1]), double(dims[2])};
   dp.periodic = {true, true, true};
   dp.material.stiffness = 17892;  // first paper Table 2
   dp.material.restitution = 0.9;
@@ -374,7 +382,7 @@ int suspension(int argc, char** argv) {
   const double t_fluid = time_of([&] { fl->step(1); });
   const auto d0 = fl->diagnostics();
   const double frac_fluid = fluid_mlups * 1e6 * bytes_cell / bw;
-  std::printf("suspension %ld^3, %ld particles d/l=%g phi=%.3f, %s, %s fractions, %s pipeline, %d DEM sub-steps:\n", n,
+  std::printf("suspension %ldx%ldx%ld, %ld particles d/l=%g phi=%.3f, %s, %s fractions, %s pipeline, %d DEM sub-steps:\n", dims[0], dims[1], dims[2],
               static_cast<long>(hp.size()), d, phi, prec.c_str(), fraction.c_str(), used.c_str(), substeps);
   std::printf("  copy bandwidth %.1f GB/s; fluid-only %.0f MLUPS (%.1f%% of copy); coupled %.0f MLUPS = %.1f%% of "
               "fluid-only; DEM %.3f ms/step; finite %d\n",
@@ -385,7 +393,8 @@ int suspension(int argc, char** argv) {
   if (!out.empty()) {
     std::ofstream js(out);
     js << "{\n" << bench::json_header("lbdem_bench_psm suspension", bench::device_name(b), {{to_string(b), bw}})
-       << ",\n  \"backend\": \"" << (b == Backend::Cuda ? "cuda" : "host") << "\",\n  \"n\": " << n
+       << ",\n  \"backend\": \"" << (b == Backend::Cuda ? "cuda" : "host") << "\",\n  \"n\": " << n << ",\n  \"dims\": [" << dims[0] << ", " << dims[1] << ", " << dims[2] << "]"
+       << ",\n  \"tau\": " << tau
        << ",\n  \"particles\": " << hp.size() << ",\n  \"d\": " << d << ",\n  \"phi\": " << phi
        << ",\n  \"precision\": \"" << prec << "\",\n  \"fraction\": \"" << fraction << "\",\n  \"pipeline\": \"" << used << "\",\n  \"substeps\": " << substeps << ",\n  \"steps\": " << steps
        << ",\n  \"fluid_mlups\": " << fluid_mlups

@@ -282,6 +282,7 @@ struct ParticlesCase {
   std::array<long, 3> fluid_lo{0, 0, 0}, fluid_hi{1, 1, 1};
   bool fields_fp32 = false;  // output.field_precision
   bool async_output = false;  // output.background
+  bool final_output = true;   // output.final
   ckpt::Policy checkpoint;
   double max_drag_error = kMaxDragErrorBar;
 };
@@ -464,6 +465,12 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
     }
   }
   cases::add_random_velocities(c.particles, dim, random_speed, seed);
+  if (dim == 2) {
+    // 2D: disks one cell deep (the first paper's Table 2: m = rho_s pi r^2 l),
+    // not the spheres HostParticles::add makes: mass x (pi r^2) / (4/3 pi r^3).
+    for (std::size_t i = 0; i < c.particles.mass.size(); ++i)
+      if (c.particles.mass[i] < 1e100) c.particles.mass[i] *= 0.75 / c.particles.r[i];
+  }
   pc.finish();
   {
     double vol = 0, box = 1;
@@ -496,6 +503,7 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
     p.walls.push_back({q, n});
   }
   p.gravity = {c.coupling.gravity[0], c.coupling.gravity[1], c.coupling.gravity[2]};
+  if (dim == 2) p.inertia_factor = 0.5;  // a disk about its axis
   p.external_forcing = true;
   p.friction = true;  // rotation under hydrodynamic torque; friction coefficient as given (0: none)
   const Config dm = root.section("dem");
@@ -542,6 +550,9 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
   // Snapshots copied to host memory (40 B per cell) and written by a host
   // thread while the run goes on; off: written slab by slab, no host copy of the grid.
   c.async_output = o.boolean("background", false);
+  // Fields and particles at the end of the run (off: the periodic snapshots
+  // only, e.g. a speed measurement on a grid whose fields fill tens of GB).
+  c.final_output = o.boolean("final", true);
   o.finish();
   c.checkpoint = ckpt::read_policy(root);
   root.accept("scene");
@@ -585,8 +596,8 @@ cases::SuspensionStatsSpec suspension_stats_spec(const ParticlesCase& c) {
 }
 
 // Net weight (m - rho_f V_p) |g| of the mean particle (lattice units; a
-// disk's mass in 2D, or with `sphere` that of a sphere of the same diameter
-// and density), 0 without gravity.
+// disk's in 2D, or with `sphere` that of a sphere of the same diameter and
+// density), 0 without gravity.
 double mean_net_weight(const ParticlesCase& c, bool sphere = false) {
   const auto& g = c.coupling.gravity;
   const double gn = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
@@ -594,9 +605,10 @@ double mean_net_weight(const ParticlesCase& c, bool sphere = false) {
   const auto& p = c.particles;
   for (std::size_t i = 0; i < p.r.size(); ++i) {
     const double r = p.r[i], vs = 4.0 / 3.0 * M_PI * r * r * r;
-    const double v = c.dim == 3 || sphere ? vs : M_PI * r * r;
+    const double own = c.dim == 3 ? vs : M_PI * r * r;  // the particle's volume (a disk's area in 2D)
+    const double v = sphere ? vs : own;
     if (p.mass[i] > 1e100) continue;  // held
-    w += (p.mass[i] / vs * v - c.coupling.fluid_density * v) * gn;
+    w += (p.mass[i] / own - c.coupling.fluid_density) * v * gn;
   }
   return p.r.empty() ? 0.0 : w / double(p.r.size());
 }
@@ -867,7 +879,7 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
   fluid->synchronize();
   cs.check_overflow();
   const double secs = std::chrono::duration<double>(clk::now() - t0).count();
-  if (c.output_interval == 0 || step % c.output_interval != 0) write_output(step);
+  if (c.final_output && (c.output_interval == 0 || step % c.output_interval != 0)) write_output(step);
   checkpoint(false, step == c.steps);
   if (bg) {  // every snapshot on disk (a write failure surfaces here) before the summary
     const auto w0 = std::chrono::steady_clock::now();

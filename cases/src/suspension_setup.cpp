@@ -8,6 +8,7 @@
 #include "cases/suspension.hpp"
 #include "cfd/drag.hpp"
 #include "core/error.hpp"
+#include "core/random.hpp"
 
 namespace lbdem::cases {
 
@@ -76,7 +77,7 @@ dem::HostParticles random_disks(const std::array<double, 3>& lo, const std::arra
     std::uniform_int_distribution<long> pick(i, sites - 1);
     std::swap(site[static_cast<std::size_t>(i)], site[static_cast<std::size_t>(pick(rng))]);
   }
-  std::uniform_real_distribution<double> U(-1.0, 1.0);
+  auto U = [](std::mt19937_64& g) { return uniform(g, -1.0, 1.0); };
   hp.x.reserve(static_cast<std::size_t>(count));
   for (long i = 0; i < count; ++i) {
     const long s = site[static_cast<std::size_t>(i)];

@@ -25,7 +25,7 @@ struct ParticleSums {
   double drag[3] = {0, 0, 0};
   double vol = 0, vol_v[3] = {0, 0, 0};
   double mom[3] = {0, 0, 0};
-  double net_mass = 0;  // sum (m - rho_f V_p), the 2D disk's mass in 2D
+  double net_mass = 0;  // sum (m - rho_f V_p), m the DEM mass
 };
 
 struct SumOp {
@@ -64,8 +64,7 @@ struct ParticleTerm {
     const double vol = volume_of(r, dim);
     const bool held = !(im > 1e-200);
     const double m = held ? 0.0 : 1.0 / im;
-    // The DEM mass is a sphere's also in 2D; the disk's is rho_s pi r^2.
-    const double m_eff = dim == 3 ? m : m / (4.18879020478639098 * r * r * r) * vol;
+    // The net mass: the DEM mass (a disk's in a 2D scene) less the displaced fluid.
     s.n = 1;
     for (int k = 0; k < 3; ++k) {
       s.v[k] = v[k];
@@ -75,7 +74,7 @@ struct ParticleTerm {
       s.mom[k] = m * v[k];
     }
     s.vol = vol;
-    s.net_mass = held ? 0.0 : m_eff - rho_f * vol;
+    s.net_mass = held ? 0.0 : m - rho_f * vol;
     return s;
   }
 };

@@ -12,6 +12,7 @@
 #include <fmt/format.h>
 
 #include "core/error.hpp"
+#include "core/random.hpp"
 #include "core/output.hpp"
 #include "dem/contact.hpp"
 
@@ -192,7 +193,7 @@ HostParticles random_packing(const RandomPackingSpec& s) {
     std::uniform_int_distribution<long> pick(i, static_cast<long>(site.size()) - 1);
     std::swap(site[i], site[pick(rng)]);
   }
-  std::uniform_real_distribution<double> U(0.0, 1.0);
+  auto U = [](std::mt19937_64& g) { return uniform01(g); };
   HostParticles hp;
   hp.x.reserve(N); hp.v.reserve(N); hp.w.reserve(N); hp.r.reserve(N); hp.mass.reserve(N); hp.id.reserve(N); hp.type.reserve(N);
   const double jitter = 0.5 * (nn - 2 * s.r_max);

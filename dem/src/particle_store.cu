@@ -57,7 +57,7 @@ void ParticleStore::upload(Backend be, const HostParticles& hp, const Box& box, 
     p[i] = r4(x, hp.r[i]);
     if (!(hp.mass[i] > 0)) throw ConfigError(fmtx(("particles: mass {} of particle {} must be > 0"), hp.mass[i], i));
     v[i] = r4(hp.v[i], 1.0 / hp.mass[i]);
-    w[i] = r4(hp.w.empty() ? Vec3d{} : hp.w[i], 1.0 / sphere_inertia(hp.mass[i], hp.r[i]));
+    w[i] = r4(hp.w.empty() ? Vec3d{} : hp.w[i], 1.0 / (lay.inertia_factor * hp.mass[i] * hp.r[i] * hp.r[i]));
   }
   {
     std::vector<std::int64_t> ids(hp.id.begin(), hp.id.end());

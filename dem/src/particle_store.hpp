@@ -19,6 +19,7 @@ struct StoreLayout {
   bool rotation = false;          // predicted angular velocity (friction)
   bool external_forcing = false;  // coupling input: external force and torque
   int wall_histories = 0;         // tangential histories per particle, one per wall (friction)
+  double inertia_factor = 0.4;    // moment of inertia = factor m r^2 (DemParams::inertia_factor)
 };
 
 // Every array of a store on the host (n records, the first n_owned owned),

@@ -26,6 +26,8 @@ void validate(const DemParams& p, const HostParticles& hp) {
   for (int k = 0; k < 3; ++k)
     if (!(p.hi[k] > p.lo[k]))
       throw ConfigError(fmtx(("domain: hi[{}] = {} must exceed lo[{}] = {}"), k, p.hi[k], k, p.lo[k]));
+  if (!(p.inertia_factor > 0 && p.inertia_factor <= 1))
+    throw ConfigError(fmtx(("DEM: inertia factor {} must lie in (0, 1] (0.4 a solid sphere, 0.5 a disk)"), p.inertia_factor));
   if (static_cast<int>(p.walls.size()) > kMaxWalls)
     throw ConfigError(fmtx(("walls: {} walls given, at most {} supported"), p.walls.size(), kMaxWalls));
   for (std::size_t k = 0; k < p.walls.size(); ++k)
@@ -117,7 +119,7 @@ DemSystem::DemSystem(Exec ex, DemParams params, const HostParticles& hp, const D
   // The whole set's radii: the same cell grid and skin on every rank.
   m.lists.set_geometry(m.box, hp.r, p.skin);
   // Particle store (a decomposed run keeps the particles of its piece).
-  const StoreLayout layout{p.friction, p.external_forcing, p.friction ? m.walls.count : 0};
+  const StoreLayout layout{p.friction, p.external_forcing, p.friction ? m.walls.count : 0, p.inertia_factor};
   if (decomposed) {
     m.comm = domain.comm;
     m.domain = std::make_unique<DomainExchange>();

@@ -72,6 +72,9 @@ struct DemParams {
   // heavy); raise it if a stale-list error is ever reported.
   double lookahead_safety = 2.0;
   ContactOrder contact_order = ContactOrder::Storage;
+  // Moment of inertia of each particle = inertia_factor m r^2: 0.4 for solid
+  // spheres, 0.5 for the disks (cylinders about their axis) of a 2D scene.
+  double inertia_factor = 0.4;
 };
 
 // Smallest collision time among particle-particle and particle-wall contacts
