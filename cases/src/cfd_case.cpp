@@ -229,7 +229,7 @@ void read_gas(const Config& root, const RunOptions& opt, CfdCase& c, const std::
 // Mean r^3 of radii uniform in [a, b].
 double mean_r3(double a, double b) { return b > a ? (b * b * b * b - a * a * a * a) / (4 * (b - a)) : a * a * a; }
 
-dem::HostParticles read_particles(const Config& pc, const dem::DemParams& p) {
+dem::HostParticles read_particles(const Config& pc, const dem::DemParams& p, bool validate_only) {
   const std::string init = pc.choice("init", {"list", "csv", "hdf5", "lattice", "random"});
   const double rho = pc.positive("density");
   dem::HostParticles hp;
@@ -297,6 +297,7 @@ dem::HostParticles read_particles(const Config& pc, const dem::DemParams& p) {
     cases::check_random_fill(pc, s.lo, s.hi, s.periodic, s.r_max, "particles.region_lo, particles.region_hi");
     cases::check_dem_particle_count(pc, cases::random_packing_count(s.lo, s.hi, s.solid_fraction, s.r_min),
                                     pc.has("count") ? "count" : "solid_fraction");
+    s.displace = !validate_only;  // lbdem check: lattice sites (dem/init.hpp)
     hp = dem::random_packing(s);
   }
   pc.finish();
@@ -356,7 +357,7 @@ CfdCase read_case(const Config& root, const RunOptions& opt) {
     m.finish();
   }
   p.external_forcing = true;
-  c.particles = read_particles(root.section("particles"), p);
+  c.particles = read_particles(root.section("particles"), p, opt.validate_only);
   double rmin = 1e300, rmax = 0;
   for (double r : c.particles.r) {
     rmin = std::min(rmin, r);

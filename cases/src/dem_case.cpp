@@ -54,7 +54,7 @@ struct DemCase {
   ckpt::Policy checkpoint;
 };
 
-HostParticles read_particles(const Config& pc, const DemParams& p, std::uint64_t& seed_out) {
+HostParticles read_particles(const Config& pc, const DemParams& p, std::uint64_t& seed_out, bool validate_only) {
   const std::string init = pc.choice("init", {"list", "csv", "hdf5", "lattice", "random"});
   const double rho = pc.positive("density", 2600.0);
   HostParticles hp;
@@ -106,6 +106,7 @@ HostParticles read_particles(const Config& pc, const DemParams& p, std::uint64_t
     s.seed = static_cast<std::uint64_t>(pc.integer_in("seed", 1, 0, std::numeric_limits<long>::max()));
     s.mc_sweeps = static_cast<int>(pc.integer_in("mc_sweeps", 0, 0, 1000));
     cases::check_dem_random_packing(pc, s.lo, s.hi, s.periodic, s.solid_fraction, s.r_max);
+    s.displace = !validate_only;
     hp = dem::random_packing(s);
   }
   // Random initial velocities (zero mean), for granular-gas scenes.
@@ -174,7 +175,7 @@ DemCase read_case(const Config& root, const RunOptions& opt) {
     m.finish();
   }
   std::uint64_t vseed = 0;
-  c.particles = read_particles(root.section("particles"), p, vseed);
+  c.particles = read_particles(root.section("particles"), p, vseed, opt.validate_only);
   double rmin = 1e300;
   for (double r : c.particles.r) rmin = std::min(rmin, r);
   {

@@ -453,6 +453,7 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
     rs.seed = seed;
     if (dim == 3) {
       cases::check_particles_random(root, pc, s, rs.lo, rs.hi, rs.periodic, rs.solid_fraction, r, opt);
+      rs.displace = !opt.validate_only;  // lbdem check: lattice sites (dem/init.hpp)
       c.particles = dem::random_packing(rs);
     } else {
       cases::check_particles_memory(root, s, double(count), opt);

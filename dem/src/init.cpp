@@ -203,7 +203,7 @@ HostParticles random_packing(const RandomPackingSpec& s) {
     Vec3d x;
     for (int k = 0; k < 3; ++k) x[k] = rlo[k] + (s.periodic[k] ? (c[k] + 0.5) : c[k]) * step[k];
     // Uniform point in a ball of radius `jitter`, kept inside the region.
-    for (int tries = 0; tries < 20; ++tries) {
+    for (int tries = 0; tries < 20 && s.displace; ++tries) {
       Vec3d d{2 * U(rng) - 1, 2 * U(rng) - 1, 2 * U(rng) - 1};
       if (dot(d, d) > 1) continue;
       Vec3d y = x + d * jitter;
@@ -218,7 +218,7 @@ HostParticles random_packing(const RandomPackingSpec& s) {
     hp.add(x, r, s.density);
   }
   // Hard-sphere Monte Carlo sweeps (sequential, with a cell grid).
-  if (s.mc_sweeps > 0) {
+  if (s.mc_sweeps > 0 && s.displace) {
     HostCells hc;
     for (int k = 0; k < 3; ++k) {
       hc.lo[k] = s.lo[k];

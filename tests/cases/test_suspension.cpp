@@ -182,6 +182,8 @@ TEST(SuspensionUnits, DefaultCaseReportsItsReference) {
 
 // A 2D suspension (random disks, D2Q9) runs: the DEM keeps the disks in their
 // plane (its z axis is no one-cell period), and the series has its statistics.
+// The disks are one cell deep (mass 50 pi 4^2): their contacts need 64 DEM
+// sub-steps at this stiffness.
 TEST(SuspensionUnits, TwoDimensionalRandomSuspensionRuns) {
   TmpDir dir("lbdem_2d_susp");
   std::ofstream(dir.path / "case.yaml") << R"(scene: particles
@@ -190,7 +192,7 @@ domain: {cells: [64, 128], periodic: [1, 1]}
 fluid: {tau: 0.8, collision: trt, magic: 1.0e-3}
 physics: {gravity: [0, -1.0e-6, 0]}
 particles: {init: random, diameter: 8, density_ratio: 50, solid_fraction: 0.1, random_speed: 1.0e-3, seed: 2}
-dem: {stiffness: 20000, restitution: 0.9, substeps: 30}
+dem: {stiffness: 20000, restitution: 0.9, substeps: 64}
 psm: {fraction: table}
 time: {steps: 20}
 output: {directory: unused, series_interval: 10}
@@ -207,6 +209,15 @@ output: {directory: unused, series_interval: 10}
   EXPECT_GT(std::stod(rows[1][static_cast<std::size_t>(col)]), 1e-7);
   const auto z = std::find(head.begin(), head.end(), "var_vz") - head.begin();
   EXPECT_EQ(std::stod(rows[3][static_cast<std::size_t>(z)]), 0.0);
+  // The fluid's balancing body force carries the disks' net weight, each
+  // (50 - 1) pi 4^2 |g| (a disk one cell deep, the first paper's Table 2),
+  // over the 64 x 128 cells.
+  const std::string js = slurp(dir.path / "out" / "summary.json");
+  const double n = summary_number(js, "particle_count");
+  const auto at = js.find("\"body_force\": [");
+  ASSERT_NE(at, std::string::npos) << js;
+  const double fy = std::stod(js.substr(js.find(',', at) + 1));
+  EXPECT_NEAR(fy, n * 49 * M_PI * 16 * 1e-6 / (64.0 * 128), 1e-12 * fy) << js;
 }
 
 TEST(SuspensionUnits, BoxNotAWholeNumberOfCellsIsRefusedNamingTheKey) {
