@@ -75,11 +75,14 @@ void ParticleStore::upload(Backend be, const HostParticles& hp, const Box& box, 
   std::vector<int> types = hp.type;
   types.resize(n, 0);
   upload_vector(type, be, types, n);
+  // The reorder targets are written whole by each reorder before they are
+  // swapped in; zeroed here so that no copy of them ever reads unset bytes.
   pos2 = Buffer<Real4>(be, n);
   vel2 = Buffer<Real4>(be, n);
   omg2 = Buffer<Real4>(be, n);
   frc2 = Buffer<Real4>(be, n);
   trq2 = Buffer<Real4>(be, n);
+  for (auto* b : {&pos2, &vel2, &omg2, &frc2, &trq2}) b->fill_zero();
   upload_vector(frco, be, zero, n);
   upload_vector(trqo, be, zero, n);
   upload_vector(vpr, be, v, n);
@@ -197,12 +200,17 @@ void ParticleStore::save(HostState& h) const {
 
 HostParticles ParticleStore::download() const {
   HostParticles h;
-  std::vector<Real4> p = pos.to_vector(), v = vel.to_vector(), w = omg.to_vector(), f = frc.to_vector(),
-                     t = trq.to_vector();
-  h.id = gid.to_vector();
-  h.type = type.to_vector();
-  h.id.resize(n_owned);
-  h.type.resize(n_owned);
+  // The owned records only (buffers may have head room that nothing wrote).
+  const auto m = static_cast<std::size_t>(n_owned);
+  auto get = [&](const auto& b, auto& v) {
+    v.resize(m);
+    if (m > 0) b.copy_to_host(v.data(), n_owned);
+  };
+  std::vector<Real4> p, v, w, f, t;
+  get(pos, p); get(vel, v); get(omg, w); get(frc, f);
+  if (layout.rotation) get(trq, t);
+  get(gid, h.id);
+  get(type, h.type);
   for (Index i = 0; i < n_owned; ++i) {
     h.x.push_back(xyz(p[i]));
     h.r.push_back(p[i].w);

@@ -24,7 +24,8 @@ DemStats DemSystem::stats() const {
   }
   const Index n = m.lists.rows;  // the owned particles' rows
   if (n > 0) {
-    std::vector<int> c = m.lists.ncount.to_vector();
+    std::vector<int> c(static_cast<std::size_t>(n));  // the rows only: the buffer may hold more, never written
+    m.lists.ncount.copy_to_host(c.data(), n);
     double sum = 0;
     for (Index i = 0; i < n; ++i) sum += c[i];
     s.mean_neighbours = sum / static_cast<double>(n);
