@@ -13,7 +13,8 @@
 //               di_felice, beetstra, tenneti), void_fraction (centroid, linear, quadratic),
 //               min_gas_fraction, initial_velocity [m/s], boundaries.{x,y,z}_{lo,hi} (type: periodic,
 //               no_slip, free_slip, inlet (velocity, patch {lo, hi, velocity}), outlet (pressure)),
-//               pressure_solver {tolerance, max_iterations, poll_every}
+//               pressure_solver {type (cg: Jacobi-preconditioned CG, the default; multigrid: CG
+//               preconditioned by a multigrid V-cycle), tolerance, max_iterations, poll_every}
 //   physics     gravity [m/s^2]
 //   particles   init: list | lattice | random (region_lo, region_hi, solid_fraction or count) | csv | hdf5
 //   material    stiffness [N/m], restitution, friction, wall_*, tangential_*
@@ -109,7 +110,8 @@ const cases::KeyMap& gas_keys() {
                                   {"gas.mu", "gas.viscosity"},
                                   {"gas.cg_max_iterations", "gas.pressure_solver.max_iterations"},
                                   {"gas.cg_tolerance", "gas.pressure_solver.tolerance"},
-                                  {"gas.cg_poll_every", "gas.pressure_solver.poll_every"}};
+                                  {"gas.cg_poll_every", "gas.pressure_solver.poll_every"},
+                                  {"gas.pressure_solver", "gas.pressure_solver.type"}};
   return m;
 }
 
@@ -213,6 +215,7 @@ void read_gas(const Config& root, const RunOptions& opt, CfdCase& c, const std::
     }
   }
   if (const auto ps = gs.optional_section("pressure_solver")) {
+    p.pressure_solver = cfd::parse_pressure_solver(ps->full_key("type"), ps->choice("type", "cg", {"cg", "multigrid"}));
     p.cg_tolerance = ps->number_in("tolerance", 1e-10, 1e-15, 1e-2, "relative preconditioned residual");
     p.cg_max_iterations = static_cast<int>(ps->integer_in("max_iterations", 2000, 1, 1000000));
     p.cg_poll_every = static_cast<int>(ps->integer_in("poll_every", 25, 1, 100000));

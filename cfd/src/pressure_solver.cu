@@ -1,0 +1,800 @@
+// The pressure solvers of the gas (cfd/pressure_solver.hpp): Jacobi- and
+// multigrid-preconditioned conjugate gradients, every scalar on the device.
+#include "cfd/pressure_solver.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#if defined(__CUDACC__)
+#include <cub/block/block_reduce.cuh>
+#endif
+
+namespace lbdem::cfd {
+namespace {
+
+// One grid level as the kernels see it: the cells, the face coefficients
+// (face boxes as the gas solver's), and periodic axes.
+struct LevelView {
+  int n[3];
+  bool per[3];
+  const double* af[3];
+
+  LBDEM_HD Index cells() const { return static_cast<Index>(n[0]) * n[1] * n[2]; }
+  LBDEM_HD Index cell(const int c[3]) const { return c[0] + static_cast<Index>(n[0]) * (c[1] + static_cast<Index>(n[1]) * c[2]); }
+  LBDEM_HD void coords(Index ci, int c[3]) const {
+    c[0] = static_cast<int>(ci % n[0]);
+    const Index r = ci / n[0];
+    c[1] = static_cast<int>(r % n[1]);
+    c[2] = static_cast<int>(r / n[1]);
+  }
+  LBDEM_HD int fext(int a, int d) const { return n[d] + (d == a ? 1 : 0); }
+  LBDEM_HD Index face(int a, const int f[3]) const {
+    return f[0] + static_cast<Index>(fext(a, 0)) * (f[1] + static_cast<Index>(fext(a, 1)) * f[2]);
+  }
+  // Face of axis a above cell c (the periodic axis's last face is face 0).
+  LBDEM_HD Index hi_face(int a, const int c[3]) const {
+    int f[3] = {c[0], c[1], c[2]};
+    f[a] += 1;
+    if (per[a] && f[a] == n[a]) f[a] = 0;
+    return face(a, f);
+  }
+};
+
+LevelView level_view(const GasGridView& g, const double* const af[3]) {
+  LevelView v{};
+  for (int a = 0; a < 3; ++a) {
+    v.n[a] = g.n[a];
+    v.per[a] = g.periodic[a];
+    v.af[a] = af[a];
+  }
+  return v;
+}
+
+LBDEM_HD inline int wrap(int i, int n) { return i < 0 ? i + n : (i >= n ? i - n : i); }
+
+// Row ci of the operator: the diagonal d (every face but those that join the
+// cell to itself across a periodic axis of one cell, whose terms cancel) and
+// the m off-diagonal couplings -w[k] to cells j[k].
+struct Row {
+  int m;
+  double d;
+  double w[6];
+  Index j[6];
+};
+
+LBDEM_HD inline void row(const LevelView& L, Index ci, const int c[3], Row& s) {
+  s.m = 0;
+  s.d = 0;
+  for (int a = 0; a < 3; ++a) {
+    for (int side = 0; side < 2; ++side) {
+      const double w = side == 0 ? L.af[a][L.face(a, c)] : L.af[a][L.hi_face(a, c)];
+      int o[3] = {c[0], c[1], c[2]};
+      o[a] += side == 0 ? -1 : 1;
+      if (o[a] < 0 || o[a] >= L.n[a]) {
+        if (!L.per[a]) {  // boundary face: Dirichlet (outlet) or nothing (a = 0)
+          s.d += w;
+          continue;
+        }
+        o[a] = wrap(o[a], L.n[a]);
+      }
+      const Index oj = L.cell(o);
+      if (oj == ci) continue;
+      s.d += w;
+      s.w[s.m] = w;
+      s.j[s.m] = oj;
+      ++s.m;
+    }
+  }
+}
+
+// Red cells: (i + j + k) even. With every periodic axis of even length (or of
+// one cell) the neighbours of a cell all have the other colour.
+LBDEM_HD inline bool is_red(const int c[3]) { return ((c[0] + c[1] + c[2]) & 1) == 0; }
+
+// ---------------------------------------------------------------- Jacobi CG
+
+// Jacobi diagonal: the sum of the cell's face coefficients (1 where all are 0).
+struct JacobiDiag {
+  LevelView L;
+  double* diag;
+  LBDEM_HD void operator()(Index ci) const {
+    int c[3];
+    L.coords(ci, c);
+    double dg = 0;
+    for (int a = 0; a < 3; ++a) dg += L.af[a][L.face(a, c)] + L.af[a][L.hi_face(a, c)];
+    diag[ci] = dg > 0 ? dg : 1.0;
+  }
+};
+
+// y = A x (skipped once the solve has converged).
+struct ApplyA {
+  LevelView L;
+  const double* x;
+  double* y;
+  const double* scal;
+  LBDEM_HD void operator()(Index ci) const {
+    if (scal && scal[5] != 0) return;
+    int c[3];
+    L.coords(ci, c);
+    const double xc = x[ci];
+    double s = 0;
+    for (int a = 0; a < 3; ++a) {
+      const double al = L.af[a][L.face(a, c)], ah = L.af[a][L.hi_face(a, c)];
+      int o[3] = {c[0], c[1], c[2]};
+      o[a] = c[a] - 1;
+      double xl = 0, xh = 0;
+      if (o[a] >= 0 || L.per[a]) { o[a] = wrap(o[a], L.n[a]); xl = x[L.cell(o)]; }
+      o[a] = c[a] + 1;
+      if (o[a] < L.n[a] || L.per[a]) { o[a] = wrap(o[a], L.n[a]); xh = x[L.cell(o)]; }
+      s += al * (xc - xl) + ah * (xc - xh);
+    }
+    y[ci] = s;
+  }
+};
+
+// Deterministic device-side dot products: strided partial sums, then fewer,
+// then one thread; the result goes into a scalar slot.
+struct Dot1 {
+  const double* x;
+  const double* y;
+  double* part;
+  Index n, parts;
+  const double* scal;
+  LBDEM_HD void operator()(Index t) const {
+    if (scal[5] != 0) return;
+    double s = 0;
+    for (Index i = t; i < n; i += parts) s += x[i] * y[i];
+    part[t] = s;
+  }
+};
+struct Dot2 {
+  const double* in;
+  double* out;
+  Index n, parts;
+  const double* scal;
+  LBDEM_HD void operator()(Index t) const {
+    if (scal[5] != 0) return;
+    double s = 0;
+    for (Index i = t; i < n; i += parts) s += in[i];
+    out[t] = s;
+  }
+};
+
+// Scalar slots: 0 rz, 1 |b|_D^2, 2 dAd, 3 alpha, 4 beta, 5 done, 6 iterations,
+// 7 |r|_D^2 / |b|_D^2.
+enum class CgStage { Bnorm, Init, Alpha, Update };
+
+// The scalar step after a dot product: s = r.z, and (multigrid) rr = r.D^-1 r,
+// the convergence measure (for Jacobi CG rr = s).
+LBDEM_HD inline void cg_stage(double* scal, CgStage stage, double s, double rr, double tol2) {
+  switch (stage) {
+    case CgStage::Bnorm: scal[1] = s; scal[6] = 0; break;
+    case CgStage::Init:
+      scal[0] = s;
+      scal[7] = scal[1] > 0 ? rr / scal[1] : rr;
+      if (rr <= tol2 * scal[1] || rr == 0 || s == 0) scal[5] = 1;
+      break;
+    case CgStage::Alpha: scal[2] = s; scal[3] = s != 0 ? scal[0] / s : 0; break;
+    case CgStage::Update:
+      scal[4] = scal[0] != 0 ? s / scal[0] : 0;
+      scal[0] = s;
+      scal[6] += 1;
+      scal[7] = scal[1] > 0 ? rr / scal[1] : rr;
+      if (rr <= tol2 * scal[1] || rr == 0 || s == 0) scal[5] = 1;
+      break;
+  }
+}
+
+struct Dot3 {
+  const double* in;
+  Index n;
+  double* scal;
+  CgStage stage;
+  double tol2;
+  LBDEM_HD void operator()(Index) const {
+    if (scal[5] != 0) return;
+    double s = 0;
+    for (Index i = 0; i < n; ++i) s += in[i];
+    cg_stage(scal, stage, s, s, tol2);
+  }
+};
+
+struct CgInit {  // r = b - A x, z = r / diag, d = z
+  const double* b; const double* Ax; const double* diag;
+  double* r; double* z; double* d;
+  LBDEM_HD void operator()(Index i) const {
+    r[i] = b[i] - Ax[i];
+    z[i] = r[i] / diag[i];
+    d[i] = z[i];
+  }
+};
+struct CgStep {  // x += alpha d, r -= alpha Ad, z = r / diag
+  double* x; double* r; double* z; const double* d; const double* Ad; const double* diag; const double* scal;
+  LBDEM_HD void operator()(Index i) const {
+    if (scal[5] != 0) return;
+    const double al = scal[3];
+    x[i] += al * d[i];
+    r[i] -= al * Ad[i];
+    z[i] = r[i] / diag[i];
+  }
+};
+struct CgDir {  // d = z + beta d
+  double* d; const double* z; const double* scal;
+  LBDEM_HD void operator()(Index i) const {
+    if (scal[5] != 0) return;
+    d[i] = z[i] + scal[4] * d[i];
+  }
+};
+struct Scale {  // z = b / diag (for |b|_D)
+  const double* b; const double* diag; double* z;
+  LBDEM_HD void operator()(Index i) const { z[i] = b[i] / diag[i]; }
+};
+struct ZeroDone {
+  double* scal;
+  LBDEM_HD void operator()(Index) const { scal[5] = 0; }
+};
+
+// ------------------------------------------------------------ multigrid CG
+
+// Pair dot products r.z and r.D^-1 r (host path: the same three stages).
+struct PairDot1 {
+  const double* r; const double* z; const double* diag;
+  double* part;
+  Index n, parts;
+  const double* scal;
+  LBDEM_HD void operator()(Index t) const {
+    if (scal[5] != 0) return;
+    double s = 0, q = 0;
+    for (Index i = t; i < n; i += parts) {
+      s += r[i] * z[i];
+      q += r[i] * r[i] / diag[i];
+    }
+    part[t] = s;
+    part[parts + t] = q;
+  }
+};
+struct PairDot2 {
+  const double* in;
+  double* out;
+  Index n, parts;
+  const double* scal;
+  LBDEM_HD void operator()(Index t) const {
+    if (scal[5] != 0) return;
+    double s = 0, q = 0;
+    for (Index i = t; i < n; i += parts) {
+      s += in[i];
+      q += in[n + i];
+    }
+    out[t] = s;
+    out[parts + t] = q;
+  }
+};
+struct PairDot3 {
+  const double* in;
+  Index n;
+  double* scal;
+  CgStage stage;
+  double tol2;
+  LBDEM_HD void operator()(Index) const {
+    if (scal[5] != 0) return;
+    double s = 0, q = 0;
+    for (Index i = 0; i < n; ++i) {
+      s += in[i];
+      q += in[n + i];
+    }
+    cg_stage(scal, stage, s, stage == CgStage::Alpha || stage == CgStage::Bnorm ? s : q, tol2);
+  }
+};
+
+struct MgInit {  // r = b - A x
+  const double* b; const double* Ax; double* r;
+  LBDEM_HD void operator()(Index i) const { r[i] = b[i] - Ax[i]; }
+};
+struct Copy {
+  const double* from; double* to;
+  LBDEM_HD void operator()(Index i) const { to[i] = from[i]; }
+};
+struct MgStep {  // x += alpha d, r -= alpha Ad
+  double* x; double* r; const double* d; const double* Ad; const double* scal;
+  LBDEM_HD void operator()(Index i) const {
+    if (scal[5] != 0) return;
+    const double al = scal[3];
+    x[i] += al * d[i];
+    r[i] -= al * Ad[i];
+  }
+};
+
+// The operator's diagonal on one level.
+struct LevelDiag {
+  LevelView L;
+  double* dg;
+  LBDEM_HD void operator()(Index ci) const {
+    int c[3];
+    L.coords(ci, c);
+    Row s;
+    row(L, ci, c, s);
+    dg[ci] = s.d;
+  }
+};
+
+// Coarse face coefficients: thread t over the coarse face boxes of axes 0, 1,
+// 2 in turn. Each is the sum of the fine coefficients on the faces it covers,
+// over the coarsening factor along its normal (the coarse cells' centres lie
+// that much further apart).
+struct CoarseFaces {
+  LevelView F;   // fine
+  int cn[3];     // coarse cells
+  int r[3];
+  double* out[3];
+  Index nf0, nf1;  // coarse face counts of axes 0 and 1
+  LBDEM_HD void operator()(Index t) const {
+    int a = 0;
+    if (t >= nf0) { t -= nf0; a = 1; if (t >= nf1) { t -= nf1; a = 2; } }
+    int m[3];
+    for (int d = 0; d < 3; ++d) m[d] = cn[d] + (d == a ? 1 : 0);
+    int I[3];
+    I[0] = static_cast<int>(t % m[0]);
+    I[1] = static_cast<int>((t / m[0]) % m[1]);
+    I[2] = static_cast<int>(t / (static_cast<Index>(m[0]) * m[1]));
+    int lo[3], hi[3];
+    for (int d = 0; d < 3; ++d) {
+      if (d == a) {
+        lo[d] = r[d] * I[d] < F.n[d] ? r[d] * I[d] : F.n[d];
+        hi[d] = lo[d] + 1;
+      } else {
+        lo[d] = r[d] * I[d];
+        hi[d] = lo[d] + r[d] < F.n[d] ? lo[d] + r[d] : F.n[d];
+      }
+    }
+    double s = 0;
+    int f[3];
+    for (f[2] = lo[2]; f[2] < hi[2]; ++f[2])
+      for (f[1] = lo[1]; f[1] < hi[1]; ++f[1])
+        for (f[0] = lo[0]; f[0] < hi[0]; ++f[0]) s += F.af[a][F.face(a, f)];
+    out[a][static_cast<Index>(I[0]) + static_cast<Index>(m[0]) * (I[1] + static_cast<Index>(m[1]) * I[2])] =
+        s / r[a];
+  }
+};
+
+// Pre-smoothing from a zero guess: red cells x = b / d, then black cells
+// x = (b + sum w x_red) / d, the red values formed in place (one launch for
+// the red and the black half-sweep).
+struct PreSmooth {
+  LevelView L;
+  const double* dg;
+  const double* b;
+  double* x;
+  const double* scal;
+  LBDEM_HD void operator()(Index ci) const {
+    if (scal[5] != 0) return;
+    int c[3];
+    L.coords(ci, c);
+    if (is_red(c)) {
+      const double d = dg[ci];
+      x[ci] = d > 0 ? b[ci] / d : 0.0;
+      return;
+    }
+    Row s;
+    row(L, ci, c, s);
+    double acc = b[ci];
+    for (int k = 0; k < s.m; ++k) {
+      const double dn = dg[s.j[k]];
+      acc += s.w[k] * (dn > 0 ? b[s.j[k]] / dn : 0.0);
+    }
+    x[ci] = s.d > 0 ? acc / s.d : 0.0;
+  }
+};
+
+// Coarse right-hand side: the sum of the fine residuals b - A x over the
+// fine cells that a coarse cell covers (restriction = transpose of the
+// piecewise-constant prolongation).
+struct Restrict {
+  LevelView F;
+  const double* bf;
+  const double* xf;
+  int cn[3];
+  int r[3];
+  double* bc;
+  const double* scal;
+  LBDEM_HD void operator()(Index t) const {
+    if (scal[5] != 0) return;
+    int I[3];
+    I[0] = static_cast<int>(t % cn[0]);
+    I[1] = static_cast<int>((t / cn[0]) % cn[1]);
+    I[2] = static_cast<int>(t / (static_cast<Index>(cn[0]) * cn[1]));
+    int lo[3], hi[3];
+    for (int d = 0; d < 3; ++d) {
+      lo[d] = r[d] * I[d];
+      hi[d] = lo[d] + r[d] < F.n[d] ? lo[d] + r[d] : F.n[d];
+    }
+    double sum = 0;
+    int c[3];
+    for (c[2] = lo[2]; c[2] < hi[2]; ++c[2])
+      for (c[1] = lo[1]; c[1] < hi[1]; ++c[1])
+        for (c[0] = lo[0]; c[0] < hi[0]; ++c[0]) {
+          const Index ci = F.cell(c);
+          Row s;
+          row(F, ci, c, s);
+          double ax = s.d * xf[ci];
+          for (int k = 0; k < s.m; ++k) ax -= s.w[k] * xf[s.j[k]];
+          sum += bf[ci] - ax;
+        }
+    bc[t] = sum;
+  }
+};
+
+// Post-smoothing, black half-sweep, with the coarse correction added to the
+// red neighbours it reads (a black cell's new value does not depend on its
+// old one, and the red half-sweep after it overwrites the red cells: the
+// correction is needed nowhere else).
+struct PostBlack {
+  LevelView F;
+  const double* b;
+  double* x;
+  const double* e;  // coarse correction
+  int cn[3];
+  int r[3];
+  const double* scal;
+  LBDEM_HD void operator()(Index ci) const {
+    if (scal[5] != 0) return;
+    int c[3];
+    F.coords(ci, c);
+    if (is_red(c)) return;
+    Row s;
+    row(F, ci, c, s);
+    double acc = b[ci];
+    for (int k = 0; k < s.m; ++k) {
+      int o[3];
+      F.coords(s.j[k], o);
+      const Index pc = o[0] / r[0] + static_cast<Index>(cn[0]) * (o[1] / r[1] + static_cast<Index>(cn[1]) * (o[2] / r[2]));
+      acc += s.w[k] * (x[s.j[k]] + e[pc]);
+    }
+    x[ci] = s.d > 0 ? acc / s.d : 0.0;
+  }
+};
+
+// Post-smoothing, red half-sweep.
+struct PostRed {
+  LevelView F;
+  const double* b;
+  double* x;
+  const double* scal;
+  LBDEM_HD void operator()(Index ci) const {
+    if (scal[5] != 0) return;
+    int c[3];
+    F.coords(ci, c);
+    if (!is_red(c)) return;
+    Row s;
+    row(F, ci, c, s);
+    double acc = b[ci];
+    for (int k = 0; k < s.m; ++k) acc += s.w[k] * x[s.j[k]];
+    x[ci] = s.d > 0 ? acc / s.d : 0.0;
+  }
+};
+
+// The coarsest grid (a few cells): `sweeps` symmetric Gauss-Seidel sweeps
+// (forward, then backward) from zero, in one thread.
+struct Coarsest {
+  LevelView L;
+  const double* b;
+  double* x;
+  int sweeps;
+  const double* scal;
+  LBDEM_HD void relax(Index ci) const {
+    int c[3];
+    L.coords(ci, c);
+    Row s;
+    row(L, ci, c, s);
+    double acc = b[ci];
+    for (int k = 0; k < s.m; ++k) acc += s.w[k] * x[s.j[k]];
+    x[ci] = s.d > 0 ? acc / s.d : 0.0;
+  }
+  LBDEM_HD void operator()(Index) const {
+    if (scal[5] != 0) return;
+    const Index n = L.cells();
+    for (Index i = 0; i < n; ++i) x[i] = 0;
+    for (int k = 0; k < sweeps; ++k) {
+      for (Index i = 0; i < n; ++i) relax(i);
+      for (Index i = n; i-- > 0;) relax(i);
+    }
+  }
+};
+
+#if defined(__CUDACC__)
+// One-launch dot products on the device: each block sums a fixed strided
+// share (cub::BlockReduce, deterministic), the last block to finish (a
+// ticket) adds the block sums in block order and runs the scalar step.
+constexpr int kDotBlock = 256;
+constexpr int kDotMaxBlocks = 256;
+
+__global__ void __launch_bounds__(kDotBlock) pair_dot_kernel(Index n, const double* x, const double* y,
+                                                              const double* diag, double* part,
+                                                              unsigned int* ticket, double* scal, CgStage stage,
+                                                              double tol2) {
+  if (scal[5] != 0) return;
+  using BR = cub::BlockReduce<double, kDotBlock>;
+  __shared__ typename BR::TempStorage tmp;
+  __shared__ bool last;
+  double s = 0, q = 0;
+  const Index stride = static_cast<Index>(gridDim.x) * kDotBlock;
+  for (Index i = static_cast<Index>(blockIdx.x) * kDotBlock + threadIdx.x; i < n; i += stride) {
+    s += x[i] * y[i];
+    if (diag) q += x[i] * x[i] / diag[i];
+  }
+  const double bs = BR(tmp).Sum(s);
+  __syncthreads();
+  const double bq = BR(tmp).Sum(q);
+  if (threadIdx.x == 0) {
+    part[blockIdx.x] = bs;
+    part[kDotMaxBlocks + blockIdx.x] = bq;
+    __threadfence();
+    last = atomicAdd(ticket, 1u) == gridDim.x - 1;
+  }
+  __syncthreads();
+  if (!last) return;
+  __threadfence();
+  const unsigned t = threadIdx.x;
+  const double ps = t < gridDim.x ? __ldcg(part + t) : 0.0;
+  const double pq = t < gridDim.x ? __ldcg(part + kDotMaxBlocks + t) : 0.0;
+  __syncthreads();
+  const double S = BR(tmp).Sum(ps);
+  __syncthreads();
+  const double Q = BR(tmp).Sum(pq);
+  if (t == 0) {
+    cg_stage(scal, stage, S, diag ? Q : S, tol2);
+    *ticket = 0;
+  }
+}
+#endif
+
+Index face_count(const GasGridView& g, int a) {
+  Index n = 1;
+  for (int d = 0; d < 3; ++d) n *= g.n[d] + (d == a ? 1 : 0);
+  return n;
+}
+
+}  // namespace
+
+const char* to_string(PressureSolverKind k) {
+  switch (k) {
+    case PressureSolverKind::Cg: return "cg";
+    case PressureSolverKind::Multigrid: return "multigrid";
+  }
+  return "?";
+}
+
+PressureSolverKind parse_pressure_solver(const std::string& key, const std::string& value) {
+  for (PressureSolverKind k : {PressureSolverKind::Cg, PressureSolverKind::Multigrid})
+    if (value == to_string(k)) return k;
+  throw ConfigError(key + " = '" + value +
+                    "': unknown pressure solver (valid: cg (Jacobi-preconditioned conjugate gradients), multigrid "
+                    "(conjugate gradients with a multigrid V-cycle))");
+}
+
+std::vector<std::array<int, 3>> multigrid_levels(const GasGridView& g, int coarsest_cells, const std::string& key) {
+  static const char* axis[3] = {"x", "y", "z"};
+  for (int a = 0; a < 3; ++a)
+    if (g.periodic[a] && g.n[a] > 1 && g.n[a] % 2 != 0)
+      throw ConfigError(key + " = multigrid: the periodic axis " + axis[a] + " has " + std::to_string(g.n[a]) +
+                        " cells; multigrid needs an even number (or one) along periodic axes (red-black "
+                        "ordering): change the cell size or the domain, or use cg");
+  std::vector<std::array<int, 3>> out{{g.n[0], g.n[1], g.n[2]}};
+  std::array<int, 3> n{g.n[0], g.n[1], g.n[2]};
+  while (static_cast<long long>(n[0]) * n[1] * n[2] > coarsest_cells) {
+    std::array<int, 3> m = n;
+    bool any = false;
+    for (int a = 0; a < 3; ++a) {
+      if (n[a] < 2) continue;
+      // A periodic axis halves only to an even length or to one cell, so
+      // that red-black ordering holds on the coarse grid too.
+      if (g.periodic[a] && !(n[a] == 2 || n[a] % 4 == 0)) continue;
+      m[a] = (n[a] + 1) / 2;
+      any = true;
+    }
+    if (!any) break;
+    out.push_back(m);
+    n = m;
+  }
+  return out;
+}
+
+PressureSolver::PressureSolver(const Exec& ex, const GasGridView& g, const PressureSolverParams& p)
+    : ex_(ex), g_(g), p_(p) {
+  const Backend b = ex.backend();
+  const Index nc = g.cells();
+  for (Buffer<double>* x : {&r_, &z_, &d_, &Ad_, &diag_}) *x = Buffer<double>(b, nc);
+  d_.fill_zero();
+  parts1_ = std::min<Index>(nc, 4096);
+  parts2_ = std::min<Index>(parts1_, 64);
+  // Pairs (multigrid) use twice the slots; the device's one-launch dot its
+  // block sums.
+  part1_ = Buffer<double>(b, std::max<Index>(2 * parts1_, 512));
+  part2_ = Buffer<double>(b, 2 * parts2_);
+  scal_ = Buffer<double>(b, 8);
+  scal_.fill_zero();
+  if (p_.kind == PressureSolverKind::Multigrid) {
+    const auto sizes = multigrid_levels(g, std::max(1, p_.coarsest_cells));
+    dg0_ = Buffer<double>(b, nc);
+    for (std::size_t l = 1; l < sizes.size(); ++l) {
+      Level L;
+      L.g = g;
+      for (int a = 0; a < 3; ++a) {
+        L.g.n[a] = sizes[l][static_cast<std::size_t>(a)];
+        L.r[a] = sizes[l - 1][static_cast<std::size_t>(a)] == L.g.n[a] ? 1 : 2;
+      }
+      const Index n = L.g.cells();
+      for (int a = 0; a < 3; ++a) L.af[a] = Buffer<double>(b, face_count(L.g, a));
+      L.dg = Buffer<double>(b, n);
+      L.b = Buffer<double>(b, n);
+      L.x = Buffer<double>(b, n);
+      lv_.push_back(std::move(L));
+    }
+    ticket_ = Buffer<unsigned int>(b, 1);
+    ticket_.fill_zero();
+  }
+}
+
+PressureSolver::~PressureSolver() = default;
+
+int PressureSolver::launches_per_iteration() const {
+  const int dot = ex_.on_device() && p_.kind == PressureSolverKind::Multigrid ? 1 : 3;
+  if (p_.kind == PressureSolverKind::Cg) return 3 + 2 * dot;
+  return 3 + 2 * dot + 4 * static_cast<int>(lv_.size()) + 1;
+}
+
+void PressureSolver::apply(const double* const af[3], const double* x, double* y) {
+  for_each(ex_, g_.cells(), ApplyA{level_view(g_, af), x, y, nullptr});
+}
+
+void PressureSolver::solve(const double* const af[3], const double* b, double* x) {
+  for_each(ex_, g_.cells(), JacobiDiag{level_view(g_, af), diag_.data()});
+  if (p_.kind == PressureSolverKind::Cg)
+    solve_cg(af, b, x);
+  else
+    solve_mg(af, b, x);
+}
+
+void PressureSolver::solve_cg(const double* const af[3], const double* b, double* x) {
+  const LevelView L = level_view(g_, af);
+  const Index n = g_.cells();
+  double* s = scal_.data();
+  const double tol2 = p_.tolerance * p_.tolerance;
+  auto dot = [&](const double* u, const double* w, CgStage stage) {
+    for_each(ex_, parts1_, Dot1{u, w, part1_.data(), n, parts1_, s});
+    for_each(ex_, parts2_, Dot2{part1_.data(), part2_.data(), parts1_, parts2_, s});
+    for_each(ex_, 1, Dot3{part2_.data(), parts2_, s, stage, tol2});
+  };
+  for_each(ex_, 1, ZeroDone{s});
+  // |b|_D^2, then r = b - A x (warm start from the last pressure).
+  for_each(ex_, n, Scale{b, diag_.data(), z_.data()});
+  dot(b, z_.data(), CgStage::Bnorm);
+  for_each(ex_, n, ApplyA{L, x, Ad_.data(), s});
+  for_each(ex_, n, CgInit{b, Ad_.data(), diag_.data(), r_.data(), z_.data(), d_.data()});
+  dot(r_.data(), z_.data(), CgStage::Init);
+  double done = 0;
+  for (int it = 0; it < p_.max_iterations; ++it) {
+    for_each(ex_, n, ApplyA{L, d_.data(), Ad_.data(), s});
+    dot(d_.data(), Ad_.data(), CgStage::Alpha);
+    for_each(ex_, n, CgStep{x, r_.data(), z_.data(), d_.data(), Ad_.data(), diag_.data(), s});
+    dot(r_.data(), z_.data(), CgStage::Update);
+    for_each(ex_, n, CgDir{d_.data(), z_.data(), s});
+    const int poll = ex_.on_device() ? p_.poll_every : 1;
+    if ((it + 1) % poll == 0) {
+      scal_.copy_to_host(&done, 1, 5);
+      if (done != 0) break;
+    }
+  }
+}
+
+void PressureSolver::setup_mg(const double* const af[3]) {
+  LevelView F = level_view(g_, af);
+  for_each(ex_, g_.cells(), LevelDiag{F, dg0_.data()});
+  for (Level& L : lv_) {
+    CoarseFaces cf{};
+    cf.F = F;
+    for (int a = 0; a < 3; ++a) {
+      cf.cn[a] = L.g.n[a];
+      cf.r[a] = L.r[a];
+      cf.out[a] = L.af[a].data();
+    }
+    cf.nf0 = L.af[0].size();
+    cf.nf1 = L.af[1].size();
+    for_each(ex_, L.af[0].size() + L.af[1].size() + L.af[2].size(), cf);
+    const double* caf[3] = {L.af[0].data(), L.af[1].data(), L.af[2].data()};
+    F = level_view(L.g, caf);
+    for_each(ex_, L.g.cells(), LevelDiag{F, L.dg.data()});
+  }
+}
+
+// z = V(b): one V-cycle from a zero guess.
+void PressureSolver::vcycle(const double* const af[3], const double* b, double* x) {
+  const double* s = scal_.data();
+  const int nl = static_cast<int>(lv_.size());
+  auto view = [&](int l) {
+    if (l == 0) return level_view(g_, af);
+    const Level& L = lv_[static_cast<std::size_t>(l - 1)];
+    const double* caf[3] = {L.af[0].data(), L.af[1].data(), L.af[2].data()};
+    return level_view(L.g, caf);
+  };
+  auto bb = [&](int l) -> const double* { return l == 0 ? b : lv_[static_cast<std::size_t>(l - 1)].b.data(); };
+  auto xx = [&](int l) -> double* { return l == 0 ? x : lv_[static_cast<std::size_t>(l - 1)].x.data(); };
+  auto dg = [&](int l) -> const double* { return l == 0 ? dg0_.data() : lv_[static_cast<std::size_t>(l - 1)].dg.data(); };
+  for (int l = 0; l < nl; ++l) {
+    const LevelView F = view(l);
+    const Level& C = lv_[static_cast<std::size_t>(l)];
+    for_each(ex_, F.cells(), PreSmooth{F, dg(l), bb(l), xx(l), s});
+    Restrict rs{F, bb(l), xx(l), {C.g.n[0], C.g.n[1], C.g.n[2]}, {C.r[0], C.r[1], C.r[2]},
+                lv_[static_cast<std::size_t>(l)].b.data(), s};
+    for_each(ex_, C.g.cells(), rs);
+  }
+  for_each(ex_, 1, Coarsest{view(nl), bb(nl), xx(nl), std::max(1, p_.coarse_sweeps), s});
+  for (int l = nl - 1; l >= 0; --l) {
+    const LevelView F = view(l);
+    const Level& C = lv_[static_cast<std::size_t>(l)];
+    for_each(ex_, F.cells(),
+             PostBlack{F, bb(l), xx(l), C.x.data(), {C.g.n[0], C.g.n[1], C.g.n[2]}, {C.r[0], C.r[1], C.r[2]}, s});
+    for_each(ex_, F.cells(), PostRed{F, bb(l), xx(l), s});
+  }
+}
+
+void PressureSolver::solve_mg(const double* const af[3], const double* b, double* x) {
+  const LevelView L = level_view(g_, af);
+  const Index n = g_.cells();
+  double* s = scal_.data();
+  const double tol2 = p_.tolerance * p_.tolerance;
+  // dot of u and w into the scalar step; with diag also u.D^-1 u.
+  auto dot = [&](const double* u, const double* w, const double* diag, CgStage stage) {
+    if (ex_.on_device()) {
+#if defined(__CUDACC__)
+      const int blocks = static_cast<int>(std::max<Index>(1, std::min<Index>(kDotMaxBlocks, (n + kDotBlock - 1) / kDotBlock)));
+      pair_dot_kernel<<<blocks, kDotBlock, 0, ex_.stream()>>>(n, u, w, diag, part1_.data(), ticket_.data(), s,
+                                                               stage, tol2);
+      LBDEM_CUDA_CHECK(cudaGetLastError());
+      return;
+#endif
+    }
+    const double* dd = diag ? diag : diag_.data();
+    for_each(ex_, parts1_, PairDot1{u, w, dd, part1_.data(), n, parts1_, s});
+    for_each(ex_, parts2_, PairDot2{part1_.data(), part2_.data(), parts1_, parts2_, s});
+    for_each(ex_, 1, PairDot3{part2_.data(), parts2_, s, stage, tol2});
+  };
+  setup_mg(af);
+  for_each(ex_, 1, ZeroDone{s});
+  // |b|_D^2, then r = b - A x (warm start), z = V r, d = z.
+  for_each(ex_, n, Scale{b, diag_.data(), z_.data()});
+  dot(b, z_.data(), nullptr, CgStage::Bnorm);
+  for_each(ex_, n, ApplyA{L, x, Ad_.data(), s});
+  for_each(ex_, n, MgInit{b, Ad_.data(), r_.data()});
+  vcycle(af, r_.data(), z_.data());
+  dot(r_.data(), z_.data(), diag_.data(), CgStage::Init);
+  for_each(ex_, n, Copy{z_.data(), d_.data()});
+  double flags[2] = {0, 0};  // done, iterations
+  int next_poll = ex_.on_device() ? std::max(1, expected_iterations_) : 1;
+  for (int it = 0; it < p_.max_iterations; ++it) {
+    for_each(ex_, n, ApplyA{L, d_.data(), Ad_.data(), s});
+    dot(d_.data(), Ad_.data(), nullptr, CgStage::Alpha);
+    for_each(ex_, n, MgStep{x, r_.data(), d_.data(), Ad_.data(), s});
+    vcycle(af, r_.data(), z_.data());
+    dot(r_.data(), z_.data(), diag_.data(), CgStage::Update);
+    for_each(ex_, n, CgDir{d_.data(), z_.data(), s});
+    if (it + 1 == next_poll) {
+      scal_.copy_to_host(flags, 2, 5);
+      if (flags[0] != 0) break;
+      next_poll += ex_.on_device() ? p_.poll_every : 1;
+    }
+  }
+  // Converged at the first check (x already the solution): keep the count.
+  expected_iterations_ = static_cast<int>(flags[1]);
+}
+
+CgReport PressureSolver::last_report() const {
+  ex_.synchronize();
+  const std::vector<double> s = scal_.to_vector();
+  CgReport r;
+  r.iterations = static_cast<int>(s[6]);
+  r.residual = std::sqrt(std::max(0.0, s[7]));
+  r.converged = s[5] != 0;
+  return r;
+}
+
+}  // namespace lbdem::cfd
