@@ -8,29 +8,32 @@
 #     test      cfd_tests on both backends (host and CUDA instances; the CUDA ones have not run before),
 #               the long fluidized-bed cases included
 #     muller06  Mueller's bubbling bed at U = 0.6 m/s (cases/fluidized_bed_muller_u06.yaml), 15 s simulated,
-#               averages from 5 s; stopped cleanly (SIGTERM, final output and profiles written) at
-#               CFD_LIMIT seconds if not done: summary.json says how far it got and the time per simulated s
+#               averages from 5 s (the paper's last 10 s); stopped cleanly (SIGTERM, final output and
+#               profiles written) at CFD_LIMIT seconds if not done: summary.json says how far it got and the
+#               time per simulated s. The case files use the multigrid-preconditioned pressure solve
+#               (gas.pressure_solver.type: multigrid; ~10x fewer launches per gas step than the Jacobi CG)
 #     muller09  the same at U = 0.9 m/s
-#     link      Link's spout-fluid bed (cases/fluidized_bed_link_spout.yaml), 20 s planned, averages from 1 s
-#               (one call reaches ~1.5 s: the pressure solve of 37,752 cells at gas dt 3e-5 s); the same clean stop
+#     link      Link's spout-fluid bed (cases/fluidized_bed_link_spout.yaml), 20 s simulated, averages from
+#               5 s (the paper's last 15 s); the same clean stop
 #     bench     lbdem_bench_cfd: the Sec. 5.2 system (1e6 particles, 300,000 cells, U = 0.9 m/s) on the GPU
 #               and on all host cores: bench_cfd.{json,md}
 #     plot      scripts/plot_cfd.py on what is there (needs python3-matplotlib; else it prints tables)
-#   env  CFD_LIMIT (s of wall time per scene, default 500), MULLER_END / LINK_END (simulated s, default 15 / 20),
-#        MULLER_START / LINK_START (s from which averages are taken, default 5 / 1), GAS_DT (overrides the case's
+#   env  CFD_LIMIT (s of wall time per scene, default 510), MULLER_END / LINK_END (simulated s, default 15 / 20),
+#        MULLER_START / LINK_START (s from which averages are taken, default 5 / 5), SOLVER (cg or multigrid:
+#        overrides the case's gas.pressure_solver.type, e.g. to compare), GAS_DT (overrides the case's
 #        gas.dt, e.g. after a watchdog stop: summary.json's "diverged" says why), BENCH_ARGS (extra arguments
 #        of lbdem_bench_cfd), LBDEM_COMMIT (the commit named in the JSON when .git is stale).
 # Typical: call 1 `build test` (or `build` then `test`), call 2 `muller06`, call 3 `muller09`, call 4 `link`,
 # call 5 `bench plot`.
 set -uo pipefail
-if [ $# -eq 0 ]; then sed -n 2,24p "$0"; exit 2; fi
+if [ $# -eq 0 ]; then sed -n 2,27p "$0"; exit 2; fi
 here="$(cd "$(dirname "$0")/.." && pwd)"
 export OUT="${OUT:-$here/out}"
 out="$OUT/cfd"
 mkdir -p "$out"
 build="$here/build-gpu"
 lbdem="$build/cases/lbdem"
-limit="${CFD_LIMIT:-500}"
+limit="${CFD_LIMIT:-510}"
 export LBDEM_COMMIT="${LBDEM_COMMIT:-$(git -C "$here" rev-parse --short HEAD 2>/dev/null || echo unknown)}"
 export OMP_WAIT_POLICY=passive
 { echo "commit $LBDEM_COMMIT"; nvidia-smi --query-gpu=name,memory.total --format=csv 2>&1; nproc; } > "$out/env.txt"
@@ -42,12 +45,14 @@ scene() {
   local name="$1" case="$2" end="$3" start="$4" tmp rc
   tmp="$out/$name.yaml"
   sed -e "s/^time: {end_time: [0-9.e+-]*}/time: {end_time: $end}/" -e "s/^  start: [0-9.e+-]*$/  start: $start/" \
-    -e "${GAS_DT:+s/^  dt: [0-9.e+-]*/  dt: $GAS_DT/}" "$here/cases/$case" > "$tmp"
+    -e "${GAS_DT:+s/^  dt: [0-9.e+-]*/  dt: $GAS_DT/}" \
+    -e "${SOLVER:+s/^  pressure_solver: {type: [a-z]*/  pressure_solver: {type: $SOLVER/}" "$here/cases/$case" > "$tmp"
   timeout -s TERM -k 60 "$limit" "$lbdem" run "$tmp" --backend cuda --output "$out/$name" --overwrite \
     > "$out/$name.log" 2>&1
   rc=$?
   echo "scene $name exit $rc (0: done, 5: stopped at the time limit, with its output)"
   tail -2 "$out/$name.log"
+  grep -m1 -o "pressure solver [a-z]*" "$out/$name.log"
   [ -f "$out/$name/summary.json" ] && grep -E '"(time_s|seconds_per_simulated_second|particle_steps_per_second|mean_pressure_drop_over_weight|max_courant|interrupted|diverged)"' "$out/$name/summary.json"
 }
 
@@ -62,7 +67,7 @@ for part in "$@"; do
       echo "cfd_tests exit $?"; grep -E '^\[  (PASSED|FAILED) ' "$out/cfd_tests.log"; grep -E 'FAILED|U_mf|relative error|weight' "$out/cfd_tests.log" | head -30 ;;
     muller06) scene muller_u06 fluidized_bed_muller_u06.yaml "${MULLER_END:-15.0}" "${MULLER_START:-5.0}" ;;
     muller09) scene muller_u09 fluidized_bed_muller_u09.yaml "${MULLER_END:-15.0}" "${MULLER_START:-5.0}" ;;
-    link) scene link_spout fluidized_bed_link_spout.yaml "${LINK_END:-20.0}" "${LINK_START:-1.0}" ;;
+    link) scene link_spout fluidized_bed_link_spout.yaml "${LINK_END:-20.0}" "${LINK_START:-5.0}" ;;
     bench)
       timeout 520 "$build/bench/cfd/lbdem_bench_cfd" --out "$out" ${BENCH_ARGS:-} > "$out/bench_cfd.log" 2>&1
       echo "bench exit $?"; cat "$out/bench_cfd.md" 2>/dev/null || tail -5 "$out/bench_cfd.log" ;;
@@ -70,6 +75,6 @@ for part in "$@"; do
       for d in muller_u06 muller_u09 link_spout; do
         [ -d "$out/$d" ] && python3 "$here/scripts/plot_cfd.py" run "$out/$d" --validation "$here/cfd/validation"
       done ;;
-    *) echo "unknown part '$part'"; sed -n 2,24p "$0"; exit 2 ;;
+    *) echo "unknown part '$part'"; sed -n 2,27p "$0"; exit 2 ;;
   esac
 done

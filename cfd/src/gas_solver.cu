@@ -459,6 +459,7 @@ PressureSolverParams pressure_params(const GasParams& p) {
   q.max_iterations = p.cg_max_iterations;
   q.tolerance = p.cg_tolerance;
   q.poll_every = p.cg_poll_every;
+  q.graphs = p.pressure_graphs;
   return q;
 }
 const GasParams& validated(const GasParams& p, const GasGridView& g) {

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 
 #if defined(__CUDACC__)
 #include <cub/block/block_reduce.cuh>
@@ -52,39 +53,38 @@ LevelView level_view(const GasGridView& g, const double* const af[3]) {
 
 LBDEM_HD inline int wrap(int i, int n) { return i < 0 ? i + n : (i >= n ? i - n : i); }
 
-// Row ci of the operator: the diagonal d (every face but those that join the
-// cell to itself across a periodic axis of one cell, whose terms cancel) and
-// the m off-diagonal couplings -w[k] to cells j[k].
-struct Row {
-  int m;
-  double d;
-  double w[6];
-  Index j[6];
-};
-
-LBDEM_HD inline void row(const LevelView& L, Index ci, const int c[3], Row& s) {
-  s.m = 0;
-  s.d = 0;
+// Row ci of the operator: returns the diagonal (every face but those that
+// join the cell to itself across a periodic axis of one cell, whose terms
+// cancel) and calls f(w, j) for each off-diagonal coupling -w to cell j
+// (unrolled: no per-thread arrays).
+template <class F>
+LBDEM_HD LBDEM_FORCEINLINE double for_row(const LevelView& L, Index ci, const int c[3], F&& f) {
+  double d = 0;
+#if defined(__CUDA_ARCH__)
+#pragma unroll
+#endif
   for (int a = 0; a < 3; ++a) {
+#if defined(__CUDA_ARCH__)
+#pragma unroll
+#endif
     for (int side = 0; side < 2; ++side) {
       const double w = side == 0 ? L.af[a][L.face(a, c)] : L.af[a][L.hi_face(a, c)];
       int o[3] = {c[0], c[1], c[2]};
       o[a] += side == 0 ? -1 : 1;
       if (o[a] < 0 || o[a] >= L.n[a]) {
-        if (!L.per[a]) {  // boundary face: Dirichlet (outlet) or nothing (a = 0)
-          s.d += w;
+        if (!L.per[a]) {  // boundary face: Dirichlet (outlet) or nothing (w = 0)
+          d += w;
           continue;
         }
         o[a] = wrap(o[a], L.n[a]);
       }
       const Index oj = L.cell(o);
       if (oj == ci) continue;
-      s.d += w;
-      s.w[s.m] = w;
-      s.j[s.m] = oj;
-      ++s.m;
+      d += w;
+      f(w, oj);
     }
   }
+  return d;
 }
 
 // Red cells: (i + j + k) even. With every periodic axis of even length (or of
@@ -311,9 +311,7 @@ struct LevelDiag {
   LBDEM_HD void operator()(Index ci) const {
     int c[3];
     L.coords(ci, c);
-    Row s;
-    row(L, ci, c, s);
-    dg[ci] = s.d;
+    dg[ci] = for_row(L, ci, c, [](double, Index) {});
   }
 };
 
@@ -374,14 +372,14 @@ struct PreSmooth {
       x[ci] = d > 0 ? b[ci] / d : 0.0;
       return;
     }
-    Row s;
-    row(L, ci, c, s);
     double acc = b[ci];
-    for (int k = 0; k < s.m; ++k) {
-      const double dn = dg[s.j[k]];
-      acc += s.w[k] * (dn > 0 ? b[s.j[k]] / dn : 0.0);
-    }
-    x[ci] = s.d > 0 ? acc / s.d : 0.0;
+    const double* bv = b;
+    const double* dv = dg;
+    const double d = for_row(L, ci, c, [&](double w, Index j) {
+      const double dn = dv[j];
+      acc += w * (dn > 0 ? bv[j] / dn : 0.0);
+    });
+    x[ci] = d > 0 ? acc / d : 0.0;
   }
 };
 
@@ -413,11 +411,10 @@ struct Restrict {
       for (c[1] = lo[1]; c[1] < hi[1]; ++c[1])
         for (c[0] = lo[0]; c[0] < hi[0]; ++c[0]) {
           const Index ci = F.cell(c);
-          Row s;
-          row(F, ci, c, s);
-          double ax = s.d * xf[ci];
-          for (int k = 0; k < s.m; ++k) ax -= s.w[k] * xf[s.j[k]];
-          sum += bf[ci] - ax;
+          const double* xv = xf;
+          double off = 0;
+          const double d = for_row(F, ci, c, [&](double w, Index j) { off += w * xv[j]; });
+          sum += bf[ci] - (d * xf[ci] - off);
         }
     bc[t] = sum;
   }
@@ -440,16 +437,18 @@ struct PostBlack {
     int c[3];
     F.coords(ci, c);
     if (is_red(c)) return;
-    Row s;
-    row(F, ci, c, s);
     double acc = b[ci];
-    for (int k = 0; k < s.m; ++k) {
+    const LevelView& G = F;
+    const double* xv = x;
+    const double* ev = e;
+    const int r0 = r[0], r1 = r[1], r2 = r[2], c0 = cn[0], c1 = cn[1];
+    const double d = for_row(F, ci, c, [&](double w, Index j) {
       int o[3];
-      F.coords(s.j[k], o);
-      const Index pc = o[0] / r[0] + static_cast<Index>(cn[0]) * (o[1] / r[1] + static_cast<Index>(cn[1]) * (o[2] / r[2]));
-      acc += s.w[k] * (x[s.j[k]] + e[pc]);
-    }
-    x[ci] = s.d > 0 ? acc / s.d : 0.0;
+      G.coords(j, o);
+      const Index pc = o[0] / r0 + static_cast<Index>(c0) * (o[1] / r1 + static_cast<Index>(c1) * (o[2] / r2));
+      acc += w * (xv[j] + ev[pc]);
+    });
+    x[ci] = d > 0 ? acc / d : 0.0;
   }
 };
 
@@ -464,11 +463,10 @@ struct PostRed {
     int c[3];
     F.coords(ci, c);
     if (!is_red(c)) return;
-    Row s;
-    row(F, ci, c, s);
     double acc = b[ci];
-    for (int k = 0; k < s.m; ++k) acc += s.w[k] * x[s.j[k]];
-    x[ci] = s.d > 0 ? acc / s.d : 0.0;
+    const double* xv = x;
+    const double d = for_row(F, ci, c, [&](double w, Index j) { acc += w * xv[j]; });
+    x[ci] = d > 0 ? acc / d : 0.0;
   }
 };
 
@@ -483,11 +481,10 @@ struct Coarsest {
   LBDEM_HD void relax(Index ci) const {
     int c[3];
     L.coords(ci, c);
-    Row s;
-    row(L, ci, c, s);
     double acc = b[ci];
-    for (int k = 0; k < s.m; ++k) acc += s.w[k] * x[s.j[k]];
-    x[ci] = s.d > 0 ? acc / s.d : 0.0;
+    const double* xv = x;
+    const double d = for_row(L, ci, c, [&](double w, Index j) { acc += w * xv[j]; });
+    x[ci] = d > 0 ? acc / d : 0.0;
   }
   LBDEM_HD void operator()(Index) const {
     if (scal[5] != 0) return;
@@ -634,7 +631,7 @@ PressureSolver::PressureSolver(const Exec& ex, const GasGridView& g, const Press
   }
 }
 
-PressureSolver::~PressureSolver() = default;
+PressureSolver::~PressureSolver() { release_graph(); }
 
 int PressureSolver::launches_per_iteration() const {
   const int dot = ex_.on_device() && p_.kind == PressureSolverKind::Multigrid ? 1 : 3;
@@ -707,7 +704,7 @@ void PressureSolver::setup_mg(const double* const af[3]) {
 }
 
 // z = V(b): one V-cycle from a zero guess.
-void PressureSolver::vcycle(const double* const af[3], const double* b, double* x) {
+void PressureSolver::vcycle(const Exec& ex, const double* const af[3], const double* b, double* x) {
   const double* s = scal_.data();
   const int nl = static_cast<int>(lv_.size());
   auto view = [&](int l) {
@@ -722,18 +719,54 @@ void PressureSolver::vcycle(const double* const af[3], const double* b, double* 
   for (int l = 0; l < nl; ++l) {
     const LevelView F = view(l);
     const Level& C = lv_[static_cast<std::size_t>(l)];
-    for_each(ex_, F.cells(), PreSmooth{F, dg(l), bb(l), xx(l), s});
+    for_each(ex, F.cells(), PreSmooth{F, dg(l), bb(l), xx(l), s});
     Restrict rs{F, bb(l), xx(l), {C.g.n[0], C.g.n[1], C.g.n[2]}, {C.r[0], C.r[1], C.r[2]},
                 lv_[static_cast<std::size_t>(l)].b.data(), s};
-    for_each(ex_, C.g.cells(), rs);
+    for_each(ex, C.g.cells(), rs);
   }
-  for_each(ex_, 1, Coarsest{view(nl), bb(nl), xx(nl), std::max(1, p_.coarse_sweeps), s});
+  for_each(ex, 1, Coarsest{view(nl), bb(nl), xx(nl), std::max(1, p_.coarse_sweeps), s});
   for (int l = nl - 1; l >= 0; --l) {
     const LevelView F = view(l);
     const Level& C = lv_[static_cast<std::size_t>(l)];
-    for_each(ex_, F.cells(),
+    for_each(ex, F.cells(),
              PostBlack{F, bb(l), xx(l), C.x.data(), {C.g.n[0], C.g.n[1], C.g.n[2]}, {C.r[0], C.r[1], C.r[2]}, s});
-    for_each(ex_, F.cells(), PostRed{F, bb(l), xx(l), s});
+    for_each(ex, F.cells(), PostRed{F, bb(l), xx(l), s});
+  }
+}
+
+// Dot product of u and w into the scalar step; with diag also u.D^-1 u.
+void PressureSolver::dot(const Exec& ex, const double* u, const double* w, const double* diag, int stage) {
+  const Index n = g_.cells();
+  double* s = scal_.data();
+  const double tol2 = p_.tolerance * p_.tolerance;
+  const CgStage st = static_cast<CgStage>(stage);
+  if (ex.on_device()) {
+#if defined(__CUDACC__)
+    const int blocks =
+        static_cast<int>(std::max<Index>(1, std::min<Index>(kDotMaxBlocks, (n + kDotBlock - 1) / kDotBlock)));
+    pair_dot_kernel<<<blocks, kDotBlock, 0, ex.stream()>>>(n, u, w, diag, part1_.data(), ticket_.data(), s, st, tol2);
+    LBDEM_CUDA_CHECK(cudaGetLastError());
+    return;
+#endif
+  }
+  const double* dd = diag ? diag : diag_.data();
+  for_each(ex, parts1_, PairDot1{u, w, dd, part1_.data(), n, parts1_, s});
+  for_each(ex, parts2_, PairDot2{part1_.data(), part2_.data(), parts1_, parts2_, s});
+  for_each(ex, 1, PairDot3{part2_.data(), parts2_, s, st, tol2});
+}
+
+// `count` multigrid-PCG iterations (kernels only: a CUDA graph can hold them).
+void PressureSolver::iterate_mg(const Exec& ex, const double* const af[3], double* x, int count) {
+  const LevelView L = level_view(g_, af);
+  const Index n = g_.cells();
+  double* s = scal_.data();
+  for (int k = 0; k < count; ++k) {
+    for_each(ex, n, ApplyA{L, d_.data(), Ad_.data(), s});
+    dot(ex, d_.data(), Ad_.data(), nullptr, static_cast<int>(CgStage::Alpha));
+    for_each(ex, n, MgStep{x, r_.data(), d_.data(), Ad_.data(), s});
+    vcycle(ex, af, r_.data(), z_.data());
+    dot(ex, r_.data(), z_.data(), diag_.data(), static_cast<int>(CgStage::Update));
+    for_each(ex, n, CgDir{d_.data(), z_.data(), s});
   }
 }
 
@@ -741,51 +774,77 @@ void PressureSolver::solve_mg(const double* const af[3], const double* b, double
   const LevelView L = level_view(g_, af);
   const Index n = g_.cells();
   double* s = scal_.data();
-  const double tol2 = p_.tolerance * p_.tolerance;
-  // dot of u and w into the scalar step; with diag also u.D^-1 u.
-  auto dot = [&](const double* u, const double* w, const double* diag, CgStage stage) {
-    if (ex_.on_device()) {
-#if defined(__CUDACC__)
-      const int blocks = static_cast<int>(std::max<Index>(1, std::min<Index>(kDotMaxBlocks, (n + kDotBlock - 1) / kDotBlock)));
-      pair_dot_kernel<<<blocks, kDotBlock, 0, ex_.stream()>>>(n, u, w, diag, part1_.data(), ticket_.data(), s,
-                                                               stage, tol2);
-      LBDEM_CUDA_CHECK(cudaGetLastError());
-      return;
-#endif
-    }
-    const double* dd = diag ? diag : diag_.data();
-    for_each(ex_, parts1_, PairDot1{u, w, dd, part1_.data(), n, parts1_, s});
-    for_each(ex_, parts2_, PairDot2{part1_.data(), part2_.data(), parts1_, parts2_, s});
-    for_each(ex_, 1, PairDot3{part2_.data(), parts2_, s, stage, tol2});
-  };
   setup_mg(af);
   for_each(ex_, 1, ZeroDone{s});
   // |b|_D^2, then r = b - A x (warm start), z = V r, d = z.
   for_each(ex_, n, Scale{b, diag_.data(), z_.data()});
-  dot(b, z_.data(), nullptr, CgStage::Bnorm);
+  dot(ex_, b, z_.data(), nullptr, static_cast<int>(CgStage::Bnorm));
   for_each(ex_, n, ApplyA{L, x, Ad_.data(), s});
   for_each(ex_, n, MgInit{b, Ad_.data(), r_.data()});
-  vcycle(af, r_.data(), z_.data());
-  dot(r_.data(), z_.data(), diag_.data(), CgStage::Init);
+  vcycle(ex_, af, r_.data(), z_.data());
+  dot(ex_, r_.data(), z_.data(), diag_.data(), static_cast<int>(CgStage::Init));
   for_each(ex_, n, Copy{z_.data(), d_.data()});
+  // Iterations in chunks (one CUDA graph launch each on the device), the
+  // host asking first after the last solve's count, then every poll_every.
+  const bool dev = ex_.on_device();
+  const int chunk = dev && p_.graphs ? std::max(1, p_.poll_every) : 1;
+  if (dev && p_.graphs) capture_graph(af, x, chunk);
   double flags[2] = {0, 0};  // done, iterations
-  int next_poll = ex_.on_device() ? std::max(1, expected_iterations_) : 1;
-  for (int it = 0; it < p_.max_iterations; ++it) {
-    for_each(ex_, n, ApplyA{L, d_.data(), Ad_.data(), s});
-    dot(d_.data(), Ad_.data(), nullptr, CgStage::Alpha);
-    for_each(ex_, n, MgStep{x, r_.data(), d_.data(), Ad_.data(), s});
-    vcycle(af, r_.data(), z_.data());
-    dot(r_.data(), z_.data(), diag_.data(), CgStage::Update);
-    for_each(ex_, n, CgDir{d_.data(), z_.data(), s});
-    if (it + 1 == next_poll) {
+  int it = 0;
+  int next_poll = dev ? std::max(1, expected_iterations_) : 1;
+  while (it < p_.max_iterations) {
+    if (graph_exec_) {
+      launch_graph();
+      it += chunk;
+    } else {
+      iterate_mg(ex_, af, x, 1);
+      it += 1;
+    }
+    if (it >= next_poll || it >= p_.max_iterations) {
       scal_.copy_to_host(flags, 2, 5);
       if (flags[0] != 0) break;
-      next_poll += ex_.on_device() ? p_.poll_every : 1;
+      next_poll = it + (dev ? std::max(1, p_.poll_every) : 1);
     }
   }
-  // Converged at the first check (x already the solution): keep the count.
   expected_iterations_ = static_cast<int>(flags[1]);
 }
+
+#if defined(__CUDACC__)
+void PressureSolver::capture_graph(const double* const af[3], double* x, int chunk) {
+  const void* key[5] = {af[0], af[1], af[2], x, reinterpret_cast<const void*>(static_cast<std::intptr_t>(chunk))};
+  if (graph_exec_ && std::equal(key, key + 5, graph_key_)) return;
+  release_graph();
+  cudaStream_t cs = nullptr;
+  LBDEM_CUDA_CHECK(cudaStreamCreateWithFlags(&cs, cudaStreamNonBlocking));
+  cap_stream_ = cs;
+  Exec cex(Backend::Cuda);
+  cex.set_stream(cs);
+  LBDEM_CUDA_CHECK(cudaStreamBeginCapture(cs, cudaStreamCaptureModeThreadLocal));
+  iterate_mg(cex, af, x, chunk);
+  cudaGraph_t graph = nullptr;
+  LBDEM_CUDA_CHECK(cudaStreamEndCapture(cs, &graph));
+  cudaGraphExec_t exec = nullptr;
+  const cudaError_t e = cudaGraphInstantiate(&exec, graph, 0);
+  LBDEM_CUDA_CHECK(cudaGraphDestroy(graph));
+  LBDEM_CUDA_CHECK(e);
+  graph_exec_ = exec;
+  std::copy(key, key + 5, graph_key_);
+}
+void PressureSolver::launch_graph() {
+  LBDEM_CUDA_CHECK(cudaGraphLaunch(static_cast<cudaGraphExec_t>(graph_exec_), ex_.stream()));
+}
+void PressureSolver::release_graph() noexcept {
+  // Destructor path: nothing to report to (the device may already be gone).
+  if (graph_exec_) (void)cudaGraphExecDestroy(static_cast<cudaGraphExec_t>(graph_exec_));
+  if (cap_stream_) (void)cudaStreamDestroy(static_cast<cudaStream_t>(cap_stream_));
+  graph_exec_ = nullptr;
+  cap_stream_ = nullptr;
+}
+#else
+void PressureSolver::capture_graph(const double* const*, double*, int) {}
+void PressureSolver::launch_graph() {}
+void PressureSolver::release_graph() noexcept {}
+#endif
 
 CgReport PressureSolver::last_report() const {
   ex_.synchronize();

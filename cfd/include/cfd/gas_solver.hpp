@@ -78,6 +78,8 @@ struct GasParams {
   // (one small copy each); iterations after convergence are skipped on the
   // device either way.
   int cg_poll_every = 25;
+  // Multigrid on the GPU: the iterations between two polls as one CUDA graph.
+  bool pressure_graphs = true;
 };
 
 // Refuses inconsistent parameters with ConfigError naming the key under

@@ -59,6 +59,10 @@ struct PressureSolverParams {
   // Gauss-Seidel sweeps.
   int coarsest_cells = 16;
   int coarse_sweeps = 4;
+  // Multigrid on the device: the iterations between two polls run as one
+  // CUDA graph (captured once; the kernels read every scalar from device
+  // memory, so a replay is the same work as launching them one by one).
+  bool graphs = true;
 };
 
 struct CgReport {
@@ -105,7 +109,12 @@ class PressureSolver {
   void solve_cg(const double* const af[3], const double* b, double* x);
   void solve_mg(const double* const af[3], const double* b, double* x);
   void setup_mg(const double* const af[3]);
-  void vcycle(const double* const af[3], const double* b, double* x);
+  void vcycle(const Exec& ex, const double* const af[3], const double* b, double* x);
+  void dot(const Exec& ex, const double* u, const double* w, const double* diag, int stage);
+  void iterate_mg(const Exec& ex, const double* const af[3], double* x, int count);
+  void capture_graph(const double* const af[3], double* x, int chunk);
+  void launch_graph();
+  void release_graph() noexcept;
 
   Exec ex_;
   GasGridView g_;
@@ -118,6 +127,11 @@ class PressureSolver {
   std::vector<Level> lv_;
   Buffer<unsigned int> ticket_;  // one-launch dot products on the device
   int expected_iterations_ = 0;
+  // The device's CUDA graph of `poll_every` iterations, the stream it was
+  // captured on, and the pointers it was captured with (af[0..2], x, chunk).
+  void* graph_exec_ = nullptr;
+  void* cap_stream_ = nullptr;
+  const void* graph_key_[5] = {nullptr, nullptr, nullptr, nullptr, nullptr};
 };
 
 }  // namespace lbdem::cfd
