@@ -15,18 +15,22 @@
 #     muller09  the same at U = 0.9 m/s
 #     link      Link's spout-fluid bed (cases/fluidized_bed_link_spout.yaml), 20 s simulated, averages from
 #               5 s (the paper's last 15 s); the same clean stop
+#     speed     the pressure solvers compared on the GPU: 1000 gas steps of Mueller's bed (U = 0.6 m/s) and
+#               of Link's spout with gas.pressure_solver.type cg and multigrid (~1 min in all): seconds per
+#               gas step, mean iterations per solve and the ratio, into speed.md
 #     bench     lbdem_bench_cfd: the Sec. 5.2 system (1e6 particles, 300,000 cells, U = 0.9 m/s) on the GPU
 #               and on all host cores: bench_cfd.{json,md}
 #     plot      scripts/plot_cfd.py on what is there (needs python3-matplotlib; else it prints tables)
 #   env  CFD_LIMIT (s of wall time per scene, default 510), MULLER_END / LINK_END (simulated s, default 15 / 20),
 #        MULLER_START / LINK_START (s from which averages are taken, default 5 / 5), SOLVER (cg or multigrid:
-#        overrides the case's gas.pressure_solver.type, e.g. to compare), GAS_DT (overrides the case's
+#        overrides the case's gas.pressure_solver.type, e.g. to compare), GRAPHS (false: the multigrid's kernels
+#        launched one by one, without CUDA graphs and the one-block coarse levels), GAS_DT (overrides the case's
 #        gas.dt, e.g. after a watchdog stop: summary.json's "diverged" says why), BENCH_ARGS (extra arguments
 #        of lbdem_bench_cfd), LBDEM_COMMIT (the commit named in the JSON when .git is stale).
 # Typical: call 1 `build test` (or `build` then `test`), call 2 `muller06`, call 3 `muller09`, call 4 `link`,
 # call 5 `bench plot`.
 set -uo pipefail
-if [ $# -eq 0 ]; then sed -n 2,27p "$0"; exit 2; fi
+if [ $# -eq 0 ]; then sed -n 2,31p "$0"; exit 2; fi
 here="$(cd "$(dirname "$0")/.." && pwd)"
 export OUT="${OUT:-$here/out}"
 out="$OUT/cfd"
@@ -42,11 +46,13 @@ export OMP_WAIT_POLICY=passive
 # case file with those values) into $out/NAME, under a SIGTERM at $limit s (the scene stops at the end
 # of its current step and writes its final output, exit code 5).
 scene() {
-  local name="$1" case="$2" end="$3" start="$4" tmp rc
+  local name="$1" case="$2" end="$3" start="$4" tmp rc graphs_expr="s/^//"
+  [ -n "${GRAPHS:-}" ] && graphs_expr="s/^  pressure_solver: {\(.*\)}\$/  pressure_solver: {\1, graphs: $GRAPHS}/"
   tmp="$out/$name.yaml"
   sed -e "s/^time: {end_time: [0-9.e+-]*}/time: {end_time: $end}/" -e "s/^  start: [0-9.e+-]*$/  start: $start/" \
     -e "${GAS_DT:+s/^  dt: [0-9.e+-]*/  dt: $GAS_DT/}" \
-    -e "${SOLVER:+s/^  pressure_solver: {type: [a-z]*/  pressure_solver: {type: $SOLVER/}" "$here/cases/$case" > "$tmp"
+    -e "${SOLVER:+s/^  pressure_solver: {type: [a-z]*/  pressure_solver: {type: $SOLVER/}" \
+    -e "$graphs_expr" "$here/cases/$case" > "$tmp"
   timeout -s TERM -k 60 "$limit" "$lbdem" run "$tmp" --backend cuda --output "$out/$name" --overwrite \
     > "$out/$name.log" 2>&1
   rc=$?
@@ -54,6 +60,20 @@ scene() {
   tail -2 "$out/$name.log"
   grep -m1 -o "pressure solver [a-z]*" "$out/$name.log"
   [ -f "$out/$name/summary.json" ] && grep -E '"(time_s|seconds_per_simulated_second|particle_steps_per_second|mean_pressure_drop_over_weight|max_courant|interrupted|diverged)"' "$out/$name/summary.json"
+}
+
+# speed_run NAME CASE SOLVER: 1000 gas steps of CASE with that pressure solver, series every step; prints
+# "NAME SOLVER seconds_per_gas_step mean_iterations".
+speed_run() {
+  local name="$1" case="$2" solver="$3" d="$out/speed/$1_$3"
+  mkdir -p "$d"
+  sed -e "s/^time: {end_time: [0-9.e+-]*}/time: {steps: 1000}/" -e "s/series_interval: [0-9]*/series_interval: 1/" \
+    -e "s/^  pressure_solver: {type: [a-z]*/  pressure_solver: {type: $solver/" "$here/cases/$case" > "$d/case.yaml"
+  timeout -s TERM -k 30 240 "$lbdem" run "$d/case.yaml" --backend cuda --output "$d/run" --overwrite > "$d/log.txt" 2>&1
+  local secs iters
+  secs=$(grep -o '"seconds": [0-9.e+-]*' "$d/run/summary.json" 2>/dev/null | awk '{print $2 / 1000}')
+  iters=$(awk -F, 'NR > 1 && $1 > 0 { n++; s += $NF } END { if (n) printf "%.1f", s / n }' "$d/run/series.csv" 2>/dev/null)
+  echo "$name $solver ${secs:-nan} ${iters:-nan}"
 }
 
 for part in "$@"; do
@@ -68,6 +88,18 @@ for part in "$@"; do
     muller06) scene muller_u06 fluidized_bed_muller_u06.yaml "${MULLER_END:-15.0}" "${MULLER_START:-5.0}" ;;
     muller09) scene muller_u09 fluidized_bed_muller_u09.yaml "${MULLER_END:-15.0}" "${MULLER_START:-5.0}" ;;
     link) scene link_spout fluidized_bed_link_spout.yaml "${LINK_END:-20.0}" "${LINK_START:-5.0}" ;;
+    speed)
+      {
+        echo "| scene | solver | s per gas step | iterations per solve |"
+        echo "|---|---|---|---|"
+        for sc in "muller fluidized_bed_muller_u06.yaml" "link fluidized_bed_link_spout.yaml"; do
+          read -r nm cf <<< "$sc"
+          for solver in cg multigrid; do speed_run "$nm" "$cf" "$solver"; done
+        done | awk '{ printf "| %s | %s | %.3g | %s |\n", $1, $2, $3, $4; t[$1 " " $2] = $3 }
+                    END { for (s in t) if (s ~ / cg$/) { m = s; sub(/ cg$/, " multigrid", m);
+                          if (t[m] > 0) printf "\n%s: cg / multigrid = %.1fx per gas step\n", substr(s, 1, length(s) - 3), t[s] / t[m] } }'
+      } > "$out/speed.md"
+      cat "$out/speed.md" ;;
     bench)
       timeout 520 "$build/bench/cfd/lbdem_bench_cfd" --out "$out" ${BENCH_ARGS:-} > "$out/bench_cfd.log" 2>&1
       echo "bench exit $?"; cat "$out/bench_cfd.md" 2>/dev/null || tail -5 "$out/bench_cfd.log" ;;
@@ -75,6 +107,6 @@ for part in "$@"; do
       for d in muller_u06 muller_u09 link_spout; do
         [ -d "$out/$d" ] && python3 "$here/scripts/plot_cfd.py" run "$out/$d" --validation "$here/cfd/validation"
       done ;;
-    *) echo "unknown part '$part'"; sed -n 2,27p "$0"; exit 2 ;;
+    *) echo "unknown part '$part'"; sed -n 2,31p "$0"; exit 2 ;;
   esac
 done

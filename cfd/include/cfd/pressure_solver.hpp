@@ -59,9 +59,11 @@ struct PressureSolverParams {
   // Gauss-Seidel sweeps.
   int coarsest_cells = 16;
   int coarse_sweeps = 4;
-  // Multigrid on the device: the iterations between two polls run as one
-  // CUDA graph (captured once; the kernels read every scalar from device
-  // memory, so a replay is the same work as launching them one by one).
+  // Multigrid on the device, fewer launches: the iterations between two
+  // polls run as one CUDA graph (captured once; the kernels read every scalar
+  // from device memory, so a replay is the same work as launching them one
+  // by one), and the V-cycle's levels of at most 2048 cells in one kernel of
+  // one block. Off: every kernel launched on its own (the same arithmetic).
   bool graphs = true;
 };
 
@@ -127,6 +129,7 @@ class PressureSolver {
   std::vector<Level> lv_;
   Buffer<unsigned int> ticket_;  // one-launch dot products on the device
   int expected_iterations_ = 0;
+  int tail_ = 0;  // the first level of the V-cycle's one-block kernel (device)
   // The device's CUDA graph of `poll_every` iterations, the stream it was
   // captured on, and the pointers it was captured with (af[0..2], x, chunk).
   void* graph_exec_ = nullptr;
