@@ -25,7 +25,8 @@
 //    convergent symmetric positive definite preconditioner), red-black
 //    Gauss-Seidel smoothing (one red-then-black sweep before the coarse
 //    correction, its adjoint black-then-red after it: a symmetric cycle, as
-//    CG requires), symmetric Gauss-Seidel sweeps on the coarsest grid.
+//    CG requires), a symmetric Gauss-Seidel sweep on the coarsest grid (one
+//    cell where every axis coarsens that far: exact).
 // Both stop on the same measure: the diagonally scaled residual
 // r^T D^-1 r <= tol^2 b^T D^-1 b (D the diagonal, counting every face), so
 // the choice changes the cost and not what "converged" means.
@@ -56,9 +57,11 @@ struct PressureSolverParams {
   int poll_every = 25;
   // Multigrid: coarsening stops at this many cells or fewer (or where no axis
   // can be halved); the coarsest grid takes `coarse_sweeps` symmetric
-  // Gauss-Seidel sweeps.
-  int coarsest_cells = 16;
-  int coarse_sweeps = 4;
+  // Gauss-Seidel sweeps (on one cell: the exact solution). Coarsening to one
+  // cell costs nothing on the device (the coarse levels share one kernel) and
+  // keeps the serial coarsest solve to a single update.
+  int coarsest_cells = 1;
+  int coarse_sweeps = 1;
   // Multigrid on the device, fewer launches: the iterations between two
   // polls run as one CUDA graph (captured once; the kernels read every scalar
   // from device memory, so a replay is the same work as launching them one
