@@ -693,11 +693,12 @@ void PressureSolver::apply(const double* const af[3], const double* x, double* y
 }
 
 void PressureSolver::solve(const double* const af[3], const double* b, double* x) {
-  for_each(ex_, g_.cells(), JacobiDiag{level_view(g_, af), diag_.data()});
-  if (p_.kind == PressureSolverKind::Cg)
+  if (p_.kind == PressureSolverKind::Cg) {
+    for_each(ex_, g_.cells(), JacobiDiag{level_view(g_, af), diag_.data()});
     solve_cg(af, b, x);
-  else
+  } else {
     solve_mg(af, b, x);
+  }
 }
 
 void PressureSolver::solve_cg(const double* const af[3], const double* b, double* x) {
@@ -732,9 +733,9 @@ void PressureSolver::solve_cg(const double* const af[3], const double* b, double
   }
 }
 
-void PressureSolver::setup_mg(const double* const af[3]) {
+void PressureSolver::setup_mg(const Exec& ex, const double* const af[3]) {
   LevelView F = level_view(g_, af);
-  for_each(ex_, g_.cells(), LevelDiag{F, dg0_.data()});
+  for_each(ex, g_.cells(), LevelDiag{F, dg0_.data()});
   for (Level& L : lv_) {
     CoarseFaces cf{};
     cf.F = F;
@@ -745,10 +746,10 @@ void PressureSolver::setup_mg(const double* const af[3]) {
     }
     cf.nf0 = L.af[0].size();
     cf.nf1 = L.af[1].size();
-    for_each(ex_, L.af[0].size() + L.af[1].size() + L.af[2].size(), cf);
+    for_each(ex, L.af[0].size() + L.af[1].size() + L.af[2].size(), cf);
     const double* caf[3] = {L.af[0].data(), L.af[1].data(), L.af[2].data()};
     F = level_view(L.g, caf);
-    for_each(ex_, L.g.cells(), LevelDiag{F, L.dg.data()});
+    for_each(ex, L.g.cells(), LevelDiag{F, L.dg.data()});
   }
 }
 
@@ -848,36 +849,44 @@ void PressureSolver::iterate_mg(const Exec& ex, const double* const af[3], doubl
   }
 }
 
-void PressureSolver::solve_mg(const double* const af[3], const double* b, double* x) {
+// The set-up of the coarse levels and the start of PCG: r = b - A x (warm
+// start), z = V r, d = z (kernels only: a CUDA graph can hold them).
+void PressureSolver::start_mg(const Exec& ex, const double* const af[3], const double* b, double* x) {
   const LevelView L = level_view(g_, af);
   const Index n = g_.cells();
   double* s = scal_.data();
-  setup_mg(af);
-  for_each(ex_, 1, ZeroDone{s});
-  // |b|_D^2, then r = b - A x (warm start), z = V r, d = z.
-  for_each(ex_, n, Scale{b, diag_.data(), z_.data()});
-  dot(ex_, b, z_.data(), nullptr, static_cast<int>(CgStage::Bnorm));
-  for_each(ex_, n, ApplyA{L, x, Ad_.data(), s});
-  for_each(ex_, n, MgInit{b, Ad_.data(), r_.data()});
-  vcycle(ex_, af, r_.data(), z_.data());
-  dot(ex_, r_.data(), z_.data(), diag_.data(), static_cast<int>(CgStage::Init));
-  for_each(ex_, n, Copy{z_.data(), d_.data()});
-  // Iterations in chunks (one CUDA graph launch each on the device), the
-  // host asking first after the last solve's count, then every poll_every.
+  for_each(ex, n, JacobiDiag{L, diag_.data()});
+  setup_mg(ex, af);
+  for_each(ex, 1, ZeroDone{s});
+  for_each(ex, n, Scale{b, diag_.data(), z_.data()});
+  dot(ex, b, z_.data(), nullptr, static_cast<int>(CgStage::Bnorm));
+  for_each(ex, n, ApplyA{L, x, Ad_.data(), s});
+  for_each(ex, n, MgInit{b, Ad_.data(), r_.data()});
+  vcycle(ex, af, r_.data(), z_.data());
+  dot(ex, r_.data(), z_.data(), diag_.data(), static_cast<int>(CgStage::Init));
+  for_each(ex, n, Copy{z_.data(), d_.data()});
+}
+
+void PressureSolver::solve_mg(const double* const af[3], const double* b, double* x) {
+  // On the device with launch savings: the start as one CUDA graph, the
+  // iterations in chunks of poll_every as another; the host asks first after
+  // the last solve's count, then every poll_every iterations.
   const bool dev = ex_.on_device();
-  const int chunk = dev && p_.graphs ? std::max(1, p_.poll_every) : 1;
-  if (dev && p_.graphs) capture_graph(af, x, chunk);
+  const bool fused = dev && p_.graphs;
+  const int chunk = fused ? std::max(1, p_.poll_every) : 1;
+  if (fused)
+    run_graph(0, af, b, x, 0);
+  else
+    start_mg(ex_, af, b, x);
   double flags[2] = {0, 0};  // done, iterations
   int it = 0;
   int next_poll = dev ? std::max(1, expected_iterations_) : 1;
   while (it < p_.max_iterations) {
-    if (graph_exec_) {
-      launch_graph();
-      it += chunk;
-    } else {
+    if (fused)
+      run_graph(1, af, b, x, chunk);
+    else
       iterate_mg(ex_, af, x, 1);
-      it += 1;
-    }
+    it += chunk;
     if (it >= next_poll || it >= p_.max_iterations) {
       scal_.copy_to_host(flags, 2, 5);
       if (flags[0] != 0) break;
@@ -888,39 +897,52 @@ void PressureSolver::solve_mg(const double* const af[3], const double* b, double
 }
 
 #if defined(__CUDACC__)
-void PressureSolver::capture_graph(const double* const af[3], double* x, int chunk) {
-  const void* key[5] = {af[0], af[1], af[2], x, reinterpret_cast<const void*>(static_cast<std::intptr_t>(chunk))};
-  if (graph_exec_ && std::equal(key, key + 5, graph_key_)) return;
-  release_graph();
-  cudaStream_t cs = nullptr;
-  LBDEM_CUDA_CHECK(cudaStreamCreateWithFlags(&cs, cudaStreamNonBlocking));
-  cap_stream_ = cs;
-  Exec cex(Backend::Cuda);
-  cex.set_stream(cs);
-  LBDEM_CUDA_CHECK(cudaStreamBeginCapture(cs, cudaStreamCaptureModeThreadLocal));
-  iterate_mg(cex, af, x, chunk);
-  cudaGraph_t graph = nullptr;
-  LBDEM_CUDA_CHECK(cudaStreamEndCapture(cs, &graph));
-  cudaGraphExec_t exec = nullptr;
-  const cudaError_t e = cudaGraphInstantiate(&exec, graph, 0);
-  LBDEM_CUDA_CHECK(cudaGraphDestroy(graph));
-  LBDEM_CUDA_CHECK(e);
-  graph_exec_ = exec;
-  std::copy(key, key + 5, graph_key_);
-}
-void PressureSolver::launch_graph() {
-  LBDEM_CUDA_CHECK(cudaGraphLaunch(static_cast<cudaGraphExec_t>(graph_exec_), ex_.stream()));
+// Graph k (0: start_mg, 1: `chunk` iterations), captured on first use or when
+// the pointers it was made with change, then launched on the solver's stream.
+void PressureSolver::run_graph(int k, const double* const af[3], const double* b, double* x, int chunk) {
+  const void* key[5] = {af[0], af[1], af[2], k == 0 ? static_cast<const void*>(b) : static_cast<const void*>(x),
+                        k == 0 ? static_cast<const void*>(x)
+                               : reinterpret_cast<const void*>(static_cast<std::intptr_t>(chunk))};
+  if (!graph_exec_[k] || !std::equal(key, key + 5, graph_key_[k])) {
+    if (graph_exec_[k]) LBDEM_CUDA_CHECK(cudaGraphExecDestroy(static_cast<cudaGraphExec_t>(graph_exec_[k])));
+    graph_exec_[k] = nullptr;
+    if (!cap_stream_) {
+      cudaStream_t cs = nullptr;
+      LBDEM_CUDA_CHECK(cudaStreamCreateWithFlags(&cs, cudaStreamNonBlocking));
+      cap_stream_ = cs;
+    }
+    cudaStream_t cs = static_cast<cudaStream_t>(cap_stream_);
+    Exec cex(Backend::Cuda);
+    cex.set_stream(cs);
+    LBDEM_CUDA_CHECK(cudaStreamBeginCapture(cs, cudaStreamCaptureModeThreadLocal));
+    if (k == 0)
+      start_mg(cex, af, b, x);
+    else
+      iterate_mg(cex, af, x, chunk);
+    cudaGraph_t graph = nullptr;
+    LBDEM_CUDA_CHECK(cudaStreamEndCapture(cs, &graph));
+    cudaGraphExec_t exec = nullptr;
+    const cudaError_t e = cudaGraphInstantiate(&exec, graph, 0);
+    LBDEM_CUDA_CHECK(cudaGraphDestroy(graph));
+    LBDEM_CUDA_CHECK(e);
+    graph_exec_[k] = exec;
+    std::copy(key, key + 5, graph_key_[k]);
+  }
+  LBDEM_CUDA_CHECK(cudaGraphLaunch(static_cast<cudaGraphExec_t>(graph_exec_[k]), ex_.stream()));
 }
 void PressureSolver::release_graph() noexcept {
   // Destructor path: nothing to report to (the device may already be gone).
-  if (graph_exec_) (void)cudaGraphExecDestroy(static_cast<cudaGraphExec_t>(graph_exec_));
+  for (void*& g : graph_exec_) {
+    if (g) (void)cudaGraphExecDestroy(static_cast<cudaGraphExec_t>(g));
+    g = nullptr;
+  }
   if (cap_stream_) (void)cudaStreamDestroy(static_cast<cudaStream_t>(cap_stream_));
-  graph_exec_ = nullptr;
   cap_stream_ = nullptr;
 }
 #else
-void PressureSolver::capture_graph(const double* const*, double*, int) {}
-void PressureSolver::launch_graph() {}
+void PressureSolver::run_graph(int, const double* const*, const double*, double*, int) {
+  throw_not_compiled_for_cuda("PressureSolver graphs");
+}
 void PressureSolver::release_graph() noexcept {}
 #endif
 

@@ -62,8 +62,8 @@ struct PressureSolverParams {
   // keeps the serial coarsest solve to a single update.
   int coarsest_cells = 1;
   int coarse_sweeps = 1;
-  // Multigrid on the device, fewer launches: the iterations between two
-  // polls run as one CUDA graph (captured once; the kernels read every scalar
+  // Multigrid on the device, fewer launches: the start of a solve and the
+  // iterations between two polls run as CUDA graphs (captured once; the kernels read every scalar
   // from device memory, so a replay is the same work as launching them one
   // by one), and the V-cycle's levels of at most 2048 cells in one kernel of
   // one block. Off: every kernel launched on its own (the same arithmetic).
@@ -113,12 +113,12 @@ class PressureSolver {
  private:
   void solve_cg(const double* const af[3], const double* b, double* x);
   void solve_mg(const double* const af[3], const double* b, double* x);
-  void setup_mg(const double* const af[3]);
+  void setup_mg(const Exec& ex, const double* const af[3]);
+  void start_mg(const Exec& ex, const double* const af[3], const double* b, double* x);
   void vcycle(const Exec& ex, const double* const af[3], const double* b, double* x);
   void dot(const Exec& ex, const double* u, const double* w, const double* diag, int stage);
   void iterate_mg(const Exec& ex, const double* const af[3], double* x, int count);
-  void capture_graph(const double* const af[3], double* x, int chunk);
-  void launch_graph();
+  void run_graph(int k, const double* const af[3], const double* b, double* x, int chunk);
   void release_graph() noexcept;
 
   Exec ex_;
@@ -133,11 +133,12 @@ class PressureSolver {
   Buffer<unsigned int> ticket_;  // one-launch dot products on the device
   int expected_iterations_ = 0;
   int tail_ = 0;  // the first level of the V-cycle's one-block kernel (device)
-  // The device's CUDA graph of `poll_every` iterations, the stream it was
-  // captured on, and the pointers it was captured with (af[0..2], x, chunk).
-  void* graph_exec_ = nullptr;
+  // The device's CUDA graphs (0: the start of a solve, 1: `poll_every`
+  // iterations), the stream they were captured on, and the pointers each was
+  // captured with.
+  void* graph_exec_[2] = {nullptr, nullptr};
   void* cap_stream_ = nullptr;
-  const void* graph_key_[5] = {nullptr, nullptr, nullptr, nullptr, nullptr};
+  const void* graph_key_[2][5] = {};
 };
 
 }  // namespace lbdem::cfd
