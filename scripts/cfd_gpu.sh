@@ -17,7 +17,8 @@
 #               5 s (the paper's last 15 s); the same clean stop
 #     speed     the pressure solvers compared on the GPU: 1000 gas steps of Mueller's bed (U = 0.6 m/s) and
 #               of Link's spout with gas.pressure_solver.type cg and multigrid (~1 min in all): seconds per
-#               gas step, mean iterations per solve and the ratio, into speed.md
+#               gas step, mean iterations per solve, the ratio and the projected time of the planned runs
+#               (MULLER_END, LINK_END), into speed.md: run it before muller06 / link
 #     bench     lbdem_bench_cfd: the Sec. 5.2 system (1e6 particles, 300,000 cells, U = 0.9 m/s) on the GPU
 #               and on all host cores: bench_cfd.{json,md}
 #     plot      scripts/plot_cfd.py on what is there (needs python3-matplotlib; else it prints tables)
@@ -27,10 +28,10 @@
 #        launched one by one, without CUDA graphs and the one-block coarse levels), GAS_DT (overrides the case's
 #        gas.dt, e.g. after a watchdog stop: summary.json's "diverged" says why), BENCH_ARGS (extra arguments
 #        of lbdem_bench_cfd), LBDEM_COMMIT (the commit named in the JSON when .git is stale).
-# Typical: call 1 `build test` (or `build` then `test`), call 2 `muller06`, call 3 `muller09`, call 4 `link`,
-# call 5 `bench plot`.
+# Typical: call 1 `build test` (or `build` then `test`), call 2 `speed` (then choose the ends), call 3
+# `muller06`, call 4 `muller09`, call 5 `link`, call 6 `bench plot`.
 set -uo pipefail
-if [ $# -eq 0 ]; then sed -n 2,31p "$0"; exit 2; fi
+if [ $# -eq 0 ]; then sed -n 2,32p "$0"; exit 2; fi
 here="$(cd "$(dirname "$0")/.." && pwd)"
 export OUT="${OUT:-$here/out}"
 out="$OUT/cfd"
@@ -62,18 +63,19 @@ scene() {
   [ -f "$out/$name/summary.json" ] && grep -E '"(time_s|seconds_per_simulated_second|particle_steps_per_second|mean_pressure_drop_over_weight|max_courant|interrupted|diverged)"' "$out/$name/summary.json"
 }
 
-# speed_run NAME CASE SOLVER: 1000 gas steps of CASE with that pressure solver, series every step; prints
-# "NAME SOLVER seconds_per_gas_step mean_iterations".
+# speed_run NAME CASE SOLVER END: 1000 gas steps of CASE with that pressure solver, series every step; prints
+# "NAME SOLVER seconds_per_gas_step mean_iterations projected_seconds_to_END".
 speed_run() {
-  local name="$1" case="$2" solver="$3" d="$out/speed/$1_$3"
+  local name="$1" case="$2" solver="$3" end="$4" d="$out/speed/$1_$3"
   mkdir -p "$d"
   sed -e "s/^time: {end_time: [0-9.e+-]*}/time: {steps: 1000}/" -e "s/series_interval: [0-9]*/series_interval: 1/" \
     -e "s/^  pressure_solver: {type: [a-z]*/  pressure_solver: {type: $solver/" "$here/cases/$case" > "$d/case.yaml"
   timeout -s TERM -k 30 240 "$lbdem" run "$d/case.yaml" --backend cuda --output "$d/run" --overwrite > "$d/log.txt" 2>&1
-  local secs iters
+  local secs iters dt
   secs=$(grep -o '"seconds": [0-9.e+-]*' "$d/run/summary.json" 2>/dev/null | awk '{print $2 / 1000}')
   iters=$(awk -F, 'NR > 1 && $1 > 0 { n++; s += $NF } END { if (n) printf "%.1f", s / n }' "$d/run/series.csv" 2>/dev/null)
-  echo "$name $solver ${secs:-nan} ${iters:-nan}"
+  dt=$(grep -m1 -o '^  dt: [0-9.e+-]*' "$here/cases/$case" | awk '{print $2}')
+  echo "$name $solver ${secs:-nan} ${iters:-nan} $(awk -v s="${secs:-0}" -v e="$end" -v t="$dt" 'BEGIN { printf "%.0f", s * e / t }')"
 }
 
 for part in "$@"; do
@@ -90,14 +92,17 @@ for part in "$@"; do
     link) scene link_spout fluidized_bed_link_spout.yaml "${LINK_END:-20.0}" "${LINK_START:-5.0}" ;;
     speed)
       {
-        echo "| scene | solver | s per gas step | iterations per solve |"
-        echo "|---|---|---|---|"
-        for sc in "muller fluidized_bed_muller_u06.yaml" "link fluidized_bed_link_spout.yaml"; do
-          read -r nm cf <<< "$sc"
-          for solver in cg multigrid; do speed_run "$nm" "$cf" "$solver"; done
-        done | awk '{ printf "| %s | %s | %.3g | %s |\n", $1, $2, $3, $4; t[$1 " " $2] = $3 }
+        echo "| scene | solver | s per gas step | iterations per solve | projected s for the planned run |"
+        echo "|---|---|---|---|---|"
+        for sc in "muller fluidized_bed_muller_u06.yaml ${MULLER_END:-15.0}" "link fluidized_bed_link_spout.yaml ${LINK_END:-20.0}"; do
+          read -r nm cf en <<< "$sc"
+          for solver in cg multigrid; do speed_run "$nm" "$cf" "$solver" "$en"; done
+        done | awk '{ printf "| %s | %s | %.3g | %s | %s |\n", $1, $2, $3, $4, $5; t[$1 " " $2] = $3 }
                     END { for (s in t) if (s ~ / cg$/) { m = s; sub(/ cg$/, " multigrid", m);
                           if (t[m] > 0) printf "\n%s: cg / multigrid = %.1fx per gas step\n", substr(s, 1, length(s) - 3), t[s] / t[m] } }'
+        echo
+        echo "A scene fits one call if its projected time (the whole run, DEM included) is below CFD_LIMIT ($limit s);"
+        echo "otherwise lower MULLER_END / LINK_END to fit."
       } > "$out/speed.md"
       cat "$out/speed.md" ;;
     bench)
@@ -107,6 +112,6 @@ for part in "$@"; do
       for d in muller_u06 muller_u09 link_spout; do
         [ -d "$out/$d" ] && python3 "$here/scripts/plot_cfd.py" run "$out/$d" --validation "$here/cfd/validation"
       done ;;
-    *) echo "unknown part '$part'"; sed -n 2,31p "$0"; exit 2 ;;
+    *) echo "unknown part '$part'"; sed -n 2,32p "$0"; exit 2 ;;
   esac
 done
