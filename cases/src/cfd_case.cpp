@@ -13,7 +13,9 @@
 //               di_felice, beetstra, tenneti), void_fraction (centroid, linear, quadratic),
 //               min_gas_fraction, initial_velocity [m/s], boundaries.{x,y,z}_{lo,hi} (type: periodic,
 //               no_slip, free_slip, inlet (velocity, patch {lo, hi, velocity}), outlet (pressure)),
-//               pressure_solver {tolerance, max_iterations, poll_every}
+//               pressure_solver {type (cg: Jacobi-preconditioned CG, the default; multigrid: CG
+//               preconditioned by a multigrid V-cycle), tolerance, max_iterations, poll_every,
+//               graphs (multigrid on the GPU: the iterations between polls as one CUDA graph)}
 //   physics     gravity [m/s^2]
 //   particles   init: list | lattice | random (region_lo, region_hi, solid_fraction or count) | csv | hdf5
 //   material    stiffness [N/m], restitution, friction, wall_*, tangential_*
@@ -109,7 +111,8 @@ const cases::KeyMap& gas_keys() {
                                   {"gas.mu", "gas.viscosity"},
                                   {"gas.cg_max_iterations", "gas.pressure_solver.max_iterations"},
                                   {"gas.cg_tolerance", "gas.pressure_solver.tolerance"},
-                                  {"gas.cg_poll_every", "gas.pressure_solver.poll_every"}};
+                                  {"gas.cg_poll_every", "gas.pressure_solver.poll_every"},
+                                  {"gas.pressure_solver", "gas.pressure_solver.type"}};
   return m;
 }
 
@@ -213,9 +216,12 @@ void read_gas(const Config& root, const RunOptions& opt, CfdCase& c, const std::
     }
   }
   if (const auto ps = gs.optional_section("pressure_solver")) {
-    p.cg_tolerance = ps->number_in("tolerance", 1e-10, 1e-15, 1e-2, "relative preconditioned residual");
+    p.pressure_solver = cfd::parse_pressure_solver(ps->full_key("type"), ps->choice("type", "cg", {"cg", "multigrid"}));
+    p.cg_tolerance = ps->number_in("tolerance", 1e-10, 1e-15, 1e-2,
+                                   "sqrt(r^T D^-1 r / b^T D^-1 b), D the diagonal: the same measure for cg and multigrid");
     p.cg_max_iterations = static_cast<int>(ps->integer_in("max_iterations", 2000, 1, 1000000));
     p.cg_poll_every = static_cast<int>(ps->integer_in("poll_every", 25, 1, 100000));
+    p.pressure_graphs = ps->boolean("graphs", true);
     ps->finish();
   }
   gs.finish();
@@ -525,9 +531,10 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
 
   if (!quiet)
     spdlog::info("scene fluidized_bed: {} particles, {} x {} x {} gas cells of {:.4g} m, backend {}, drag {}, void "
-                 "fraction {}, gas dt {:.4g} s with {} DEM sub-steps ({:.4g} s), {} steps = {:.6g} s; output in {}",
+                 "fraction {}, pressure solver {}, gas dt {:.4g} s with {} DEM sub-steps ({:.4g} s), {} steps = "
+                 "{:.6g} s; output in {}",
                  np, g.n[0], g.n[1], g.n[2], h, to_string(backend), cfd::to_string(c.gas.drag),
-                 cfd::to_string(c.gas.deposition), c.gas.dt, c.substeps, c.dem.dt, c.steps, c.steps * c.gas.dt,
+                 cfd::to_string(c.gas.deposition), cfd::to_string(c.gas.pressure_solver), c.gas.dt, c.substeps, c.dem.dt, c.steps, c.steps * c.gas.dt,
                  c.outdir);
 
   io::GridWriter gas_writer(c.outdir, "gas", {g.n[0], g.n[1], g.n[2]}, {g.origin[0], g.origin[1], g.origin[2]},

@@ -192,19 +192,17 @@ LBDEM_HD inline Index hi_face_index(const GasView& v, int a, const int c[3]) {
   return v.face(a, f);
 }
 
-// Right-hand side and Jacobi diagonal of the pressure equation, per cell.
+// Right-hand side of the pressure equation, per cell.
 struct PressureRhs {
   GasView v;
   double* rhs;
-  double* diag;
   LBDEM_HD void operator()(Index ci) const {
     int c[3];
     v.g.coords(ci, c[0], c[1], c[2]);
-    double div = 0, dg = 0, dir = 0;
+    double div = 0, dir = 0;
     for (int a = 0; a < 3; ++a) {
       const Index lo = v.face(a, c), hi = hi_face_index(v, a, c);
       div += face_eps(v, a, c, true) * v.uh[a][hi] - face_eps(v, a, c, false) * v.uh[a][lo];
-      dg += v.af[a][lo] + v.af[a][hi];
       if (!v.g.periodic[a]) {
         if (c[a] == 0 && v.kind(2 * a) == static_cast<int>(FaceKind::Outlet)) dir += v.af[a][lo] * v.bc[2 * a].pressure;
         if (c[a] == v.g.n[a] - 1 && v.kind(2 * a + 1) == static_cast<int>(FaceKind::Outlet))
@@ -212,128 +210,7 @@ struct PressureRhs {
       }
     }
     rhs[ci] = -(div / v.g.h + (v.eps[ci] - v.eps_old[ci]) / v.dt) + dir;
-    diag[ci] = dg > 0 ? dg : 1.0;
   }
-};
-
-// y = A x (the pressure operator; Dirichlet values moved to the rhs).
-struct ApplyA {
-  GasView v;
-  const double* x;
-  double* y;
-  const double* scal;
-  LBDEM_HD void operator()(Index ci) const {
-    if (scal[5] != 0) return;
-    int c[3];
-    v.g.coords(ci, c[0], c[1], c[2]);
-    const double xc = x[ci];
-    double s = 0;
-    for (int a = 0; a < 3; ++a) {
-      const double al = v.af[a][v.face(a, c)], ah = v.af[a][hi_face_index(v, a, c)];
-      int o[3] = {c[0], c[1], c[2]};
-      o[a] = c[a] - 1;
-      double xl = 0, xh = 0;
-      if (o[a] >= 0 || v.g.periodic[a]) { o[a] = wrap(o[a], v.g.n[a]); xl = x[v.cell(o)]; }
-      o[a] = c[a] + 1;
-      if (o[a] < v.g.n[a] || v.g.periodic[a]) { o[a] = wrap(o[a], v.g.n[a]); xh = x[v.cell(o)]; }
-      s += al * (xc - xl) + ah * (xc - xh);
-    }
-    y[ci] = s;
-  }
-};
-
-// Deterministic device-side dot products: strided partial sums, then fewer,
-// then one thread; the result goes into a scalar slot.
-struct Dot1 {
-  const double* x;
-  const double* y;
-  double* part;
-  Index n, parts;
-  const double* scal;
-  LBDEM_HD void operator()(Index t) const {
-    if (scal[5] != 0) return;
-    double s = 0;
-    for (Index i = t; i < n; i += parts) s += x[i] * y[i];
-    part[t] = s;
-  }
-};
-struct Dot2 {
-  const double* in;
-  double* out;
-  Index n, parts;
-  const double* scal;
-  LBDEM_HD void operator()(Index t) const {
-    if (scal[5] != 0) return;
-    double s = 0;
-    for (Index i = t; i < n; i += parts) s += in[i];
-    out[t] = s;
-  }
-};
-
-// Scalar slots: 0 rz, 1 |b|_M^2, 2 pAp, 3 alpha, 4 beta, 5 done, 6 iterations, 7 rz/|b|.
-enum class CgStage { Bnorm, Init, Alpha, Update };
-struct Dot3 {
-  const double* in;
-  Index n;
-  double* scal;
-  CgStage stage;
-  double tol2;
-  LBDEM_HD void operator()(Index) const {
-    if (scal[5] != 0) return;
-    double s = 0;
-    for (Index i = 0; i < n; ++i) s += in[i];
-    switch (stage) {
-      case CgStage::Bnorm: scal[1] = s; scal[6] = 0; break;
-      case CgStage::Init:
-        scal[0] = s;
-        scal[7] = scal[1] > 0 ? s / scal[1] : s;
-        if (s <= tol2 * scal[1] || s == 0) scal[5] = 1;
-        break;
-      case CgStage::Alpha: scal[2] = s; scal[3] = s != 0 ? scal[0] / s : 0; break;
-      case CgStage::Update:
-        scal[4] = scal[0] != 0 ? s / scal[0] : 0;
-        scal[0] = s;
-        scal[6] += 1;
-        scal[7] = scal[1] > 0 ? s / scal[1] : s;
-        if (s <= tol2 * scal[1] || s == 0) scal[5] = 1;
-        break;
-    }
-  }
-};
-
-struct CgInit {  // r = b - A x, z = r / diag, d = z
-  const double* b; const double* Ax; const double* diag;
-  double* r; double* z; double* d;
-  LBDEM_HD void operator()(Index i) const {
-    r[i] = b[i] - Ax[i];
-    z[i] = r[i] / diag[i];
-    d[i] = z[i];
-  }
-};
-struct CgStep {  // x += alpha d, r -= alpha Ad, z = r / diag
-  double* x; double* r; double* z; const double* d; const double* Ad; const double* diag; const double* scal;
-  LBDEM_HD void operator()(Index i) const {
-    if (scal[5] != 0) return;
-    const double al = scal[3];
-    x[i] += al * d[i];
-    r[i] -= al * Ad[i];
-    z[i] = r[i] / diag[i];
-  }
-};
-struct CgDir {  // d = z + beta d
-  double* d; const double* z; const double* scal;
-  LBDEM_HD void operator()(Index i) const {
-    if (scal[5] != 0) return;
-    d[i] = z[i] + scal[4] * d[i];
-  }
-};
-struct Scale {  // z = b / diag (for |b|_M)
-  const double* b; const double* diag; double* z;
-  LBDEM_HD void operator()(Index i) const { z[i] = b[i] / diag[i]; }
-};
-struct ZeroDone {
-  double* scal;
-  LBDEM_HD void operator()(Index) const { scal[5] = 0; }
 };
 
 // u = u^ - c grad p on the faces of axis A.
@@ -543,6 +420,8 @@ void validate(const GasParams& p, const GasGridView& g, const std::string& prefi
   if (p.cg_max_iterations < 1) fail("cg_max_iterations", p.cg_max_iterations, "must be >= 1");
   if (!(p.cg_tolerance > 0)) fail("cg_tolerance", p.cg_tolerance, "must be > 0");
   if (p.cg_poll_every < 1) fail("cg_poll_every", p.cg_poll_every, "must be >= 1");
+  if (p.pressure_solver == PressureSolverKind::Multigrid)
+    multigrid_levels(g, PressureSolverParams{}.coarsest_cells, prefix + ".pressure_solver");
   static const char* names[6] = {"x_lo", "x_hi", "y_lo", "y_hi", "z_lo", "z_hi"};
   bool outlet = false;
   double max_in = 0;
@@ -573,9 +452,24 @@ void validate(const GasParams& p, const GasGridView& g, const std::string& prefi
     fail("dt", p.dt, "too large for explicit viscosity: need dt <= " + std::to_string(g.h * g.h / (6 * nu)) + " s");
 }
 
-GasSolver::GasSolver(const Exec& ex, const GasGridView& g, const GasParams& p)
-    : ex_(ex), g_(g), p_(p), vf_(ex, g, p.deposition) {
+namespace {
+PressureSolverParams pressure_params(const GasParams& p) {
+  PressureSolverParams q;
+  q.kind = p.pressure_solver;
+  q.max_iterations = p.cg_max_iterations;
+  q.tolerance = p.cg_tolerance;
+  q.poll_every = p.cg_poll_every;
+  q.graphs = p.pressure_graphs;
+  return q;
+}
+const GasParams& validated(const GasParams& p, const GasGridView& g) {
   validate(p, g);
+  return p;
+}
+}  // namespace
+
+GasSolver::GasSolver(const Exec& ex, const GasGridView& g, const GasParams& p)
+    : ex_(ex), g_(g), p_(validated(p, g)), vf_(ex, g, p.deposition), ps_(ex, g, pressure_params(p)) {
   const Backend b = ex.backend();
   const Index nc = g.cells();
   for (int a = 0; a < 3; ++a) {
@@ -598,14 +492,7 @@ GasSolver::GasSolver(const Exec& ex, const GasGridView& g, const GasParams& p)
   pres_.fill_zero();
   B_ = Buffer<double>(b, nc);
   acc_ = Buffer<unsigned long long>(b, 4 * nc);
-  for (Buffer<double>* x : {&rhs_, &r_, &z_, &d_, &Ad_, &diag_}) *x = Buffer<double>(b, nc);
-  d_.fill_zero();
-  parts1_ = std::min<Index>(nc, 4096);
-  parts2_ = std::min<Index>(parts1_, 64);
-  part1_ = Buffer<double>(b, parts1_);
-  part2_ = Buffer<double>(b, parts2_);
-  scal_ = Buffer<double>(b, 8);
-  scal_.fill_zero();
+  rhs_ = Buffer<double>(b, nc);
 }
 
 GasSolver::~GasSolver() = default;
@@ -706,8 +593,9 @@ void GasSolver::step(const dem::ParticleView& p) {
   for_each(ex_, face_count(g_, 1), Predictor<1>{v});
   for_each(ex_, face_count(g_, 2), Predictor<2>{v});
   // 4. pressure.
-  for_each(ex_, nc, PressureRhs{v, rhs_.data(), diag_.data()});
-  solve_pressure();
+  for_each(ex_, nc, PressureRhs{v, rhs_.data()});
+  const double* af[3] = {af_[0].data(), af_[1].data(), af_[2].data()};
+  ps_.solve(af, rhs_.data(), pres_.data());
   // 5. correction, cell fields.
   for_each(ex_, face_count(g_, 0), Correct<0>{v});
   for_each(ex_, face_count(g_, 1), Correct<1>{v});
@@ -719,46 +607,6 @@ void GasSolver::step(const dem::ParticleView& p) {
   mark(&StepTimes::drag);
 }
 
-void GasSolver::solve_pressure() {
-  GasView v = make_view(g_, p_, u_, uh_, af_, eps_, eps_old_, pres_, B_, BV_, uc_, gradp_);
-  const Index n = g_.cells();
-  double* s = scal_.data();
-  const double tol2 = p_.cg_tolerance * p_.cg_tolerance;
-  auto dot = [&](const double* x, const double* y, CgStage stage) {
-    for_each(ex_, parts1_, Dot1{x, y, part1_.data(), n, parts1_, s});
-    for_each(ex_, parts2_, Dot2{part1_.data(), part2_.data(), parts1_, parts2_, s});
-    for_each(ex_, 1, Dot3{part2_.data(), parts2_, s, stage, tol2});
-  };
-  for_each(ex_, 1, ZeroDone{s});
-  // |b|_M^2, then r = b - A p (warm start from the last pressure).
-  for_each(ex_, n, Scale{rhs_.data(), diag_.data(), z_.data()});
-  dot(rhs_.data(), z_.data(), CgStage::Bnorm);
-  for_each(ex_, n, ApplyA{v, pres_.data(), Ad_.data(), s});
-  for_each(ex_, n, CgInit{rhs_.data(), Ad_.data(), diag_.data(), r_.data(), z_.data(), d_.data()});
-  dot(r_.data(), z_.data(), CgStage::Init);
-  double done = 0;
-  for (int it = 0; it < p_.cg_max_iterations; ++it) {
-    for_each(ex_, n, ApplyA{v, d_.data(), Ad_.data(), s});
-    dot(d_.data(), Ad_.data(), CgStage::Alpha);
-    for_each(ex_, n, CgStep{pres_.data(), r_.data(), z_.data(), d_.data(), Ad_.data(), diag_.data(), s});
-    dot(r_.data(), z_.data(), CgStage::Update);
-    for_each(ex_, n, CgDir{d_.data(), z_.data(), s});
-    const int poll = ex_.on_device() ? p_.cg_poll_every : 1;
-    if ((it + 1) % poll == 0) {
-      scal_.copy_to_host(&done, 1, 5);
-      if (done != 0) break;
-    }
-  }
-}
-
-CgReport GasSolver::last_solve() const {
-  ex_.synchronize();
-  const std::vector<double> s = scal_.to_vector();
-  CgReport r;
-  r.iterations = static_cast<int>(s[6]);
-  r.residual = std::sqrt(std::max(0.0, s[7]));
-  r.converged = s[5] != 0;
-  return r;
-}
+CgReport GasSolver::last_solve() const { return ps_.last_report(); }
 
 }  // namespace lbdem::cfd

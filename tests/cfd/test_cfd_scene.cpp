@@ -203,6 +203,7 @@ TEST_F(CfdScene, BadInputsNameTheirKeys) {
        "statistics.profiles[0].height"},
       {"max_courant: 0.5", "max_courant: 2", "diagnostics.max_courant"},
       {"time: {end_time: 1.3}", "time: {end_time: 1.3, steps: 10}", "time.end_time"},
+      {"void_fraction: linear", "void_fraction: linear\n  pressure_solver: {type: jacobi}", "gas.pressure_solver.type"},
   };
   for (const Bad& b : bad) {
     const std::string m = refusal(replaced(base, b.from, b.to));
@@ -210,6 +211,14 @@ TEST_F(CfdScene, BadInputsNameTheirKeys) {
     EXPECT_NE(m.find("case.yaml"), std::string::npos) << m;
     EXPECT_EQ(m.find('\n'), std::string::npos) << m;
   }
+  // Multigrid needs periodic axes of even length or of one cell (red-black
+  // ordering): one cell is accepted, three are refused naming the key.
+  const std::string mg = replaced(base, "void_fraction: linear", "void_fraction: linear\n  pressure_solver: {type: multigrid}");
+  EXPECT_EQ(refusal(mg), "");
+  const std::string m = refusal(replaced(mg, "hi: [4.0e-3, 4.0e-3, 0.08]", "hi: [1.2e-2, 4.0e-3, 0.08]"));
+  EXPECT_NE(m.find("gas.pressure_solver.type"), std::string::npos) << m;
+  EXPECT_NE(m.find("case.yaml"), std::string::npos) << m;
+  EXPECT_NE(m.find("3 cells"), std::string::npos) << m;
 }
 
 // Fluidized at 0.27 m/s (about 1.1 U_mf: the bed expands uniformly and

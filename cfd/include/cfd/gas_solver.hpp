@@ -19,8 +19,9 @@
 //     own beta), u^ = (u + dt(-u.grad u + nu lap u + g) + dt beta v_s / (eps rho))
 //     / (1 + dt beta / (eps rho));
 //  4. pressure: div(eps c grad p) = div(eps u^) + (eps^{n+1} - eps^n) / dt with
-//     c = dt / (rho (1 + dt beta / (eps rho))), solved by Jacobi-preconditioned
-//     conjugate gradients with all scalars on the device;
+//     c = dt / (rho (1 + dt beta / (eps rho))), solved by conjugate gradients
+//     preconditioned by the diagonal or by a multigrid V-cycle
+//     (cfd/pressure_solver.hpp) with all scalars on the device;
 //  5. correction u = u^ - c grad p, so that the discrete continuity equation
 //     holds to the solver tolerance in every cell;
 //  6. the force on each particle, gamma_i (u - v_i) - V_p grad p, into the
@@ -33,6 +34,7 @@
 
 #include "cfd/drag.hpp"
 #include "cfd/gas_grid.hpp"
+#include "cfd/pressure_solver.hpp"
 #include "cfd/void_fraction.hpp"
 #include "core/buffer.hpp"
 #include "core/vec.hpp"
@@ -66,12 +68,18 @@ struct GasParams {
   // Gas fraction floor used by the gas equations and the drag (a centroid
   // deposition can put more solid into a cell than fits).
   double min_gas_fraction = 0.2;
+  // The pressure solve (cfd/pressure_solver.hpp): Jacobi- or multigrid-
+  // preconditioned CG, both to the same tolerance on the diagonally scaled
+  // residual.
+  PressureSolverKind pressure_solver = PressureSolverKind::Cg;
   int cg_max_iterations = 2000;
-  double cg_tolerance = 1e-10;  // on the preconditioned residual, relative to the right-hand side
+  double cg_tolerance = 1e-10;  // on sqrt(r^T D^-1 r / b^T D^-1 b)
   // How often (iterations) the host asks the device whether CG has converged
-  // (one small copy each); iterations after convergence are skipped on the
-  // device either way.
+  // (one small copy each; multigrid asks first at the last solve's count);
+  // iterations after convergence are skipped on the device either way.
   int cg_poll_every = 25;
+  // Multigrid on the GPU: the iterations between two polls as one CUDA graph.
+  bool pressure_graphs = true;
 };
 
 // Refuses inconsistent parameters with ConfigError naming the key under
@@ -84,12 +92,6 @@ void validate(const GasParams& p, const GasGridView& g, const std::string& prefi
 // forces on the particles) and the gas (predictor, pressure, correction).
 struct StepTimes {
   double void_fraction = 0, drag = 0, gas = 0;
-};
-
-struct CgReport {
-  int iterations = 0;
-  double residual = 0;  // final preconditioned residual over that of the right-hand side
-  bool converged = false;
 };
 
 class GasSolver {
@@ -125,6 +127,7 @@ class GasSolver {
   const Buffer<double>& cell_velocity(int a) const { return uc_[a]; }
   const Buffer<double>& drag_gamma() const { return gamma_; }  // per particle [kg/s]
   const VoidFraction& void_fraction() const { return vf_; }
+  const PressureSolver& pressure_solver() const { return ps_; }
   // Synchronises and reads the last pressure solve's report.
   CgReport last_solve() const;
   // With t set, step() waits for the device at the end of each phase and adds
@@ -133,7 +136,6 @@ class GasSolver {
   void time_phases(StepTimes* t) { times_ = t; }
 
  private:
-  void solve_pressure();
 
   Exec ex_;
   GasGridView g_;
@@ -144,9 +146,8 @@ class GasSolver {
   Buffer<double> eps_, eps_old_, pres_, uc_[3], gradp_[3], B_, BV_[3];
   Buffer<unsigned long long> acc_;  // B and BV in fixed point, 4 x cells
   Buffer<double> gamma_;
-  // CG
-  Buffer<double> rhs_, r_, z_, d_, Ad_, diag_, part1_, part2_, scal_;
-  Index parts1_ = 1, parts2_ = 1;
+  Buffer<double> rhs_;
+  PressureSolver ps_;
   StepTimes* times_ = nullptr;
 };
 

@@ -1,0 +1,144 @@
+#pragma once
+// The pressure equation of the gas solver (cfd/gas_solver.hpp) and its two
+// solvers.
+//
+// The operator, on cell c of the gas grid, with one coefficient per face
+// (a[f] = eps_f c_f / h^2, c = dt / (rho (1 + dt beta / (eps rho))), set by
+// the predictor):
+//
+//   (A x)_c = sum over the six faces f of c:  a[f] (x_c - x_nb(f)),
+//
+// x_nb = 0 across a non-periodic boundary face (a pressure outlet carries
+// a[f] > 0 there: Dirichlet, its value moved to the right-hand side; walls
+// and inlets carry a[f] = 0: Neumann), periodic axes wrap. A is symmetric
+// positive definite whenever one face is an outlet.
+//
+// Solvers (`gas.pressure_solver.type`):
+//  * cg: conjugate gradients preconditioned by the diagonal (Jacobi);
+//  * multigrid: conjugate gradients preconditioned by one geometric multigrid
+//    V-cycle: cell-centred coarsening by two along each axis that allows it,
+//    piecewise-constant transfer (restriction = transpose of prolongation),
+//    coarse face coefficients the sum of the fine ones they cover over the
+//    coarsening factor normal to the face (the coarse grid's own
+//    discretisation of div(k grad p): the aggregation Galerkin operator
+//    P^T A P halved, never less than half of it, so the V-cycle stays a
+//    convergent symmetric positive definite preconditioner), red-black
+//    Gauss-Seidel smoothing (one red-then-black sweep before the coarse
+//    correction, its adjoint black-then-red after it: a symmetric cycle, as
+//    CG requires), a symmetric Gauss-Seidel sweep on the coarsest grid (one
+//    cell where every axis coarsens that far: exact).
+// Both stop on the same measure: the diagonally scaled residual
+// r^T D^-1 r <= tol^2 b^T D^-1 b (D the diagonal, counting every face), so
+// the choice changes the cost and not what "converged" means.
+//
+// All scalars stay on the device; iterations after convergence are skipped
+// there by a flag that the host reads every `poll_every` iterations.
+#include <array>
+#include <string>
+#include <vector>
+
+#include "cfd/gas_grid.hpp"
+#include "core/buffer.hpp"
+
+namespace lbdem::cfd {
+
+enum class PressureSolverKind { Cg, Multigrid };
+
+const char* to_string(PressureSolverKind k);
+// "cg" or "multigrid"; anything else throws ConfigError naming `key`.
+PressureSolverKind parse_pressure_solver(const std::string& key, const std::string& value);
+
+struct PressureSolverParams {
+  PressureSolverKind kind = PressureSolverKind::Cg;
+  int max_iterations = 2000;
+  double tolerance = 1e-10;  // on r^T D^-1 r, relative to b^T D^-1 b (square root)
+  // How often (iterations) the host asks the device whether the solve has
+  // converged; multigrid asks first at the last solve's iteration count.
+  int poll_every = 25;
+  // Multigrid: coarsening stops at this many cells or fewer (or where no axis
+  // can be halved); the coarsest grid takes `coarse_sweeps` symmetric
+  // Gauss-Seidel sweeps (on one cell: the exact solution). Coarsening to one
+  // cell costs nothing on the device (the coarse levels share one kernel) and
+  // keeps the serial coarsest solve to a single update.
+  int coarsest_cells = 1;
+  int coarse_sweeps = 1;
+  // Multigrid on the device, fewer launches: the start of a solve and the
+  // iterations between two polls run as CUDA graphs (captured once; the kernels read every scalar
+  // from device memory, so a replay is the same work as launching them one
+  // by one), and the V-cycle's levels of at most 2048 cells in one kernel of
+  // one block. Off: every kernel launched on its own (the same arithmetic).
+  bool graphs = true;
+};
+
+struct CgReport {
+  int iterations = 0;
+  double residual = 0;  // final sqrt(r^T D^-1 r / b^T D^-1 b)
+  bool converged = false;
+};
+
+// Grid sizes of the multigrid hierarchy for grid g (level 0 first). Throws
+// ConfigError naming `key` where multigrid cannot run on g: a periodic axis
+// with an odd number of cells other than one (no red-black ordering).
+std::vector<std::array<int, 3>> multigrid_levels(const GasGridView& g, int coarsest_cells,
+                                                 const std::string& key = "gas.pressure_solver.type");
+
+class PressureSolver {
+ public:
+  PressureSolver(const Exec& ex, const GasGridView& g, const PressureSolverParams& p);
+  ~PressureSolver();
+  PressureSolver(const PressureSolver&) = delete;
+  PressureSolver& operator=(const PressureSolver&) = delete;
+
+  // Solves A x = b for the face coefficients af[0..2] (face boxes of
+  // (n_a + 1) x the other extents, x-fastest, face i the lower face of cell
+  // i), x holding the initial guess. Asynchronous on the device apart from the
+  // polls.
+  void solve(const double* const af[3], const double* b, double* x);
+  // y = A x.
+  void apply(const double* const af[3], const double* x, double* y);
+  // Synchronises and reads the last solve's report.
+  CgReport last_report() const;
+  const PressureSolverParams& params() const { return p_; }
+  int levels() const { return static_cast<int>(lv_.size()) + 1; }
+  // Kernel launches per iteration and per solve outside the iterations (the
+  // device's cost on these small grids is mostly launches).
+  int launches_per_iteration() const;
+
+  struct Level {  // a coarse level of the multigrid hierarchy
+    GasGridView g;
+    int r[3];  // coarsening factor from the finer level
+    Buffer<double> af[3], dg, b, x;
+  };
+
+ private:
+  void solve_cg(const double* const af[3], const double* b, double* x);
+  void solve_mg(const double* const af[3], const double* b, double* x);
+  void setup_mg(const Exec& ex, const double* const af[3]);
+  void start_mg(const Exec& ex, const double* const af[3], const double* b, double* x);
+  void vcycle(const Exec& ex, const double* const af[3], const double* b, double* x);
+  void dot(const Exec& ex, const double* u, const double* w, const double* diag, int stage);
+  void iterate_mg(const Exec& ex, const double* const af[3], double* x, int count);
+  void run_graph(int k, const double* const af[3], const double* b, double* x, int chunk);
+  void release_graph() noexcept;
+
+  Exec ex_;
+  GasGridView g_;
+  PressureSolverParams p_;
+  Buffer<double> r_, z_, d_, Ad_, diag_, part1_, part2_, scal_;
+  Index parts1_ = 1, parts2_ = 1;
+  // Multigrid: level 0's true diagonal (faces to the cell itself left out),
+  // the coarse levels.
+  Buffer<double> dg0_;
+  std::vector<Level> lv_;
+  Buffer<unsigned int> ticket_;  // one-launch dot products on the device
+  int expected_iterations_ = 0;
+  int tail_ = 0;  // the first level of the V-cycle's one-block kernel (device)
+  // The device's CUDA graphs (0: the start of a solve, 1: `poll_every`
+  // iterations), the stream they were captured on, and the pointers each was
+  // captured with.
+  void* graph_exec_[2] = {nullptr, nullptr};
+  void* cap_stream_ = nullptr;
+  const void* graph_key_[2][5] = {};
+};
+
+}  // namespace lbdem::cfd
