@@ -28,7 +28,13 @@
 // On the device Fp16s converts with the CUDA half intrinsics, on the host with
 // F16C instructions where the compiler targets them, else in software; all
 // three round alike (ties to even), so both backends store the same bits.
-// Fp16c converts in software everywhere (integer operations on the float's bits).
+// Fp16c has no hardware conversion: Float16Format converts without branches,
+// with a few integer operations on the float's bits and one float addition
+// or multiplication that takes care of the subnormal codes (see encode() and
+// decode()), so a warp never diverges on a conversion and host loops can be
+// vectorised. Its encode_reference()/decode_reference() are the same
+// conversions written case by case; the tests hold the two to the same bits
+// for every code and every float.
 #include <cstdint>
 #include <cstring>
 
@@ -82,8 +88,96 @@ struct Float16Format {
   static_assert(E >= 2 && E <= 8 && kManBits >= 7 && kManBits <= 13, "a 16-bit format a float holds exactly");
   static_assert(kEmin >= -126 + 1 && kEmax <= 127, "normal values of the format are normal floats");
 
-  // float -> code, round to nearest, ties to even.
+  // float -> code, round to nearest, ties to even, without branches: both
+  // roundings below are computed and the right one selected, so a warp never
+  // diverges and the host loop can be vectorised.
+  //  * Normal result (|x| >= 2^Emin): round the float's bits to M mantissa
+  //    bits with one integer add (half an ulp of the code minus one, plus the
+  //    lowest kept bit for ties to even; a carry out of the mantissa moves
+  //    into the exponent) and rebias the exponent in the same add.
+  //  * Subnormal result: |x| + 2^(Emin - M + 23) in float. That constant's ulp
+  //    is the subnormal spacing 2^(Emin - M), so the float addition rounds
+  //    |x| to a multiple of it (ties to even) in one step, and the low bits of
+  //    the sum are the code; 2^M, the carry, is the smallest normal code. Its
+  //    operands and result are normal or zero floats except |x| itself when
+  //    that is a float subnormal, which rounds to code 0 whether or not the
+  //    hardware flushes it.
+  //    (Scaling |x| by 2^(Bias - 127) into the float subnormal range and
+  //    rounding the bits there would round twice, first to the float spacing
+  //    2^-149: wrong for values within 2^-150 of a tie between two codes.)
+  //  * Overflow: the normal-path code grows with |x|, and |x| >= the largest
+  //    finite value plus half its spacing gives kInf or more, so min() clamps
+  //    to infinity; a NaN input selects the NaN code.
   LBDEM_HD static LBDEM_FORCEINLINE std::uint16_t encode(float x) {
+    constexpr int M = kManBits;
+    constexpr int kShift = 23 - M;
+    const std::uint32_t u = half_detail::float_bits(x);
+    const std::uint32_t a = u & 0x7fffffffu;
+    constexpr std::uint32_t kRoundRebias =
+        ((1u << (kShift - 1)) - 1u) - (static_cast<std::uint32_t>(127 - Bias) << 23);  // mod 2^32
+    const std::uint32_t normal = (a + kRoundRebias + ((a >> kShift) & 1u)) >> kShift;
+    constexpr std::uint32_t kSubMagic = static_cast<std::uint32_t>(kEmin - M + 23 + 127) << 23;
+    const std::uint32_t sub =
+        half_detail::float_bits(half_detail::bits_float(a) + half_detail::bits_float(kSubMagic)) - kSubMagic;
+    constexpr std::uint32_t kMinNormal = static_cast<std::uint32_t>(kEmin + 127) << 23;
+    std::uint32_t c = a < kMinNormal ? sub : normal;
+    c = c < kInf ? c : static_cast<std::uint32_t>(kInf);
+    c = a > 0x7f800000u ? static_cast<std::uint32_t>(kNaN) : c;
+    return static_cast<std::uint16_t>(c | ((u >> 16) & 0x8000u));
+  }
+
+  // code -> float, exact, without branches. The 15 magnitude bits shifted
+  // left by 23 - M put the code's exponent field in the low bits of the
+  // float's exponent field and its mantissa at the top of the float's
+  // mantissa: read as a float that is the value times 2^(Bias - 127), for
+  // subnormal codes too (exponent field 0 reads as a float subnormal with the
+  // same mantissa). Multiplying by 2^(127 - Bias) rebiases exactly. The
+  // exponent field 2^E - 1 (infinity, NaN) is set to the float's 255 by a
+  // select instead.
+  //
+  // That multiplication needs subnormal float operands kept, not flushed to
+  // zero. The device uses it: lbdem's CUDA flags have neither -ftz=true nor
+  // --use_fast_math (both flush), and tests/core/test_half_device.cu checks
+  // every code on the GPU against the reference. The host rebiases subnormal
+  // codes with a subtraction of normal floats instead (decode_split): an x86
+  // core may take a slow microcode path for a subnormal multiplication
+  // operand, and a program built with -ffast-math runs with subnormal
+  // operands read as zero. Both give the same bits (tests/core/test_half.cpp).
+  LBDEM_HD static LBDEM_FORCEINLINE float decode(std::uint16_t h) {
+#if defined(__CUDA_ARCH__)
+    return decode_scaled(h);
+#else
+    return decode_split(h);
+#endif
+  }
+
+  // decode() by the rebiasing multiplication, for every code.
+  LBDEM_HD static LBDEM_FORCEINLINE float decode_scaled(std::uint16_t h) {
+    constexpr int kShift = 23 - kManBits;
+    const std::uint32_t mag = h & 0x7fffu;
+    const std::uint32_t b = (static_cast<std::uint32_t>(h & 0x8000u) << 16) | (mag << kShift);
+    const float v = half_detail::bits_float(b) * half_detail::bits_float(static_cast<std::uint32_t>(127 - Bias + 127) << 23);
+    return mag >= kInf ? half_detail::bits_float(b | 0x7f800000u) : v;
+  }
+
+  // decode() with normal codes rebiased by an integer add and subnormal codes
+  // by a float subtraction of normal floats.
+  LBDEM_HD static LBDEM_FORCEINLINE float decode_split(std::uint16_t h) {
+    constexpr int M = kManBits;
+    const std::uint32_t mag = h & 0x7fffu;
+    std::uint32_t b = (mag << (23 - M)) + (static_cast<std::uint32_t>(127 - Bias) << 23);
+    constexpr std::uint32_t kSubMagic = static_cast<std::uint32_t>(kEmin - M + 23 + 127) << 23;
+    const std::uint32_t sub = half_detail::float_bits(half_detail::bits_float(kSubMagic | mag) -
+                                                      half_detail::bits_float(kSubMagic));
+    b = mag < (1u << M) ? sub : b;
+    b = mag >= kInf ? (b | 0x7f800000u) : b;
+    return half_detail::bits_float(b | (static_cast<std::uint32_t>(h & 0x8000u) << 16));
+  }
+
+  // The conversions written case by case with early returns: the definition
+  // encode() and decode() are tested against, bit for bit, over every float
+  // and every code (tests/core/test_half.cpp).
+  LBDEM_HD static std::uint16_t encode_reference(float x) {
     constexpr int M = kManBits;
     const std::uint32_t u = half_detail::float_bits(x);
     const std::uint32_t sign = (u >> 16) & 0x8000u;
@@ -115,8 +209,7 @@ struct Float16Format {
     return static_cast<std::uint16_t>(sign | (q + up));
   }
 
-  // code -> float, exact.
-  LBDEM_HD static LBDEM_FORCEINLINE float decode(std::uint16_t h) {
+  LBDEM_HD static float decode_reference(std::uint16_t h) {
     constexpr int M = kManBits;
     const std::uint32_t sign = static_cast<std::uint32_t>(h & 0x8000u) << 16;
     const std::uint32_t e = (h >> M) & kExpField;
@@ -129,6 +222,7 @@ struct Float16Format {
     }
     return half_detail::bits_float(sign | ((e + static_cast<std::uint32_t>(127 - Bias)) << 23) | (m << (23 - M)));
   }
+
 };
 
 using Binary16Format = Float16Format<5, 15>;  // IEEE 754 binary16
