@@ -30,9 +30,9 @@
 // three round alike (ties to even), so both backends store the same bits.
 // Fp16c has no hardware conversion: Float16Format converts without branches,
 // with a few integer operations on the float's bits and one float addition
-// or multiplication that takes care of the subnormal codes (see encode() and
-// decode()), so a warp never diverges on a conversion and host loops can be
-// vectorised. Its encode_reference()/decode_reference() are the same
+// or multiplication that does the rounding or the subnormal codes (see
+// encode() and decode()), so a warp never diverges on a conversion and host
+// loops can be vectorised. Its encode_reference()/decode_reference() are the same
 // conversions written case by case; the tests hold the two to the same bits
 // for every code and every float.
 #include <cstdint>
@@ -88,42 +88,43 @@ struct Float16Format {
   static_assert(E >= 2 && E <= 8 && kManBits >= 7 && kManBits <= 13, "a 16-bit format a float holds exactly");
   static_assert(kEmin >= -126 + 1 && kEmax <= 127, "normal values of the format are normal floats");
 
-  // float -> code, round to nearest, ties to even, without branches: both
-  // roundings below are computed and the right one selected, so a warp never
-  // diverges and the host loop can be vectorised.
-  //  * Normal result (|x| >= 2^Emin): round the float's bits to M mantissa
-  //    bits with one integer add (half an ulp of the code minus one, plus the
-  //    lowest kept bit for ties to even; a carry out of the mantissa moves
-  //    into the exponent) and rebias the exponent in the same add.
-  //  * Subnormal result: |x| + 2^(Emin - M + 23) in float. That constant's ulp
-  //    is the subnormal spacing 2^(Emin - M), so the float addition rounds
-  //    |x| to a multiple of it (ties to even) in one step, and the low bits of
-  //    the sum are the code; 2^M, the carry, is the smallest normal code. Its
-  //    operands and result are normal or zero floats except |x| itself when
-  //    that is a float subnormal, which rounds to code 0 whether or not the
-  //    hardware flushes it.
-  //    (Scaling |x| by 2^(Bias - 127) into the float subnormal range and
-  //    rounding the bits there would round twice, first to the float spacing
-  //    2^-149: wrong for values within 2^-150 of a tie between two codes.)
-  //  * Overflow: the normal-path code grows with |x|, and |x| >= the largest
-  //    finite value plus half its spacing gives kInf or more, so min() clamps
-  //    to infinity; a NaN input selects the NaN code.
+  // float -> code, round to nearest, ties to even, without branches, in one
+  // float addition and a few integer operations. Let e be the exponent of
+  // |x| clamped to [Emin, Emax + 1] and c = 2^(e + 23 - M). The float sum
+  // |x| + c has the ulp 2^(e - M), which is the code spacing at |x| (the
+  // subnormal spacing 2^(Emin - M) below 2^Emin), so the addition rounds |x|
+  // to a code value, ties to even, in one step; a carry to the next binade
+  // comes out right. bits(|x| + c) - bits(c) is then that value in units of
+  // the spacing, 2^M + mantissa for a normal code and the code itself for a
+  // subnormal one, and adding (e + Bias - 1) 2^M (read off c's exponent
+  // bits) gives the code. Below 2^Emin the clamp makes that offset 0; a float
+  // subnormal |x| (flushed to zero or not) gives code 0. At or above the
+  // largest finite value plus half its spacing the result is kInf or more
+  // (it grows with |x|), so min() clamps to infinity; a NaN input sets the
+  // top mantissa bit on that. The float sum is used on every path, so a
+  // compiler has no reason to branch around it (GCC keeps a trapping float
+  // operation out of a vectorised loop when it sits on one side of a branch).
+  // (Scaling |x| by 2^(Bias - 127) and rounding the bits would round values
+  // below 2^Emin twice, first to the float subnormal spacing 2^-149: wrong
+  // within 2^-150 of a tie between two subnormal codes.)
   LBDEM_HD static LBDEM_FORCEINLINE std::uint16_t encode(float x) {
     constexpr int M = kManBits;
     constexpr int kShift = 23 - M;
     const std::uint32_t u = half_detail::float_bits(x);
     const std::uint32_t a = u & 0x7fffffffu;
-    constexpr std::uint32_t kRoundRebias =
-        ((1u << (kShift - 1)) - 1u) - (static_cast<std::uint32_t>(127 - Bias) << 23);  // mod 2^32
-    const std::uint32_t normal = (a + kRoundRebias + ((a >> kShift) & 1u)) >> kShift;
-    constexpr std::uint32_t kSubMagic = static_cast<std::uint32_t>(kEmin - M + 23 + 127) << 23;
-    const std::uint32_t sub =
-        half_detail::float_bits(half_detail::bits_float(a) + half_detail::bits_float(kSubMagic)) - kSubMagic;
-    constexpr std::uint32_t kMinNormal = static_cast<std::uint32_t>(kEmin + 127) << 23;
-    std::uint32_t c = a < kMinNormal ? sub : normal;
-    c = c < kInf ? c : static_cast<std::uint32_t>(kInf);
-    c = a > 0x7f800000u ? static_cast<std::uint32_t>(kNaN) : c;
-    return static_cast<std::uint16_t>(c | ((u >> 16) & 0x8000u));
+    // c's exponent field, e + kShift + 127, clamped as above.
+    constexpr std::uint32_t kLo = static_cast<std::uint32_t>(kEmin + kShift + 127) << 23;
+    constexpr std::uint32_t kHi = static_cast<std::uint32_t>(kEmax + 1 + kShift + 127) << 23;
+    std::uint32_t c = (u & 0x7f800000u) + (static_cast<std::uint32_t>(kShift) << 23);
+    c = c > kLo ? c : kLo;
+    c = c < kHi ? c : kHi;
+    const float r = half_detail::bits_float(a) + half_detail::bits_float(c);
+    // (c >> kShift) - kBase = (e + Bias - 1) 2^M.
+    constexpr std::uint32_t kBase = static_cast<std::uint32_t>(kShift + 128 - Bias) << M;
+    std::uint32_t code = half_detail::float_bits(r) - c + ((c >> kShift) - kBase);
+    code = code < kInf ? code : static_cast<std::uint32_t>(kInf);
+    code |= a > 0x7f800000u ? (1u << (M - 1)) : 0u;  // kInf | this bit = kNaN
+    return static_cast<std::uint16_t>(code | ((u >> 16) & 0x8000u));
   }
 
   // code -> float, exact, without branches. The 15 magnitude bits shifted
