@@ -139,16 +139,16 @@ struct Float16Format {
   // That multiplication needs subnormal float operands kept, not flushed to
   // zero. The device uses it: lbdem's CUDA flags have neither -ftz=true nor
   // --use_fast_math (both flush), and tests/core/test_half_device.cu checks
-  // every code on the GPU against the reference. The host rebiases subnormal
-  // codes with a subtraction of normal floats instead (decode_split): an x86
-  // core may take a slow microcode path for a subnormal multiplication
-  // operand, and a program built with -ffast-math runs with subnormal
-  // operands read as zero. Both give the same bits (tests/core/test_half.cpp).
+  // every code on the GPU against the reference. The host converts with
+  // decode_significand instead, which meets no subnormal float: an x86 core
+  // may take a slow microcode path for a subnormal multiplication operand,
+  // and a program built with -ffast-math reads subnormal operands as zero.
+  // Both give the same bits (tests/core/test_half.cpp).
   LBDEM_HD static LBDEM_FORCEINLINE float decode(std::uint16_t h) {
 #if defined(__CUDA_ARCH__)
     return decode_scaled(h);
 #else
-    return decode_split(h);
+    return decode_significand(h);
 #endif
   }
 
@@ -161,17 +161,22 @@ struct Float16Format {
     return mag >= kInf ? half_detail::bits_float(b | 0x7f800000u) : v;
   }
 
-  // decode() with normal codes rebiased by an integer add and subnormal codes
-  // by a float subtraction of normal floats.
-  LBDEM_HD static LBDEM_FORCEINLINE float decode_split(std::uint16_t h) {
+  // decode() without subnormal floats anywhere: the significand as an
+  // integer (2^M + mantissa for a normal code, the mantissa for a subnormal
+  // one; below 2^24, so converted to float exactly) times 2^(e - Bias - M)
+  // with e the exponent field raised to 1 for subnormal codes, a normal
+  // float built from bits; the product is exact and normal or zero. The
+  // exponent field 2^E - 1 (infinity, NaN) is set to 255 afterwards. Only
+  // min/max and selects of integers, so GCC vectorises a loop of these.
+  LBDEM_HD static LBDEM_FORCEINLINE float decode_significand(std::uint16_t h) {
     constexpr int M = kManBits;
     const std::uint32_t mag = h & 0x7fffu;
-    std::uint32_t b = (mag << (23 - M)) + (static_cast<std::uint32_t>(127 - Bias) << 23);
-    constexpr std::uint32_t kSubMagic = static_cast<std::uint32_t>(kEmin - M + 23 + 127) << 23;
-    const std::uint32_t sub = half_detail::float_bits(half_detail::bits_float(kSubMagic | mag) -
-                                                      half_detail::bits_float(kSubMagic));
-    b = mag < (1u << M) ? sub : b;
-    b = mag >= kInf ? (b | 0x7f800000u) : b;
+    const std::uint32_t e = mag >> M;
+    const std::uint32_t sig = (mag & ((1u << M) - 1u)) | ((e < 1u ? e : 1u) << M);
+    const std::uint32_t e1 = e > 1u ? e : 1u;
+    const float scale = half_detail::bits_float((e1 + static_cast<std::uint32_t>(127 - Bias - M)) << 23);
+    const float v = static_cast<float>(static_cast<std::int32_t>(sig)) * scale;
+    const std::uint32_t b = half_detail::float_bits(v) | (mag >= kInf ? 0x7f800000u : 0u);
     return half_detail::bits_float(b | (static_cast<std::uint32_t>(h & 0x8000u) << 16));
   }
 
