@@ -29,12 +29,13 @@
 // F16C instructions where the compiler targets them, else in software; all
 // three round alike (ties to even), so both backends store the same bits.
 // Fp16c has no hardware conversion: Float16Format converts without branches,
-// with a few integer operations on the float's bits and one float addition
-// or multiplication that does the rounding or the subnormal codes (see
-// encode() and decode()), so a warp never diverges on a conversion and host
-// loops can be vectorised. Its encode_reference()/decode_reference() are the same
-// conversions written case by case; the tests hold the two to the same bits
-// for every code and every float.
+// with a few integer operations on the float's bits around one float
+// operation (encode: an addition that does the rounding; decode: a
+// multiplication that rebiases the exponent), so a warp never diverges on a
+// conversion and host loops over cells can be vectorised. Its
+// encode_reference()/decode_reference() are the same conversions written case
+// by case; the tests hold the two to the same bits for every code and every
+// float.
 #include <cstdint>
 #include <cstring>
 
@@ -87,6 +88,8 @@ struct Float16Format {
   static constexpr std::uint16_t kNaN = static_cast<std::uint16_t>(kInf | (1u << (kManBits - 1)));
   static_assert(E >= 2 && E <= 8 && kManBits >= 7 && kManBits <= 13, "a 16-bit format a float holds exactly");
   static_assert(kEmin >= -126 + 1 && kEmax <= 127, "normal values of the format are normal floats");
+  static_assert(kEmin - kManBits >= -126 && kEmax + 1 + (23 - kManBits) <= 127,
+                "the powers of two encode() and decode_significand() build are normal floats");
 
   // float -> code, round to nearest, ties to even, without branches, in one
   // float addition and a few integer operations. Let e be the exponent of
