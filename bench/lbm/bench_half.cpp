@@ -104,8 +104,12 @@ void bench_format(const char* fname, const std::vector<float>& pops, const std::
 int main(int argc, char** argv) {
   std::size_t n = 1 << 14;  // 64 KiB of floats and 32 KiB of codes: in L2
   int repeats = 9;
-  for (int i = 1; i + 1 < argc; i += 2) {
+  for (int i = 1; i < argc; i += 2) {
     const std::string k = argv[i];
+    if ((k == "--n" || k == "--repeats") && i + 1 == argc) {
+      std::fprintf(stderr, "lbdem_bench_half: option '%s' needs a value\n", k.c_str());
+      return 2;
+    }
     if (k == "--n") {
       n = std::strtoull(argv[i + 1], nullptr, 10);
     } else if (k == "--repeats") {
