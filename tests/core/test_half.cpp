@@ -3,7 +3,9 @@
 // of two neighbouring codes and the floats either side of it) rounds as
 // roundTiesToEven says; random floats round to the nearest code found by a
 // brute-force search over the decoded table; overflow, infinities, NaN, signed
-// zero and float subnormals behave as documented.
+// zero and float subnormals behave as documented. The branch-free encode and
+// decode give the same bits as the case-by-case encode_reference and
+// decode_reference for every code and (long test) every float.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -126,6 +128,92 @@ TEST(Half, Binary16RoundingBoundaries) { check_rounding_boundaries<Binary16Forma
 TEST(Half, Fp16cRoundingBoundaries) { check_rounding_boundaries<Fp16cFormat>(); }
 TEST(Half, Binary16RandomAgainstSearch) { check_random_against_search<Binary16Format>(); }
 TEST(Half, Fp16cRandomAgainstSearch) { check_random_against_search<Fp16cFormat>(); }
+
+std::uint32_t bits_of(float x) { return half_detail::float_bits(x); }
+
+// Every code decodes to the same float bits (NaN payloads and -0 included)
+// by each branch-free decode as by the reference, and encoding it back gives
+// the reference's code.
+template <class F>
+void check_codes_against_reference() {
+  for (std::uint32_t c = 0; c < 65536; ++c) {
+    const auto h = static_cast<std::uint16_t>(c);
+    const float r = F::decode_reference(h);
+    ASSERT_EQ(bits_of(F::decode(h)), bits_of(r)) << "code 0x" << std::hex << c;
+    ASSERT_EQ(bits_of(F::decode_scaled(h)), bits_of(r)) << "code 0x" << std::hex << c;
+    ASSERT_EQ(bits_of(F::decode_significand(h)), bits_of(r)) << "code 0x" << std::hex << c;
+    ASSERT_EQ(F::encode(F::decode(h)), F::encode_reference(r)) << "code 0x" << std::hex << c;
+  }
+}
+
+// encode against encode_reference on the float bit patterns first, first +
+// stride, ... below 2^32, in parallel; returns the number that differ and
+// sets `example` to the largest pattern that differs (for the message).
+template <class F>
+std::uint64_t count_encode_mismatches(std::uint64_t first, std::uint64_t stride, std::uint32_t& example) {
+  const std::int64_t n = static_cast<std::int64_t>(((std::uint64_t{1} << 32) - first + stride - 1) / stride);
+  std::uint64_t bad = 0;
+  std::uint32_t ex = 0;
+#pragma omp parallel for schedule(static) reduction(+ : bad) reduction(max : ex)
+  for (std::int64_t i = 0; i < n; ++i) {
+    const auto u = static_cast<std::uint32_t>(first + static_cast<std::uint64_t>(i) * stride);
+    const float x = half_detail::bits_float(u);
+    if (F::encode(x) != F::encode_reference(x)) {
+      ++bad;
+      ex = std::max(ex, u);
+    }
+  }
+  example = ex;
+  return bad;
+}
+
+// Every bit pattern in the format's range of exponents (from below half the
+// smallest subnormal to beyond the overflow threshold), both signs, is
+// encoded as the reference does; so are 2^32 / 4099 patterns spread over
+// the rest (all exponents, all low mantissa bits).
+template <class F>
+void check_encode_against_reference_quick() {
+  std::uint32_t example = 0;
+  EXPECT_EQ(count_encode_mismatches<F>(0, 4099, example), 0u) << "e.g. float bits 0x" << std::hex << example;
+  // Every float with an exponent where the rounding changes its kind: below
+  // half the smallest subnormal, the binade holding that tie, one in the
+  // middle of the subnormal codes, the last subnormal and first normal
+  // binades, and the largest finite binade and the one above (overflow);
+  // every mantissa, both signs.
+  for (int e : {F::kEmin - F::kManBits - 2, F::kEmin - F::kManBits - 1, F::kEmin - F::kManBits / 2, F::kEmin - 1,
+                F::kEmin, F::kEmax, F::kEmax + 1}) {
+    for (std::uint32_t sign : {0u, 0x80000000u}) {
+      const std::uint32_t base = sign | (static_cast<std::uint32_t>(e + 127) << 23);
+      std::uint64_t bad = 0;
+      std::uint32_t example = 0;
+#pragma omp parallel for schedule(static) reduction(+ : bad) reduction(max : example)
+      for (std::int64_t m = 0; m < (std::int64_t{1} << 23); ++m) {
+        const std::uint32_t u = base | static_cast<std::uint32_t>(m);
+        const float x = half_detail::bits_float(u);
+        if (F::encode(x) != F::encode_reference(x)) {
+          ++bad;
+          example = std::max(example, u);
+        }
+      }
+      EXPECT_EQ(bad, 0u) << "exponent " << e << ", e.g. float bits 0x" << std::hex << example;
+    }
+  }
+}
+
+TEST(Half, Binary16CodesMatchReference) { check_codes_against_reference<Binary16Format>(); }
+TEST(Half, Fp16cCodesMatchReference) { check_codes_against_reference<Fp16cFormat>(); }
+TEST(Half, Binary16EncodeMatchesReferenceSampled) { check_encode_against_reference_quick<Binary16Format>(); }
+TEST(Half, Fp16cEncodeMatchesReferenceSampled) { check_encode_against_reference_quick<Fp16cFormat>(); }
+
+// All 2^32 float bit patterns (long: several seconds of CPU per format).
+TEST(HalfExhaustive, Fp16cEncodeMatchesReferenceAllFloats) {
+  std::uint32_t example = 0;
+  EXPECT_EQ(count_encode_mismatches<Fp16cFormat>(0, 1, example), 0u) << "e.g. float bits 0x" << std::hex << example;
+}
+TEST(HalfExhaustive, Binary16EncodeMatchesReferenceAllFloats) {
+  std::uint32_t example = 0;
+  EXPECT_EQ(count_encode_mismatches<Binary16Format>(0, 1, example), 0u) << "e.g. float bits 0x" << std::hex << example;
+}
 
 // The layouts: known codes of IEEE binary16 and the ranges of the 1-4-11 format.
 TEST(Half, KnownCodes) {

@@ -28,7 +28,14 @@
 // On the device Fp16s converts with the CUDA half intrinsics, on the host with
 // F16C instructions where the compiler targets them, else in software; all
 // three round alike (ties to even), so both backends store the same bits.
-// Fp16c converts in software everywhere (integer operations on the float's bits).
+// Fp16c has no hardware conversion: Float16Format converts without branches,
+// with a few integer operations on the float's bits around one float
+// operation (encode: an addition that does the rounding; decode: a
+// multiplication that rebiases the exponent), so a warp never diverges on a
+// conversion and host loops over cells can be vectorised. Its
+// encode_reference()/decode_reference() are the same conversions written case
+// by case; the tests hold the two to the same bits for every code and every
+// float.
 #include <cstdint>
 #include <cstring>
 
@@ -81,9 +88,105 @@ struct Float16Format {
   static constexpr std::uint16_t kNaN = static_cast<std::uint16_t>(kInf | (1u << (kManBits - 1)));
   static_assert(E >= 2 && E <= 8 && kManBits >= 7 && kManBits <= 13, "a 16-bit format a float holds exactly");
   static_assert(kEmin >= -126 + 1 && kEmax <= 127, "normal values of the format are normal floats");
+  static_assert(kEmin - kManBits >= -126 && kEmax + 1 + (23 - kManBits) <= 127,
+                "the powers of two encode() and decode_significand() build are normal floats");
 
-  // float -> code, round to nearest, ties to even.
+  // float -> code, round to nearest, ties to even, without branches, in one
+  // float addition and a few integer operations. Let e be the exponent of
+  // |x| clamped to [Emin, Emax + 1] and c = 2^(e + 23 - M). The float sum
+  // |x| + c has the ulp 2^(e - M), which is the code spacing at |x| (the
+  // subnormal spacing 2^(Emin - M) below 2^Emin), so the addition rounds |x|
+  // to a code value, ties to even, in one step; a carry to the next binade
+  // comes out right. bits(|x| + c) - bits(c) is then that value in units of
+  // the spacing, 2^M + mantissa for a normal code and the code itself for a
+  // subnormal one, and adding (e + Bias - 1) 2^M (read off c's exponent
+  // bits) gives the code. Below 2^Emin the clamp makes that offset 0; a float
+  // subnormal |x| (flushed to zero or not) gives code 0. At or above the
+  // largest finite value plus half its spacing the result is kInf or more
+  // (it grows with |x|), so min() clamps to infinity; a NaN input sets the
+  // top mantissa bit on that. The float sum is used on every path, so a
+  // compiler has no reason to branch around it (GCC keeps a trapping float
+  // operation out of a vectorised loop when it sits on one side of a branch).
+  // (Scaling |x| by 2^(Bias - 127) and rounding the bits would round values
+  // below 2^Emin twice, first to the float subnormal spacing 2^-149: wrong
+  // within 2^-150 of a tie between two subnormal codes.)
   LBDEM_HD static LBDEM_FORCEINLINE std::uint16_t encode(float x) {
+    constexpr int M = kManBits;
+    constexpr int kShift = 23 - M;
+    const std::uint32_t u = half_detail::float_bits(x);
+    const std::uint32_t a = u & 0x7fffffffu;
+    // c's exponent field, e + kShift + 127, clamped as above.
+    constexpr std::uint32_t kLo = static_cast<std::uint32_t>(kEmin + kShift + 127) << 23;
+    constexpr std::uint32_t kHi = static_cast<std::uint32_t>(kEmax + 1 + kShift + 127) << 23;
+    std::uint32_t c = (u & 0x7f800000u) + (static_cast<std::uint32_t>(kShift) << 23);
+    c = c > kLo ? c : kLo;
+    c = c < kHi ? c : kHi;
+    const float r = half_detail::bits_float(a) + half_detail::bits_float(c);
+    // (c >> kShift) - kBase = (e + Bias - 1) 2^M.
+    constexpr std::uint32_t kBase = static_cast<std::uint32_t>(kShift + 128 - Bias) << M;
+    std::uint32_t code = half_detail::float_bits(r) - c + ((c >> kShift) - kBase);
+    code = code < kInf ? code : static_cast<std::uint32_t>(kInf);
+    code |= a > 0x7f800000u ? (1u << (M - 1)) : 0u;  // kInf | this bit = kNaN
+    return static_cast<std::uint16_t>(code | ((u >> 16) & 0x8000u));
+  }
+
+  // code -> float, exact, without branches. The 15 magnitude bits shifted
+  // left by 23 - M put the code's exponent field in the low bits of the
+  // float's exponent field and its mantissa at the top of the float's
+  // mantissa: read as a float that is the value times 2^(Bias - 127), for
+  // subnormal codes too (exponent field 0 reads as a float subnormal with the
+  // same mantissa). Multiplying by 2^(127 - Bias) rebiases exactly. The
+  // exponent field 2^E - 1 (infinity, NaN) is set to the float's 255 by a
+  // select instead.
+  //
+  // That multiplication needs subnormal float operands kept, not flushed to
+  // zero. The device uses it: lbdem's CUDA flags have neither -ftz=true nor
+  // --use_fast_math (both flush), and tests/core/test_half_device.cu checks
+  // every code on the GPU against the reference. The host converts with
+  // decode_significand instead, which meets no subnormal float: an x86 core
+  // may take a slow microcode path for a subnormal multiplication operand,
+  // and a program built with -ffast-math reads subnormal operands as zero.
+  // Both give the same bits (tests/core/test_half.cpp).
+  LBDEM_HD static LBDEM_FORCEINLINE float decode(std::uint16_t h) {
+#if defined(__CUDA_ARCH__)
+    return decode_scaled(h);
+#else
+    return decode_significand(h);
+#endif
+  }
+
+  // decode() by the rebiasing multiplication, for every code.
+  LBDEM_HD static LBDEM_FORCEINLINE float decode_scaled(std::uint16_t h) {
+    constexpr int kShift = 23 - kManBits;
+    const std::uint32_t mag = h & 0x7fffu;
+    const std::uint32_t b = (static_cast<std::uint32_t>(h & 0x8000u) << 16) | (mag << kShift);
+    const float v = half_detail::bits_float(b) * half_detail::bits_float(static_cast<std::uint32_t>(127 - Bias + 127) << 23);
+    return mag >= kInf ? half_detail::bits_float(b | 0x7f800000u) : v;
+  }
+
+  // decode() without subnormal floats anywhere: the significand as an
+  // integer (2^M + mantissa for a normal code, the mantissa for a subnormal
+  // one; below 2^24, so converted to float exactly) times 2^(e - Bias - M)
+  // with e the exponent field raised to 1 for subnormal codes, a normal
+  // float built from bits; the product is exact and normal or zero. The
+  // exponent field 2^E - 1 (infinity, NaN) is set to 255 afterwards. Only
+  // min/max and selects of integers, so GCC vectorises a loop of these.
+  LBDEM_HD static LBDEM_FORCEINLINE float decode_significand(std::uint16_t h) {
+    constexpr int M = kManBits;
+    const std::uint32_t mag = h & 0x7fffu;
+    const std::uint32_t e = mag >> M;
+    const std::uint32_t sig = (mag & ((1u << M) - 1u)) | ((e < 1u ? e : 1u) << M);
+    const std::uint32_t e1 = e > 1u ? e : 1u;
+    const float scale = half_detail::bits_float((e1 + static_cast<std::uint32_t>(127 - Bias - M)) << 23);
+    const float v = static_cast<float>(static_cast<std::int32_t>(sig)) * scale;
+    const std::uint32_t b = half_detail::float_bits(v) | (mag >= kInf ? 0x7f800000u : 0u);
+    return half_detail::bits_float(b | (static_cast<std::uint32_t>(h & 0x8000u) << 16));
+  }
+
+  // The conversions written case by case with early returns: the definition
+  // encode() and decode() are tested against, bit for bit, over every float
+  // and every code (tests/core/test_half.cpp).
+  LBDEM_HD static std::uint16_t encode_reference(float x) {
     constexpr int M = kManBits;
     const std::uint32_t u = half_detail::float_bits(x);
     const std::uint32_t sign = (u >> 16) & 0x8000u;
@@ -115,8 +218,7 @@ struct Float16Format {
     return static_cast<std::uint16_t>(sign | (q + up));
   }
 
-  // code -> float, exact.
-  LBDEM_HD static LBDEM_FORCEINLINE float decode(std::uint16_t h) {
+  LBDEM_HD static float decode_reference(std::uint16_t h) {
     constexpr int M = kManBits;
     const std::uint32_t sign = static_cast<std::uint32_t>(h & 0x8000u) << 16;
     const std::uint32_t e = (h >> M) & kExpField;
@@ -129,6 +231,7 @@ struct Float16Format {
     }
     return half_detail::bits_float(sign | ((e + static_cast<std::uint32_t>(127 - Bias)) << 23) | (m << (23 - M)));
   }
+
 };
 
 using Binary16Format = Float16Format<5, 15>;  // IEEE 754 binary16
