@@ -36,7 +36,7 @@ CoupledSolver::CoupledSolver(lbm::LbmSolver& fluid, dem::DemSystem& dem, const C
   if (dem_.backend() != fluid_.backend())
     throw ConfigError(std::string("coupling: the DEM runs on ") + to_string(dem_.backend()) + " but the fluid on " +
                       to_string(fluid_.backend()) + "; both must use the same backend");
-  if (!dem_.view().ext_force)
+  if (!dem_.params().external_forcing)
     throw ConfigError("coupling: the DEM system was created without external forcing (DemParams.external_forcing)");
   dim_ = fluid_.setup().lattice == lbm::LatticeKind::D2Q9 ? 2 : 3;
   psm_ = std::make_unique<PsmCoupling>(fluid_, p_.slots);
@@ -82,8 +82,9 @@ void CoupledSolver::map() {
 // 1. Fluid step with the solid term; hydrodynamic force + buoyancy -> DEM coupling input.
 void CoupledSolver::fluid_step(const dem::ParticleView& v) {
   ForceOut out;
-  out.force = &v.ext_force->x;
-  out.torque = &v.ext_torque->x;
+  // (A rank of a decomposed run may hold no particle: no arrays then.)
+  out.force = v.ext_force ? &v.ext_force->x : nullptr;
+  out.torque = v.ext_torque ? &v.ext_torque->x : nullptr;
   out.fstride = out.tstride = 4;
   if (p_.buoyancy)
     for (int a = 0; a < 3; ++a) out.per_volume[static_cast<std::size_t>(a)] = -p_.fluid_density * p_.gravity[static_cast<std::size_t>(a)];

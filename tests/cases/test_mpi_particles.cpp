@@ -78,11 +78,12 @@ std::string run_dir(const std::string& name) {
 }
 
 // One run on `ranks` ranks (one rank: without mpirun), output every kSteps.
-Result run_case(const std::string& name, const std::string& precision, int ranks, const std::string& dims) {
+Result run_case(const std::string& name, const std::string& precision, int ranks, const std::string& dims,
+                const std::string& text = "") {
   const std::string dir = run_dir(name);
   fs::remove_all(dir);
   const std::string file = dir + ".yaml";
-  std::ofstream(file) << yaml(precision) << "output: {directory: " << dir << ", interval: " << kSteps
+  std::ofstream(file) << (text.empty() ? yaml(precision) : text) << "output: {directory: " << dir << ", interval: " << kSteps
                       << ", series_interval: 20}\n"
                       << (dims.empty() ? "" : "parallel: {decomposition: " + dims + "}\n");
   const std::string args = "run " + file + " --backend cpu --quiet";
@@ -209,6 +210,42 @@ INSTANTIATE_TEST_SUITE_P(
                       Cut{"xz4_fp64", "fp64", 4, "[2, 1, 2]", {2, 1, 2}}, Cut{"xyz8_fp64", "fp64", 8, "[2, 2, 2]", {2, 2, 2}},
                       Cut{"z2_fp32", "fp32", 2, "[1, 1, 2]", {1, 1, 2}}, Cut{"xy4_fp32", "fp32", 4, "[2, 2, 1]", {2, 2, 1}}),
     [](const ::testing::TestParamInfo<Cut>& i) { return i.param.name; });
+
+// One particle on three ranks along x (pieces of 16 cells): the two outer
+// ranks hold neither it nor a ghost of it and step plain fluid; the run
+// still agrees with one rank.
+TEST(MpiParticlesEmpty, RanksWithoutParticles) {
+  if (std::string(LBDEM_MPIEXEC).empty()) GTEST_SKIP() << "built without an MPI launcher";
+  const std::string text =
+      "scene: particles\nunits: lattice\ndomain: {cells: [48, 16, 16], periodic: [1, 1, 1]}\n"
+      "fluid: {tau: 0.7, collision: trt, magic: auto, precision: fp64}\nphysics: {gravity: [0, -2.0e-5, 0]}\n"
+      "particles: {init: list, diameter: 6, density_ratio: 4, velocity: [0.03, 0.0, 0.0], "
+      "list: [{position: [24.5, 8, 8]}]}\n"
+      "dem: {stiffness: 50, restitution: 0.9, substeps: 12}\npsm: {fraction: table, pipeline: mapped}\n"
+      "time: {steps: " + std::to_string(kSteps) + "}\n";
+  const Result r1 = run_case("empty_1", "fp64", 1, "", text);
+  ASSERT_EQ(r1.code, 0) << r1.out;
+  const Result r3 = run_case("empty_3", "fp64", 3, "[3, 1, 1]", text);
+  ASSERT_EQ(r3.code, 0) << r3.out;
+  const std::string f1 = run_dir("empty_1") + "/fields_" + tag(kSteps) + ".h5",
+                    f3 = run_dir("empty_3") + "/fields_" + tag(kSteps) + ".h5";
+  for (const char* field : {"density", "velocity", "solid_fraction"}) {
+    const auto a = dataset(f1, field), b = dataset(f3, field);
+    ASSERT_FALSE(a.empty()) << field;
+    ASSERT_EQ(a.size(), b.size()) << field;
+    for (std::size_t i = 0; i < a.size(); ++i) ASSERT_NEAR(a[i], b[i], 1e-12 * max_abs(a)) << field << "[" << i << "]";
+  }
+  const auto x1 = by_id(run_dir("empty_1") + "/particles_" + tag(kSteps) + ".h5", "positions", 3),
+             x3 = by_id(run_dir("empty_3") + "/particles_" + tag(kSteps) + ".h5", "positions", 3);
+  ASSERT_EQ(x1.size(), 1u);
+  ASSERT_EQ(x3.size(), 1u);
+  for (std::size_t k = 0; k < 3; ++k) EXPECT_NEAR(x1.at(0)[k], x3.at(0)[k], 1e-12 * 48);
+  EXPECT_GT(x1.at(0)[0], 25.0);  // it moved along x (within the middle piece)
+  for (const char* n : {"empty_1", "empty_3"}) {
+    fs::remove_all(run_dir(n));
+    fs::remove(run_dir(n) + ".yaml");
+  }
+}
 
 // A cut whose pieces are thinner than the particles' ghost width is refused
 // before anything is written, naming the key.
