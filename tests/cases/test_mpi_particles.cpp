@@ -86,10 +86,10 @@ Result run_case(const std::string& name, const std::string& precision, int ranks
   std::ofstream(file) << (text.empty() ? yaml(precision) : text) << "output: {directory: " << dir << ", interval: " << kSteps
                       << ", series_interval: 20}\n"
                       << (dims.empty() ? "" : "parallel: {decomposition: " + dims + "}\n");
+  // One OpenMP thread per rank (one rank: without mpirun): the runs share two cores.
   const std::string args = "run " + file + " --backend cpu --quiet";
-  if (ranks == 1) return run(args);
-  const std::string cmd = std::string("env OMP_NUM_THREADS=1 ") + LBDEM_MPIEXEC + " " + std::to_string(ranks) + " " +
-                          LBDEM_EXE + " " + args + " 2>&1";
+  const std::string launch = ranks == 1 ? std::string() : std::string(LBDEM_MPIEXEC) + " " + std::to_string(ranks) + " ";
+  const std::string cmd = "env OMP_NUM_THREADS=1 " + launch + LBDEM_EXE + " " + args + " 2>&1";
   FILE* p = popen(cmd.c_str(), "r");
   std::string out;
   char buf[4096];
