@@ -9,7 +9,10 @@
 // particle whose cells lie on several ranks is the sum of per-rank shares, a
 // grouping of the sum that differs from the one-rank gather in the last bits
 // (imb/coupled.hpp). The test checks that particles did cross cut faces,
-// periodic ones included. Skipped where the build has no MPI launcher.
+// periodic ones included. Also: ranks that hold no particle, refusals (a
+// piece thinner than the ghost width, checkpoints), and the GPU path (ranks
+// sharing the GPUs there are; skipped without one). Skipped where the build
+// has no MPI launcher.
 #include <gtest/gtest.h>
 #include <hdf5.h>
 
