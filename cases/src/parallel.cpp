@@ -163,6 +163,32 @@ void DistributedFluid::macroscopic(std::vector<double>& rho, std::vector<double>
   }
 }
 
+std::vector<double> DistributedFluid::gather_owned(const std::vector<double>& mine, int comps) {
+  const auto nc = static_cast<std::size_t>(comps);
+  if (!halo_) return mine;
+  const auto all = comm_.gather(std::as_bytes(std::span<const double>(mine)), 0);
+  if (!comm_.root()) return {};
+  const GridView gw = whole_.domain.view();
+  std::vector<double> out(nc * static_cast<std::size_t>(gw.n), 0.0);
+  for (int r = 0; r < comm_.size(); ++r) {
+    const Grid q = dec_.piece(whole_.domain, r);
+    const CellBox qo = q.owned();
+    const auto& bytes = all[static_cast<std::size_t>(r)];
+    if (bytes.size() != static_cast<std::size_t>(qo.size()) * nc * sizeof(double))
+      throw Error("gathering a field: rank " + std::to_string(r) + " sent a piece of the wrong size");
+    const auto* v = reinterpret_cast<const double*>(bytes.data());
+    std::size_t k = 0;
+    for (int z = 0; z < qo.ext[2]; ++z)
+      for (int y = 0; y < qo.ext[1]; ++y)
+        for (int x = 0; x < qo.ext[0]; ++x) {
+          const auto wi = static_cast<std::size_t>(gw.index(static_cast<int>(x + q.offset[0]), static_cast<int>(y + q.offset[1]),
+                                                            static_cast<int>(z + q.offset[2])));
+          for (std::size_t c = 0; c < nc; ++c) out[nc * wi + c] = v[k++];
+        }
+  }
+  return out;
+}
+
 std::size_t DistributedFluid::memory_bytes() const {
   const auto mine = static_cast<long>(solver_->memory_bytes());
   return static_cast<std::size_t>(comm_.sum(mine));

@@ -23,10 +23,14 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <optional>
 #include <sstream>
+#include <span>
+#include <unordered_map>
 #include <spdlog/spdlog.h>
 
 #include "cases/fixed_sphere.hpp"
@@ -44,6 +48,8 @@
 #include "core/output.hpp"
 #include "core/progress.hpp"
 #include "core/signals.hpp"
+#include "core/memory_use.hpp"
+#include "dem/domain.hpp"
 #include "dem/grid_box.hpp"
 #include "dem/init.hpp"
 #include "dem/system.hpp"
@@ -285,6 +291,7 @@ struct ParticlesCase {
   bool final_output = true;   // output.final
   ckpt::Policy checkpoint;
   double max_drag_error = kMaxDragErrorBar;
+  ParallelOptions parallel;  // mpirun: how the grid (and with it the particles) is cut
 };
 
 // The particle scene in SI units (units: physical): the keys whose meaning
@@ -556,6 +563,7 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
   c.final_output = o.boolean("final", true);
   o.finish();
   c.checkpoint = ckpt::read_policy(root);
+  c.parallel = parse_parallel(root);
   root.accept("scene");
   root.finish();
   if (opt.steps) c.steps = *opt.steps;
@@ -711,9 +719,135 @@ std::string particles_summary(const ParticlesCase& c, const cases::ParticleSerie
   return js.str();
 }
 
+// A snapshot of a run on several ranks: the particles (in global-id order,
+// each with its hydrodynamic force) and the fields gathered to rank 0, which
+// writes them (pw, gw: null on the other ranks), the same files as one rank
+// writes. Collective.
+void write_gathered_output(long step, const ParticlesCase& c, DistributedFluid& fluid, dem::DemSystem& dem,
+                           imb::CoupledSolver& cs, io::ParticleWriter* pw, io::GridWriter* gw) {
+  const halo::Comm& comm = fluid.comm();
+  const dem::HostParticles all = dem.gather(0);
+  struct IdForce {
+    std::int64_t id;
+    double f[3];
+  };
+  std::vector<IdForce> mine;
+  {
+    const dem::HostParticles own = dem.download();
+    const std::vector<double> hf = cs.hydro_force_host();
+    for (std::size_t i = 0; i < own.id.size(); ++i) mine.push_back({own.id[i], {hf[3 * i], hf[3 * i + 1], hf[3 * i + 2]}});
+  }
+  const auto forces = comm.gather(std::as_bytes(std::span<const IdForce>(mine)), 0);
+  // Solid fraction of the owned cells (owned box x-fastest), slab by slab
+  // through the coupling's output staging.
+  lbm::LbmSolver& ls = fluid.local();
+  const CellBox o = ls.setup().domain.owned();
+  std::vector<double> eps(static_cast<std::size_t>(o.size())), tmp;
+  for (const CellBox& b : slabs_of(o, ls.output_slab_cells())) {
+    tmp.resize(static_cast<std::size_t>(b.size()));
+    cs.solid_fraction_box(b, tmp.data());
+    std::size_t t = 0;
+    for (int z = b.lo[2]; z < b.lo[2] + b.ext[2]; ++z)
+      for (int y = b.lo[1]; y < b.lo[1] + b.ext[1]; ++y)
+        for (int x = b.lo[0]; x < b.lo[0] + b.ext[0]; ++x, ++t)
+          eps[static_cast<std::size_t>((x - o.lo[0]) + o.ext[0] * ((y - o.lo[1]) + static_cast<Index>(o.ext[1]) * (z - o.lo[2])))] = tmp[t];
+  }
+  const std::vector<double> eps_all = fluid.gather_owned(eps, 1);
+  std::vector<double> rho, u;
+  fluid.macroscopic(rho, u);
+  if (!comm.root()) return;
+  std::unordered_map<std::int64_t, std::array<double, 3>> by_id;
+  for (const auto& bytes : forces) {
+    const std::size_t m = bytes.size() / sizeof(IdForce);
+    for (std::size_t k = 0; k < m; ++k) {
+      IdForce r;
+      std::memcpy(&r, bytes.data() + k * sizeof(IdForce), sizeof r);
+      by_id[r.id] = {r.f[0], r.f[1], r.f[2]};
+    }
+  }
+  std::vector<double> hf(3 * all.id.size());
+  for (std::size_t i = 0; i < all.id.size(); ++i) {
+    const auto& f = by_id.at(all.id[i]);
+    for (std::size_t a = 0; a < 3; ++a) hf[3 * i + a] = f[a];
+  }
+  const double t = double(step) * c.units.dt;
+  cases::write_particle_snapshot(*pw, step, t, all, {{"hydrodynamic_force", 3, hf.data()}});
+  gw->write(step, t,
+            {{"density", 1, rho.data(), "lattice"}, {"velocity", 3, u.data(), "lattice (cells per step)"},
+             {"solid_fraction", 1, eps_all.data(), "1"}});
+}
+
+// The components of every rank's memory use (a rank without particles may
+// hold fewer buffers): the union, in the order of the ranks. Collective.
+std::vector<std::string> memory_component_names(const MemoryUse& m, const halo::Comm& comm) {
+  std::string mine;
+  for (const auto& it : m.items) mine += it.name + "\n";
+  const auto all = comm.allgather(std::as_bytes(std::span<const char>(mine.data(), mine.size())));
+  std::vector<std::string> names;
+  for (const auto& b : all) {
+    std::string text(reinterpret_cast<const char*>(b.data()), b.size());
+    std::size_t at = 0;
+    while (at < text.size()) {
+      const std::size_t e = text.find('\n', at);
+      const std::string nm = text.substr(at, e - at);
+      if (std::find(names.begin(), names.end(), nm) == names.end()) names.push_back(nm);
+      at = e + 1;
+    }
+  }
+  return names;
+}
+
+// The particles of a run on several ranks, cut where the grid is cut
+// (imb/coupled.hpp): refuses, before anything is allocated, a cut the
+// coupling cannot run on. A piece must be at least the DEM's ghost width
+// 2 r_max + skin thick, and the ghosts, kept within 2 r + skin of a piece at
+// each list build and moving at most skin / 2 before the next, must reach
+// every particle whose solid fraction can touch a cell of the piece or its
+// ghost layer: a cell within r + sqrt(dim) / 2 of the centre (plus the
+// linear fractions' radius correction, at most 0.1 r), the ghost layer one
+// cell beyond the piece. So r + skin / 2 >= 0.1 r + sqrt(dim) / 2 + 1.
+dem::DemDomain particles_domain(const Config& root, const ParticlesCase& c, const halo::Comm& comm) {
+  const halo::Decomposition dec =
+      halo::decompose(c.setup.domain, comm.size(), c.parallel.decomposition, "parallel.decomposition");
+  dem::DemDomain dom = dem::domain_from_decomposition(comm, dec, c.dem);
+  dom.transport = c.parallel.transport;
+  const double w = dem::ghost_width(c.dem, c.particles.r);
+  double r_max = 0;
+  for (double r : c.particles.r) r_max = std::max(r_max, r);
+  const double skin = c.dem.skin > 0 ? c.dem.skin : w - 2 * r_max;
+  const double reach = 0.1 * r_max + std::sqrt(double(c.dim)) / 2 + 1;
+  if (r_max + skin / 2 < reach)
+    throw ConfigError(root.source() + ": particles.diameter = " + std::to_string(2 * r_max) +
+                      " cells is too small to run on several ranks: a particle's ghost copies (kept within 2 r + "
+                      "skin of a piece) would not reach every cell its solid fraction covers on a neighbouring "
+                      "piece; use a diameter of at least " + std::to_string(2 * (reach - skin / 2) + 0.01) +
+                      " cells, or one rank");
+  for (int a = 0; a < 3; ++a) {
+    const auto& cut = dom.cuts[static_cast<std::size_t>(a)];
+    for (std::size_t i = 0; dec.dims[static_cast<std::size_t>(a)] > 1 && i + 1 < cut.size(); ++i)
+      if (cut[i + 1] - cut[i] < w)
+        throw ConfigError(root.source() + ": parallel.decomposition = " + dec.describe() + " cuts axis " +
+                          std::string(1, char('x' + a)) + " into a piece of " + std::to_string(cut[i + 1] - cut[i]) +
+                          " cells, thinner than the particles' ghost width 2 r + skin = " + std::to_string(w) +
+                          " cells (a particle's contact partners and its cells must lie in the neighbouring pieces): "
+                          "use fewer ranks along " + std::string(1, char('x' + a)) + " or a larger domain.cells");
+  }
+  return dom;
+}
+
 int run_particles_case(const Config& root, const RunOptions& opt) {
   ParticlesCase c = parse_particles(root, opt);
-  if (c.setup.lattice == lbm::LatticeKind::D3Q19)
+  const halo::Comm& comm = halo::Comm::world();
+  const bool ranks = comm.distributed();
+  const bool writer = comm.root();  // rank 0 writes every file
+  dem::DemDomain domain;  // one rank: not cut
+  if (ranks) {
+    // The cut, checked before anything is allocated or written. Contacts
+    // are summed in global-id order, so that the cut does not change them.
+    domain = particles_domain(root, c, comm);
+    c.dem.contact_order = dem::ContactOrder::GlobalId;
+  }
+  if (c.setup.lattice == lbm::LatticeKind::D3Q19 && writer)
     report_expected_drag_error(drag_query(2 * c.particles.r[0], c.setup.tau, c.setup.collision, c.setup.magic,
                                           c.coupling.psm, c.setup.precision),
                                c.max_drag_error, opt);
@@ -721,19 +855,38 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
   const MemoryUse planned = cases::coupled_memory(c.setup, c.coupling, static_cast<double>(c.particles.size()), backend);
   const double cells = static_cast<double>(c.setup.domain.global_cells());
   if (opt.validate_only) {
+    if (!writer) return 0;
     std::printf("%s: device memory (%s, %s, %s pipeline), %.4g cells, %lld particles:\n%s", root.source().c_str(),
                 to_string(backend), lbm::to_string(c.setup.precision),
                 imb::to_string(imb::resolve_pipeline(c.coupling.psm, c.coupling.slots)), cells,
                 static_cast<long long>(c.particles.size()), cases::memory_table(planned, cells).c_str());
     return 0;
   }
+  cases::refuse_distributed(opt.restart, c.checkpoint, ranks);
+  const bool quiet = opt.quiet || !writer;
   // A restart checks its checkpoint against this case before any output is touched.
   ckpt::Run ck(c.outdir, c.checkpoint,
                cases::fluid_identity("particles", c.setup).add("particles", std::to_string(c.particles.size())),
                opt.restart);
-  ck.prepare_output(opt.overwrite);
-  auto fluid = lbm::make_lbm_solver(c.setup, backend);
-  const auto& n = c.setup.domain.local;
+  {
+    std::exception_ptr failed;
+    if (writer) {
+      try {
+        ck.prepare_output(opt.overwrite);
+      } catch (...) {
+        failed = std::current_exception();
+      }
+    }
+    if (comm.any(failed != nullptr)) {
+      if (failed) std::rethrow_exception(failed);
+      throw Error("rank 0 could not prepare the output directory " + c.outdir);
+    }
+  }
+  // The fluid: the whole grid on one rank, this rank's piece (with its halo
+  // exchange) on several.
+  DistributedFluid dfluid(c.setup, backend, c.parallel, comm);
+  lbm::LbmSolver* fluid = &dfluid.local();
+  const auto& n = c.setup.domain.local;  // the whole grid (Grid::whole)
   const auto N = static_cast<std::size_t>(n[0] * n[1] * n[2]);
   // Closed axes carry one layer of half-way bounce-back wall cells on each side
   // (the walls sit at 1 and cells + 1; parse_particles put the DEM walls there).
@@ -747,28 +900,34 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
           if (!c.setup.domain.periodic[static_cast<std::size_t>(a)] && (q[a] == 0 || q[a] == n[a] - 1)) wall = true;
         if (wall) flags[static_cast<std::size_t>(x + n[0] * (y + n[1] * z))] = 1;
       }
-  fluid->initialize(flags, std::vector<double>(N, 1.0), std::vector<double>(3 * N, 0.0));
-  dem::DemSystem dem(Exec(backend), c.dem, c.particles);
+  dfluid.initialize(flags, std::vector<double>(N, 1.0), std::vector<double>(3 * N, 0.0));
+  dem::DemSystem dem(Exec(backend), c.dem, c.particles, domain);
   std::unique_ptr<imb::FractionTable> table;  // outlives cs, which reads it every step
   if (c.coupling.psm.map.method == imb::FractionMethod::Table) {
     table = std::make_unique<imb::FractionTable>(imb::build_fraction_table(c.setup.lattice == lbm::LatticeKind::D2Q9 ? 2 : 3));
     c.coupling.psm.map.table = table.get();
   }
-  imb::CoupledSolver cs(*fluid, dem, c.coupling);
-  if (!opt.quiet)
+  imb::CoupledSolver cs(*fluid, dem, c.coupling, {dfluid.halo(), &comm});
+  if (!quiet && ranks) spdlog::info("parallel: {} ({})", dfluid.describe(), comm.describe());
+  if (!quiet)
     spdlog::info("scene particles: {} particles (d = {} cells, rho_s/rho_f = {}), grid {}x{}x{}, tau = {}, {} DEM "
                  "sub-steps, backend {}, weight balance {}, {} fractions, {} pipeline; output in {}",
-                 dem.size(), 2 * c.particles.r[0], c.density_ratio, n[0], n[1], n[2], c.setup.tau,
+                 c.particles.size(), 2 * c.particles.r[0], c.density_ratio, n[0], n[1], n[2], c.setup.tau,
                  c.coupling.dem_substeps, to_string(backend), c.balance ? "on" : "off",
                  imb::to_string(c.coupling.psm.map.method), imb::to_string(cs.coupling().pipeline()), c.outdir);
-  io::ParticleWriter pw(c.outdir, "particles");
-  io::GridWriter gw(c.outdir, "fields", c.setup.domain);
-  gw.set_float32(c.fields_fp32);
+  std::optional<io::ParticleWriter> pwo;
+  std::optional<io::GridWriter> gwo;
+  if (writer) {
+    pwo.emplace(c.outdir, "particles");
+    gwo.emplace(c.outdir, "fields", c.setup.domain);
+    gwo->set_float32(c.fields_fp32);
+  }
   // Background output (output.background): the writer thread owns every HDF5
   // call from here on; declared after the writers, so it finishes its jobs
-  // before they go.
+  // before they go. On several ranks the snapshots are gathered to rank 0 and
+  // written there in the loop.
   std::optional<io::BackgroundWriter> bg;
-  if (c.async_output) bg.emplace();
+  if (c.async_output && !ranks) bg.emplace();
   struct Snapshot {
     long step = 0;
     dem::HostParticles particles;
@@ -781,6 +940,12 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
   double output_secs = 0, checkpoint_secs = 0;
   long snapshots = 0;
   auto write_output_now = [&](long step) {
+    if (ranks) {
+      write_gathered_output(step, c, dfluid, dem, cs, writer ? &*pwo : nullptr, writer ? &*gwo : nullptr);
+      return;
+    }
+    io::ParticleWriter& pw = *pwo;
+    io::GridWriter& gw = *gwo;
     if (bg) {
       // The previous snapshot is written by now (one host copy of the grid at
       // a time); this one is copied out slab by slab and handed to the thread.
@@ -824,15 +989,18 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
     ++snapshots;
   };
   // A restart keeps the series rows up to its checkpoint and the series' accumulators.
-  cases::ParticleSeries series(c.outdir + "/series.csv", cs, suspension_stats_spec(c), c.units.dt, &ck,
-                               c.series_interval);
+  cases::SuspensionStatsSpec spec = suspension_stats_spec(c);
+  if (ranks) spec.comm = &comm;
+  cases::ParticleSeries series(c.outdir + "/series.csv", cs, spec, c.units.dt, &ck, c.series_interval,
+                               ranks ? std::function<lbm::LbmDiagnostics()>([&dfluid] { return dfluid.diagnostics(); })
+                                     : std::function<lbm::LbmDiagnostics()>());
   series.average_from(c.steps / 2);  // the mean slip of summary.json: the run's second half
   long step = 0;
   if (ck.restarting()) {  // the state of the checkpoint's step; its series and snapshots are kept
     series.restore(cases::load_coupled(ck.reader(), *fluid, dem, cs));
     step = ck.restart_step();
-    pw.resume(step);
-    gw.resume(step);
+    pwo->resume(step);
+    gwo->resume(step);
   }
   const long step0 = step;
   auto checkpoint = [&](bool stopping, bool finished = false) {
@@ -860,18 +1028,29 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
   };
   if (step0 == 0 && c.output_interval > 0) write_output(0);
   if (step0 == 0) series_row(0);
-  Progress prog("particles", c.steps, 5.0, opt.quiet);
+  Progress prog("particles", c.steps, 5.0, quiet);
   using clk = std::chrono::steady_clock;
   const auto t0 = clk::now();
   // One coupled step per advance() call (the same steps as one longer call):
   // a stop signal (core/signals.hpp) ends the run after the step in progress.
-  while (step < c.steps && !stop_requested()) {
+  // On several ranks they agree on stopping every kStopPoll steps (a signal
+  // may reach them at different steps; they must stop at the same one).
+  constexpr long kStopPoll = 64;
+  bool stop = false;
+  auto stopping = [&] { return ranks ? stop : stop_requested(); };
+  while (step < c.steps && !stopping()) {
     long next = std::min(c.steps, (step / c.series_interval + 1) * c.series_interval);
     if (c.output_interval > 0) next = std::min(next, (step / c.output_interval + 1) * c.output_interval);
-    for (; step < next && !stop_requested(); ++step) cs.advance(1);
-    if (step % c.series_interval == 0 || step == c.steps || stop_requested()) series_row(step);
+    if (ranks) {
+      next = std::min(next, step + kStopPoll);
+      for (; step < next; ++step) cs.advance(1);
+      stop = comm.any(stop_requested());
+    } else {
+      for (; step < next && !stop_requested(); ++step) cs.advance(1);
+    }
+    if (step % c.series_interval == 0 || step == c.steps || stopping()) series_row(step);
     if (c.output_interval > 0 && step % c.output_interval == 0) write_output(step);
-    checkpoint(stop_requested());
+    checkpoint(stopping());
     if (prog.due()) {
       fluid->synchronize();
       prog.report(step, double(step) * c.units.dt, double(N) / 1e6, "MLUPS (coupled)");
@@ -888,32 +1067,49 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
     output_secs += std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
   }
   const bool interrupted = step < c.steps;
-  std::string js = particles_summary(c, series, dem.size(), step, step - step0, secs, double(N), backend, interrupted);
+  std::string js = particles_summary(c, series, dem.global_size(), step, step - step0, secs, double(N), backend, interrupted);
   {
-    // Device memory held by the fluid and the coupling (their buffers), by component.
+    // Device memory held by the fluid and the coupling (their buffers), by
+    // component (on several ranks: summed over the ranks, per component).
     MemoryUse held = fluid->memory_use();
     held.add(cs.memory_use());
+    std::vector<double> bytes;
+    for (const auto& it : held.items) bytes.push_back(double(it.bytes));
+    if (ranks) {
+      // Every rank holds the same components (the same pipeline); a missing one counts 0.
+      const std::vector<std::string> names = memory_component_names(held, comm);
+      bytes.assign(names.size(), 0.0);
+      for (const auto& it : held.items)
+        for (std::size_t k = 0; k < names.size(); ++k)
+          if (names[k] == it.name) bytes[k] = double(it.bytes);
+      comm.sum(bytes);
+      held = MemoryUse{};
+      for (std::size_t k = 0; k < names.size(); ++k) held.add(names[k], static_cast<std::size_t>(bytes[k]));
+    }
     std::ostringstream mj;
     mj << ",\n  \"memory_bytes\": {";
     for (std::size_t i = 0; i < held.items.size(); ++i)
       mj << (i ? ", " : "") << "\"" << held.items[i].name << "\": " << held.items[i].bytes;
     mj << "},\n  \"memory_bytes_per_cell\": " << double(held.total()) / double(N)
-       << ",\n  \"dem_rebuilds\": " << dem.stats().rebuilds
+       << ",\n  \"dem_rebuilds\": " << dem.stats().rebuilds << ",\n  \"ranks\": " << comm.size()
        << ",\n  \"output\": {\"snapshots\": " << snapshots << ", \"seconds\": " << output_secs
        << ", \"background\": " << (bg ? "true" : "false") << ", \"stepping_seconds\": " << secs
        << ", \"fraction_of_stepping\": " << output_secs / std::max(secs, 1e-12)
        << ", \"checkpoints\": " << ck.checkpoints_written() << ", \"checkpoint_seconds\": " << checkpoint_secs
        << ", \"note\": \"wall time in snapshot output (device copies and, unless background, the HDF5 writes) and "
-          "in checkpoint writes; stepping_seconds includes the snapshots and checkpoints taken inside the loop\"}\n}\n";
+          "in checkpoint writes; stepping_seconds includes the snapshots and checkpoints taken inside the loop\"}";
+    if (ranks) mj << ",\n  \"decomposition\": \"" << dfluid.decomposition().describe() << "\"";
+    mj << "\n}\n";
     js = js.substr(0, js.rfind("\n}")) + mj.str();
   }
-  io::write_text_atomically(c.outdir + "/summary.json", js);
+  if (writer) io::write_text_atomically(c.outdir + "/summary.json", js);
   if (interrupted) {
-    spdlog::warn("stopped by {} at step {} of {}; output up to that step is in {}", stop_signal_name(), step, c.steps,
+    if (writer)
+      spdlog::warn("stopped by {} at step {} of {}; output up to that step is in {}", stop_signal_name(), step, c.steps,
                  c.outdir);
     return kExitInterrupted;
   }
-  if (!opt.quiet) {
+  if (!quiet) {
     spdlog::info("done: {} coupled steps in {:.1f} s ({:.1f} MLUPS coupled); statistics {:.2f}% of it; results: "
                  "{}/fields.xdmf, {}/particles.xdmf (ParaView), {}/series.csv (lattice units; summary.json "
                  "gives dx, dt, dm)",

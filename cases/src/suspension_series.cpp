@@ -4,6 +4,7 @@
 
 #include "cases/suspension.hpp"
 #include "checkpoint_case.hpp"
+#include "halo/comm.hpp"
 #include "imb/coupled.hpp"
 
 namespace lbdem::cases {
@@ -23,14 +24,16 @@ std::vector<std::string> series_columns(const SuspensionStatistics& s, bool trac
 }  // namespace
 
 ParticleSeries::ParticleSeries(const std::string& path, imb::CoupledSolver& cs, const SuspensionStatsSpec& spec,
-                               double dt, const ckpt::Run* run, long interval)
+                               double dt, const ckpt::Run* run, long interval,
+                               std::function<lbm::LbmDiagnostics()> diagnostics)
     : cs_(cs),
+      diagnostics_(std::move(diagnostics)),
       stats_(Exec(cs.dem().backend()), spec),
-      columns_(series_columns(stats_, cs.dem().size() <= kTrackedMax)),
+      columns_(series_columns(stats_, cs.dem().global_size() <= kTrackedMax)),
       kept_(run ? run->kept_rows(path, columns_, interval) : std::vector<std::vector<double>>{}),
-      out_(path, columns_),
+      out_(spec.comm && !spec.comm->root() ? io::TimeSeries() : io::TimeSeries(path, columns_)),
       dt_(dt),
-      track_(cs.dem().size() <= kTrackedMax) {
+      track_(cs.dem().global_size() <= kTrackedMax) {
   for (const auto& row : kept_) out_.append(row);
   const auto& g = spec.gravity;
   const double gn = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
@@ -63,7 +66,7 @@ void ParticleSeries::average_from(long step) {
 lbm::LbmDiagnostics ParticleSeries::append(long step) {
   using clk = std::chrono::steady_clock;
   const auto t0 = clk::now();
-  const lbm::LbmDiagnostics d = cs_.fluid().diagnostics();
+  const lbm::LbmDiagnostics d = diagnostics_ ? diagnostics_() : cs_.fluid().diagnostics();
   if (!have_d0_) {
     d0_ = d;
     have_d0_ = true;
@@ -78,14 +81,34 @@ lbm::LbmDiagnostics ParticleSeries::append(long step) {
     const auto hf = cs_.hydro_force_host();
     const auto ht = cs_.hydro_torque_host();
     std::size_t i0 = 0;
+    bool mine = false;
     for (std::size_t i = 0; i < hp.id.size(); ++i)
-      if (hp.id[i] == 0) i0 = i;
-    for (const Vec3d* v : {&hp.x[i0], &hp.v[i0], &hp.w[i0]})
-      for (int k = 0; k < 3; ++k) row.push_back((*v)[k]);
-    for (const auto* h : {&hf, &ht})
-      for (std::size_t k = 0; k < 3; ++k) row.push_back((*h)[3 * i0 + k]);
+      if (hp.id[i] == 0) {
+        i0 = i;
+        mine = true;
+      }
+    const halo::Comm* comm = stats_.spec().comm;
+    if (comm && comm->distributed()) {
+      // The owner of particle 0 fills its values, the other ranks zeros: the
+      // sum over ranks hands every rank the owner's values unchanged.
+      std::vector<double> t(15, 0.0);
+      if (mine) {
+        std::size_t k = 0;
+        for (const Vec3d* v : {&hp.x[i0], &hp.v[i0], &hp.w[i0]})
+          for (int a = 0; a < 3; ++a) t[k++] = (*v)[a];
+        for (const auto* h : {&hf, &ht})
+          for (std::size_t a = 0; a < 3; ++a) t[k++] = (*h)[3 * i0 + a];
+      }
+      comm->sum(t);
+      row.insert(row.end(), t.begin(), t.end());
+    } else {
+      for (const Vec3d* v : {&hp.x[i0], &hp.v[i0], &hp.w[i0]})
+        for (int k = 0; k < 3; ++k) row.push_back((*v)[k]);
+      for (const auto* h : {&hf, &ht})
+        for (std::size_t k = 0; k < 3; ++k) row.push_back((*h)[3 * i0 + k]);
+    }
   }
-  out_.append(row);
+  if (out_.is_open()) out_.append(row);
   if (step >= average_from_) {
     slip_sum_ += last_.slip[0] * along_[0] + last_.slip[1] * along_[1] + last_.slip[2] * along_[2];
     drag_sum_ += last_.drag_over_weight;

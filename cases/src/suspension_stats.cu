@@ -10,6 +10,7 @@
 #include "core/algorithms.hpp"
 #include "core/buffer.hpp"
 #include "core/hd.hpp"
+#include "halo/comm.hpp"
 
 namespace lbdem::cases {
 
@@ -198,6 +199,19 @@ SuspensionSample SuspensionStatistics::sample(dem::DemSystem& dem, const lbm::Lb
       for (int k = 0; k < 3; ++k) t.buoy[k] = spec_.fluid_density * spec_.gravity[static_cast<std::size_t>(k)];
     ps = transform_reduce(m.ex, v.n, ParticleSums{}, SumOp{}, t, m.scratch);
   }
+  const bool ranks = spec_.comm && spec_.comm->distributed();
+  if (ranks) {
+    // Every rank sums its own particles; the sums over ranks in rank order.
+    std::vector<double> a{ps.n, ps.vol, ps.net_mass};
+    for (const double* q : {ps.v, ps.vv, ps.drag, ps.vol_v, ps.mom}) a.insert(a.end(), q, q + 3);
+    spec_.comm->sum(a);
+    ps.n = a[0];
+    ps.vol = a[1];
+    ps.net_mass = a[2];
+    std::size_t k = 3;
+    for (double* q : {ps.v, ps.vv, ps.drag, ps.vol_v, ps.mom})
+      for (int c = 0; c < 3; ++c) q[c] = a[k++];
+  }
   const double n = ps.n > 0 ? ps.n : 1;
   s.fluid_volume = m.box_volume - ps.vol;
   for (int k = 0; k < 3; ++k) {
@@ -227,6 +241,17 @@ SuspensionSample SuspensionStatistics::sample(dem::DemSystem& dem, const lbm::Lb
   const Index nbins = m.bins.size();
   for_each(m.ex, nbins, ZeroBins{m.bins.data()});
   if (v.n > 0) for_each(m.ex, v.n, BinParticles{v, dim, b, m.bins.data()});
+  if (ranks) {
+    // The bins hold whole quanta: their sum over ranks is exact in doubles
+    // (below 2^53), and the moments below see the one-rank bins.
+    m.ex.synchronize();
+    std::vector<unsigned long long> h(static_cast<std::size_t>(nbins));
+    m.bins.copy_to_host(h.data(), nbins);
+    std::vector<double> hd(h.begin(), h.end());
+    spec_.comm->sum(hd);
+    for (std::size_t i = 0; i < h.size(); ++i) h[i] = static_cast<unsigned long long>(hd[i]);
+    m.bins.copy_from_host(h.data(), nbins);
+  }
   const double mean_vol = ps.n > 0 ? ps.vol / ps.n : 0;
   for (int w = 0; w < b.widths; ++w) {
     const long cells = b.n[w][0] * b.n[w][1] * b.n[w][2];

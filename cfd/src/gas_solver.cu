@@ -488,6 +488,8 @@ GasSolver::GasSolver(const Exec& ex, const GasGridView& g, const GasParams& p)
   }
   eps_ = Buffer<double>(b, nc);
   eps_old_ = Buffer<double>(b, nc);
+  eps_.fill_zero();  // set by initialise(); zeroed so that no copy reads unset bytes before it
+  eps_old_.fill_zero();
   pres_ = Buffer<double>(b, nc);
   pres_.fill_zero();
   B_ = Buffer<double>(b, nc);

@@ -45,9 +45,38 @@ struct GhostUnpack {
   }
 };
 
+// A ghost's coupling input (force, torque) into the return buffer.
+struct CouplingPack {
+  const int* idx;
+  const Real4 *extf, *extt;
+  Real4* buf;
+  LBDEM_HD void operator()(Index k) const {
+    const int i = idx[k];
+    buf[2 * k] = extf[i];
+    buf[2 * k + 1] = extt[i];
+  }
+};
+
+// One peer's shares added to the owned particles' coupling input.
+struct CouplingAdd {
+  const int* idx;
+  Real4 *extf, *extt;
+  const Real4* buf;
+  LBDEM_HD void operator()(Index k) const {
+    const int i = idx[k];
+    const Real4 f = buf[2 * k], t = buf[2 * k + 1];
+    extf[i].x += f.x;
+    extf[i].y += f.y;
+    extf[i].z += f.z;
+    extt[i].x += t.x;
+    extt[i].y += t.y;
+    extt[i].z += t.z;
+  }
+};
+
 namespace {
 
-constexpr int kTagMigrate = 1, kTagGhost = 2, kTagRefresh = 3;
+constexpr int kTagMigrate = 1, kTagGhost = 2, kTagRefresh = 3, kTagCoupling = 4;
 
 // A migrating particle: every per-particle array, then (variable part) its
 // wall histories and its list row as (partner global id, tangential history).
@@ -91,7 +120,7 @@ struct Rows {
 
 }  // namespace
 
-void DomainExchange::init(const DemDomain& d, const Box& b, double w, const Exec& e) {
+void DomainExchange::init(const DemDomain& d, const Box& b, double w, const Exec& e, bool coupling) {
   dom = d;
   box = b;
   width = w;
@@ -143,6 +172,7 @@ void DomainExchange::init(const DemDomain& d, const Box& b, double w, const Exec
   sent.assign(peers.size(), {});
   received.assign(peers.size(), {});
   transport = halo::make_transport(dom.transport, *dom.comm, ex.backend());
+  if (coupling) back = halo::make_transport(dom.transport, *dom.comm, ex.backend());
 }
 
 HostParticles DomainExchange::select_owned(const HostParticles& hp) const {
@@ -434,6 +464,52 @@ void DomainExchange::bind_refresh(DemSystem::Impl& m) {
   }
   messages = !msgs.empty();
   transport->bind(std::move(msgs));
+  this->soff = soff;
+  this->roff = roff;
+  if (!back) return;
+  // The coupling return: the refresh messages reversed (ghost shares to their owners).
+  fit(back_send, nrecv * 2);
+  fit(back_recv, nsend * 2);
+  std::vector<halo::Message> bm;
+  for (std::size_t k = 0; k < peers.size(); ++k) {
+    const std::size_t ns = soff[k + 1] - soff[k], nr = roff[k + 1] - roff[k];
+    if (ns == 0 && nr == 0) continue;
+    halo::Message msg;
+    msg.peer = peers[k];
+    msg.tag = kTagCoupling;
+    msg.send = back_send.data() + roff[k] * 2;
+    msg.send_bytes = nr * 2 * sizeof(Real4);
+    msg.recv_tag = kTagCoupling;
+    msg.recv = back_recv.data() + soff[k] * 2;
+    msg.recv_bytes = ns * 2 * sizeof(Real4);
+    bm.push_back(msg);
+  }
+  back->bind(std::move(bm));
+}
+
+void DomainExchange::sync_state(DemSystem::Impl& m) {
+  if (!messages) return;
+  ParticleStore& st = m.store;
+  launch(ex, nsend, GhostPack{send_idx.data(), st.pos.data(), st.vel.data(), st.omg.data(), send_buf.data(), per});
+  transport->start(ex);
+  transport->finish(ex);
+  launch(ex, nrecv, GhostUnpack{recv_idx.data(), st.pos.data(), st.vel.data(), st.omg.data(), recv_buf.data(), per});
+}
+
+void DomainExchange::return_coupling(DemSystem::Impl& m) {
+  if (!back) throw Error("DemSystem: the coupling return needs a system created with external forcing");
+  if (!messages) return;
+  ParticleStore& st = m.store;
+  launch(ex, nrecv, CouplingPack{recv_idx.data(), st.extf.data(), st.extt.data(), back_send.data()});
+  back->start(ex);
+  back->finish(ex);
+  // Peer by peer, ascending: a particle shared with several peers sums in that order.
+  for (std::size_t k = 0; k + 1 < soff.size(); ++k) {
+    const auto n = static_cast<Index>(soff[k + 1] - soff[k]);
+    if (n == 0) continue;
+    launch(ex, n,
+           CouplingAdd{send_idx.data() + soff[k], st.extf.data(), st.extt.data(), back_recv.data() + 2 * soff[k]});
+  }
 }
 
 void DomainExchange::refresh(DemSystem::Impl& m) {

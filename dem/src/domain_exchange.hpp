@@ -24,7 +24,9 @@ class DomainExchange {
   // thinner piece would need ghosts from beyond its neighbours) and finds
   // the neighbour ranks (the pieces around this one, across periodic faces
   // too; each rank once).
-  void init(const DemDomain& d, const Box& box, double width, const Exec& ex);
+  // `coupling`: the store carries a coupling input (external force and
+  // torque), whose ghost shares return_coupling() sends to the owners.
+  void init(const DemDomain& d, const Box& box, double width, const Exec& ex, bool coupling = false);
   // The particles of a whole set whose centre (wrapped into the box) lies in
   // this rank's piece.
   HostParticles select_owned(const HostParticles& hp) const;
@@ -41,6 +43,14 @@ class DomainExchange {
   // Positions and predicted velocities (and angular velocities) of the owned
   // particles to their ghost copies (pack kernel, transport, unpack kernel).
   void refresh(DemSystem::Impl& m);
+  // Current positions, velocities and angular velocities of the owned
+  // particles to their ghost copies (the synchronised state a coupling reads
+  // between advance() calls; refresh() carries predicted velocities).
+  void sync_state(DemSystem::Impl& m);
+  // The coupling input a rank accumulated on its ghosts back to the owners,
+  // each owner adding the shares to its own value peer by peer in ascending
+  // peer rank (a fixed order for a given decomposition).
+  void return_coupling(DemSystem::Impl& m);
 
   DemDomain dom;
   long migrations[3] = {0, 0, 0};  // sent across a face, an edge, a corner (DemStats)
@@ -63,6 +73,11 @@ class DomainExchange {
   int per = 2;  // Real4 per refresh record: position, predicted velocity (+ angular velocity)
   std::unique_ptr<halo::Transport> transport;
   bool messages = false;
+  // Coupling return (the refresh messages reversed): per peer, the records
+  // [soff[k], soff[k + 1]) of send_idx and [roff[k], roff[k + 1]) of recv_idx.
+  std::vector<std::size_t> soff, roff;
+  Buffer<Real4> back_send, back_recv;  // force, torque per ghost / per owned record
+  std::unique_ptr<halo::Transport> back;
 };
 
 }  // namespace lbdem::dem

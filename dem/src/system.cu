@@ -123,7 +123,7 @@ DemSystem::DemSystem(Exec ex, DemParams params, const HostParticles& hp, const D
   if (decomposed) {
     m.comm = domain.comm;
     m.domain = std::make_unique<DomainExchange>();
-    m.domain->init(domain, m.box, m.lists.cutoff, ex);
+    m.domain->init(domain, m.box, m.lists.cutoff, ex, p.external_forcing);
     m.store.upload(be, m.domain->select_owned(hp), m.box, layout);
   } else {
     m.store.upload(be, hp, m.box, layout);
@@ -233,6 +233,16 @@ void DemSystem::advance(long steps) {
     m.old_valid = true;
   }
   close();
+}
+
+void DemSystem::sync_ghosts() {
+  Impl& m = *impl_;
+  if (m.decomposed()) m.domain->sync_state(m);
+}
+
+void DemSystem::return_ghost_coupling() {
+  Impl& m = *impl_;
+  if (m.decomposed()) m.domain->return_coupling(m);
 }
 
 void DemSystem::bench_integrate() {

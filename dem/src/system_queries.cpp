@@ -35,6 +35,12 @@ DemStats DemSystem::stats() const {
 
 ParticleView DemSystem::view() { return impl_->store.view(); }
 
+ParticleView DemSystem::held_view() {
+  ParticleView v = impl_->store.view();
+  v.n = impl_->store.size();
+  return v;
+}
+
 HostParticles DemSystem::download() const {
   impl_->ex.synchronize();
   impl_->sched.check_arrived();

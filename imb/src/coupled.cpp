@@ -28,14 +28,15 @@ std::array<double, 3> balancing_body_force(const dem::HostParticles& p, int dim,
   return {-net_mass * g[0] / total_volume, -net_mass * g[1] / total_volume, -net_mass * g[2] / total_volume};
 }
 
-CoupledSolver::CoupledSolver(lbm::LbmSolver& fluid, dem::DemSystem& dem, const CoupledParams& params)
-    : fluid_(fluid), dem_(dem), p_(params), loop_(dem, *this, params.dem_substeps) {
+CoupledSolver::CoupledSolver(lbm::LbmSolver& fluid, dem::DemSystem& dem, const CoupledParams& params,
+                             CoupledRanks ranks)
+    : fluid_(fluid), dem_(dem), p_(params), ranks_(ranks), loop_(dem, *this, params.dem_substeps) {
   if (p_.dem_substeps < 1)
     throw ConfigError("coupling.dem_substeps = " + std::to_string(p_.dem_substeps) + ": must be >= 1");
   if (dem_.backend() != fluid_.backend())
     throw ConfigError(std::string("coupling: the DEM runs on ") + to_string(dem_.backend()) + " but the fluid on " +
                       to_string(fluid_.backend()) + "; both must use the same backend");
-  if (!dem_.view().ext_force)
+  if (!dem_.params().external_forcing)
     throw ConfigError("coupling: the DEM system was created without external forcing (DemParams.external_forcing)");
   dim_ = fluid_.setup().lattice == lbm::LatticeKind::D2Q9 ? 2 : 3;
   psm_ = std::make_unique<PsmCoupling>(fluid_, p_.slots);
@@ -43,6 +44,7 @@ CoupledSolver::CoupledSolver(lbm::LbmSolver& fluid, dem::DemSystem& dem, const C
   // A body force on the fluid here is the balancing mean pressure gradient
   // (balancing_body_force): the particles take it on their share of each cell.
   p_.psm.body_force_on_solid = true;
+  if (!ranks_.distributed()) ranks_ = CoupledRanks{};
   map();
   check_overflow();
 }
@@ -51,7 +53,7 @@ CoupledSolver::~CoupledSolver() = default;
 
 PsmParticles CoupledSolver::particle_view() {
   // The DEM's records are Real4 (x, y, z, w): read them in place with stride 4.
-  const dem::ParticleView v = dem_.view();
+  const dem::ParticleView v = ranks_.halo ? dem_.held_view() : dem_.view();
   PsmParticles p;
   p.x = &v.pos_r->x;
   p.y = &v.pos_r->y;
@@ -69,18 +71,32 @@ PsmParticles CoupledSolver::particle_view() {
   return p;
 }
 
-void CoupledSolver::map() { psm_->map(particle_view(), p_.psm, false); }
+void CoupledSolver::map() {
+  // The ghosts take their owners' current velocities first (the solid
+  // velocity of their cells here); a no-op on one rank.
+  if (ranks_.halo) dem_.sync_ghosts();
+  psm_->map(particle_view(), p_.psm, false);
+}
 
 // The fluid side of the coupled step (the step itself: dem/coupled_loop.hpp).
 // 1. Fluid step with the solid term; hydrodynamic force + buoyancy -> DEM coupling input.
 void CoupledSolver::fluid_step(const dem::ParticleView& v) {
   ForceOut out;
-  out.force = &v.ext_force->x;
-  out.torque = &v.ext_torque->x;
+  // (A rank of a decomposed run may hold no particle: no arrays then.)
+  out.force = v.ext_force ? &v.ext_force->x : nullptr;
+  out.torque = v.ext_torque ? &v.ext_torque->x : nullptr;
   out.fstride = out.tstride = 4;
   if (p_.buoyancy)
     for (int a = 0; a < 3; ++a) out.per_volume[static_cast<std::size_t>(a)] = -p_.fluid_density * p_.gravity[static_cast<std::size_t>(a)];
-  psm_->step(particle_view(), p_.psm, out);  // no particles: the plain LBM kernel
+  if (!ranks_.halo) {
+    psm_->step(particle_view(), p_.psm, out);  // no particles: the plain LBM kernel
+    return;
+  }
+  // This rank's share of every particle it holds (owned first, then ghosts,
+  // which share the arrays behind them); the buoyancy on the owned only.
+  out.per_volume_count = v.n;
+  psm_->step(particle_view(), p_.psm, out, *ranks_.halo);
+  dem_.return_ghost_coupling();
 }
 
 // 3. Remap the particles (possibly reordered by a neighbour-list rebuild) to cells.
@@ -104,7 +120,13 @@ void CoupledSolver::advance(long n) {
 
 void CoupledSolver::check_overflow() {
   const OverflowReport r = psm_->overflow();
-  if (!r.overflow && !r.radius_too_large) return;
+  const bool mine = r.overflow || r.radius_too_large;
+  if (ranks_.comm && ranks_.comm->any(mine) && !mine) {
+    psm_->clear_overflow();
+    throw ResourceError("PSM cell slots overflowed at coupled step " + std::to_string(loop_.steps()) +
+                        " on another rank (its message names the cell and the particles)");
+  }
+  if (!mine) return;
   // Name particles by global id (storage indices change at DEM rebuilds).
   const dem::HostParticles hp = dem_.download();
   std::ostringstream m;

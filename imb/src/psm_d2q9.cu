@@ -15,7 +15,7 @@ void psm_gather(const Exec& ex, const CellSlotsView& slots, const SlotForceView&
                 const PsmParticles& p, int dim, const ForceOut& out) {
   GatherPairs k{p, slots, sf, pairs, dim,
                 ForceWriter{p, dim, out.force, out.torque, out.fstride, out.tstride,
-                            {out.per_volume[0], out.per_volume[1], out.per_volume[2]}}};
+                            {out.per_volume[0], out.per_volume[1], out.per_volume[2]}, out.per_volume_count}};
   for_each(ex, 32 * p.n, k);  // one warp per particle (block size a multiple of 32)
 }
 

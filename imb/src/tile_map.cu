@@ -246,7 +246,7 @@ void TileMap::finish(const Exec& ex, const SphereView& p, const ForceOut& out) c
                       std::to_string(built_particles_));
   TileFinish k{partial_.data(), max_tiles_,
                ForceWriter{p, grid_.dim(), out.force, out.torque, out.fstride, out.tstride,
-                           {out.per_volume[0], out.per_volume[1], out.per_volume[2]}}};
+                           {out.per_volume[0], out.per_volume[1], out.per_volume[2]}, out.per_volume_count}};
   for_each(ex, 32 * p.n, k);
 }
 

@@ -157,26 +157,6 @@ TEST(MpiRunsRefused, DecompositionThatCannotWork) {
 
 namespace lbdem::test {
 namespace {
-TEST(MpiRunsRefused, ParticlesSceneAsksForOneRank) {
-  if (std::string(LBDEM_MPIEXEC).empty()) GTEST_SKIP() << "built without an MPI launcher";
-  const std::string out = (std::filesystem::temp_directory_path() / "lbdem_mpi_particles").string();
-  std::filesystem::remove_all(out);
-  const std::string cmd = std::string("env OMP_NUM_THREADS=1 ") + LBDEM_MPIEXEC + " 2 " + LBDEM_EXE + " run " +
-                          LBDEM_SOURCE_DIR + "/cases/suspension.yaml --backend cpu --output " + out + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
-  std::string text;
-  char buf[4096];
-  while (std::size_t n = fread(buf, 1, sizeof buf, p)) text.append(buf, n);
-  const int st = pclose(p);
-  EXPECT_EQ(WIFEXITED(st) ? WEXITSTATUS(st) : -1, 2) << text;
-  EXPECT_NE(text.find("runs on one rank"), std::string::npos) << text;
-  EXPECT_FALSE(std::filesystem::exists(out));
-}
-}  // namespace
-}  // namespace lbdem::test
-
-namespace lbdem::test {
-namespace {
 // The fixed-sphere array on 2 and 4 ranks (the sphere across the cuts; forces
 // and mean velocity summed over ranks): the drag coefficient of the one-rank
 // run to round-off (the sums over cells are grouped by rank).

@@ -38,6 +38,10 @@ class DistributedFluid {
   lbm::LbmDiagnostics diagnostics();
   // Whole-grid fields on rank 0 (empty on the others).
   void macroscopic(std::vector<double>& rho, std::vector<double>& u);
+  // A field of `comps` values per cell given by each rank for its owned cells
+  // (owned box x-fastest, components innermost), as the whole grid's on rank
+  // 0 (cells nobody owns: 0; empty on the other ranks). Collective.
+  std::vector<double> gather_owned(const std::vector<double>& mine, int comps);
   void synchronize() { solver_->synchronize(); }
   std::size_t memory_bytes() const;  // all ranks
   lbm::LbmSolver& local() { return *solver_; }
@@ -45,6 +49,7 @@ class DistributedFluid {
   const halo::Comm& comm() const { return comm_; }
   bool distributed() const { return comm_.distributed(); }
   const lbm::FluidHalo* halo() const { return halo_.get(); }
+  lbm::FluidHalo* halo() { return halo_.get(); }
   std::string describe() const;  // "2 x 1 x 1 ranks, host_mpi" / "1 rank"
 
  private:

@@ -7,6 +7,7 @@
 // time step 1, fluid density 1).
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -20,6 +21,9 @@
 
 namespace lbdem::imb {
 class CoupledSolver;
+}
+namespace lbdem::halo {
+class Comm;
 }
 
 namespace lbdem::cases {
@@ -73,6 +77,10 @@ struct SuspensionStatsSpec {
   bool buoyancy = true;            // ext_force holds the buoyancy -rho_f V_p g (imb/coupled.hpp)
   double diameter = 1;             // particle diameter (the filter widths are multiples of it)
   std::vector<double> filter_widths{2, 4, 8};  // in particle diameters
+  // A run on several ranks (each holding its own particles): the sums of a
+  // sample are over all of them, every rank gets them (collective), and only
+  // rank 0 writes series.csv. Null: one rank.
+  const halo::Comm* comm = nullptr;
 };
 
 // One sample. Velocities in cells per step, forces in lattice units.
@@ -129,8 +137,11 @@ class ParticleSeries {
   static constexpr long kTrackedMax = 16;
   // With `run` restarting, the rows up to its checkpoint are kept (a series
   // of `interval` steps) and the file goes on from there.
+  // `diagnostics`: the fluid's diagnostics over all ranks (a run on several
+  // ranks; default: cs.fluid().diagnostics()).
   ParticleSeries(const std::string& path, imb::CoupledSolver& cs, const SuspensionStatsSpec& spec, double dt,
-                 const ckpt::Run* run = nullptr, long interval = 1);
+                 const ckpt::Run* run = nullptr, long interval = 1,
+                 std::function<lbm::LbmDiagnostics()> diagnostics = {});
   // What a checkpoint keeps of the series: the reference mass (the averages
   // are taken again from the rows a restart keeps); restore() takes it back.
   std::vector<double> state() const { return {d0_.mass}; }
@@ -149,6 +160,7 @@ class ParticleSeries {
 
  private:
   imb::CoupledSolver& cs_;
+  std::function<lbm::LbmDiagnostics()> diagnostics_;
   SuspensionStatistics stats_;
   std::vector<std::string> columns_;
   std::vector<std::vector<double>> kept_;  // rows a restart kept, until average_from() has taken them

@@ -131,6 +131,20 @@ class DemSystem {
   // Coupling view. Write only the external force/torque through it: the
   // rebuild decisions assume positions and velocities change only in advance().
   ParticleView view();
+  // The same with the ghost copies a decomposed run holds behind the owned
+  // particles (n = owned + ghosts; owned first): what a coupling that maps
+  // particles onto this rank's cells needs. On one rank: view().
+  ParticleView held_view();
+  // Decomposed run (no-ops on one rank), collective. sync_ghosts(): the
+  // ghosts take their owners' current positions, velocities and angular
+  // velocities (between advance() calls the ghosts hold predicted
+  // velocities). return_ghost_coupling(): each ghost's external force and
+  // torque (a coupling's share from this rank's cells) is added to its
+  // owner's, the shares of several ranks in ascending rank order after the
+  // owner's own; the ghosts' values are left as they were. Needs external
+  // forcing (DemParams::external_forcing).
+  void sync_ghosts();
+  void return_ghost_coupling();
   // Particles in the current storage order, with their last forces. Waits for
   // the device; throws DivergenceError if a report that arrived meanwhile
   // shows a stale list (once; advance() keeps refusing).

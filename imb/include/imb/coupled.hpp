@@ -26,6 +26,23 @@
 // together receive the body force F on every cell, F V in all, whatever the
 // solid fractions are, and F = -W / V balances the net weight W exactly.
 //
+// On several ranks (CoupledRanks) the fluid is this rank's piece of the grid,
+// stepped with its halo exchange overlapped (PsmCoupling::step with a
+// lbm::FluidHalo), and the DEM a decomposed DemSystem (dem/README.md, "Many
+// ranks"): a particle belongs to the rank holding its centre, and the ghost
+// copies the DEM keeps within 2 r_max + skin of each piece cover every cell
+// a particle's solid fraction can reach on a neighbouring piece, ghost layer
+// included (the scene checks r + skin / 2 against that reach). Each rank maps
+// its owned particles and its ghosts (DemSystem::held_view()) onto its cells,
+// after DemSystem::sync_ghosts() has given the ghosts their owners' current
+// velocities; its gather leaves each particle its share from the cells this
+// rank owns, and DemSystem::return_ghost_coupling() adds the ghosts' shares
+// to the owners' in a fixed order (the owner's share, then the other ranks'
+// in ascending rank). The buoyancy is added to the owner's share only. The
+// sum over ranks is grouped differently from the one-rank gather (imb/psm.hpp,
+// "Force gather of the mapped pipeline"), so forces agree with one rank to
+// round-off, not bitwise. The overflow check is collective.
+//
 // Nothing is allocated and nothing is copied to the host per step, except the
 // overflow check of the cell slots every `overflow_check_every` steps (a few
 // bytes; overflows accumulate in between, none is lost) and whatever the DEM
@@ -37,6 +54,7 @@
 #include "dem/coupled_loop.hpp"
 #include "dem/particles.hpp"
 #include "dem/system.hpp"
+#include "halo/comm.hpp"
 #include "imb/psm_coupling.hpp"
 #include "lbm/solver.hpp"
 
@@ -63,9 +81,20 @@ struct CoupledParams {
 std::array<double, 3> balancing_body_force(const dem::HostParticles& p, int dim, const std::array<double, 3>& g,
                                            double fluid_density, double total_volume);
 
+// A coupled run cut over ranks: the fluid piece's halo exchange (bound to the
+// solver passed to CoupledSolver) and the ranks. Both null: one rank.
+struct CoupledRanks {
+  lbm::FluidHalo* halo = nullptr;
+  const halo::Comm* comm = nullptr;
+  bool distributed() const { return halo != nullptr && comm != nullptr && comm->size() > 1; }
+};
+
 class CoupledSolver : private dem::FluidCoupling {
  public:
-  CoupledSolver(lbm::LbmSolver& fluid, dem::DemSystem& dem, const CoupledParams& params);
+  // On several ranks `fluid` is this rank's piece, `dem` a decomposed system
+  // over the same cut (dem::domain_from_decomposition) and every call below
+  // marked collective is made by every rank.
+  CoupledSolver(lbm::LbmSolver& fluid, dem::DemSystem& dem, const CoupledParams& params, CoupledRanks ranks = {});
   ~CoupledSolver();
 
   void step() { loop_.step(); }  // one coupled step (see the header comment)
@@ -73,8 +102,8 @@ class CoupledSolver : private dem::FluidCoupling {
   long steps() const { return loop_.steps(); }
 
   // Hydrodynamic force and torque of the last fluid step (buoyancy and the
-  // body force's share included), per particle in the DEM's current storage
-  // order (host copies; not for the time loop).
+  // body force's share included), per owned particle in the DEM's current
+  // storage order (host copies; not for the time loop).
   std::vector<double> hydro_force_host() const;   // 3 per particle
   std::vector<double> hydro_torque_host() const;  // 3 per particle
   // Total solid fraction per cell at the current positions (host copy, output).
@@ -90,7 +119,8 @@ class CoupledSolver : private dem::FluidCoupling {
   // diagnostics (in the fused pipeline it allocates slots for the whole grid).
   const CellSlots& output_slots();
   // Throws ResourceError naming the cell and the particles' global ids if any
-  // map since the last check overflowed its K slots. Synchronous.
+  // map since the last check overflowed its K slots. Synchronous; collective
+  // (every rank throws when one overflowed, the one that did naming it).
   void check_overflow();
 
   lbm::LbmSolver& fluid() { return fluid_; }
@@ -98,8 +128,10 @@ class CoupledSolver : private dem::FluidCoupling {
   PsmCoupling& coupling() { return *psm_; }
   const CoupledParams& params() const { return p_; }
 
-  // The DEM's particles as the PSM sees them (lattice units, current storage order).
+  // The DEM's particles as the PSM sees them (lattice units, current storage
+  // order; on several ranks the owned particles, then the ghosts).
   PsmParticles particle_view();
+  const CoupledRanks& ranks() const { return ranks_; }
 
   // Checkpoint state (core/checkpoint.hpp): the coupled step count. The fluid
   // and the DEM save their own state (LbmSolver / DemSystem::save_state); the
@@ -120,6 +152,7 @@ class CoupledSolver : private dem::FluidCoupling {
   lbm::LbmSolver& fluid_;
   dem::DemSystem& dem_;
   CoupledParams p_;
+  CoupledRanks ranks_;
   std::unique_ptr<PsmCoupling> psm_;
   int dim_;
   dem::CoupledLoop loop_;

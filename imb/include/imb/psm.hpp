@@ -385,7 +385,8 @@ struct PsmStepKernel : PsmLatticeFields<T> {
 };
 
 // Writes one particle's gathered force (plus its buoyancy: per_volume times
-// the volume) and torque: the common end of both force gathers.
+// the volume, for the particles below per_volume_n, all when it is < 0) and
+// torque: the common end of both force gathers.
 struct ForceWriter {
   PsmParticles p;
   int dim;
@@ -393,9 +394,12 @@ struct ForceWriter {
   double* torque;
   int fstride, tstride;
   double per_volume[3];
+  Index per_volume_n = -1;
   LBDEM_HD void operator()(Index i, const double (&acc)[6]) const {
     const double rp = p.r[i * p.stride];
-    const double vol = dim == 3 ? 4.18879020478639098 * rp * rp * rp : 3.14159265358979324 * rp * rp;
+    const double vol = per_volume_n >= 0 && i >= per_volume_n ? 0.0
+                       : dim == 3 ? 4.18879020478639098 * rp * rp * rp
+                                  : 3.14159265358979324 * rp * rp;
     for (int a = 0; a < 3; ++a) {
       force[i * fstride + a] = acc[a] + vol * per_volume[a];
       torque[i * tstride + a] = acc[3 + a];

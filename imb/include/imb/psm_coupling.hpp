@@ -24,7 +24,12 @@ struct ForceOut {
   // Added to every particle's force times its volume (4/3 pi r^3; 2D: pi r^2):
   // buoyancy -rho_f g when gravity acts on the particles but not on the fluid.
   std::array<double, 3> per_volume{0, 0, 0};
-  static ForceOut six(double* f6) { return {f6, f6 + 3, 6, 6, {0, 0, 0}}; }
+  // Only particles [0, per_volume_count) receive per_volume (< 0: all). A
+  // decomposed coupled run holds ghost copies behind its owned particles:
+  // their forces are this rank's shares, summed into the owner's, which
+  // carries the buoyancy once.
+  Index per_volume_count = -1;
+  static ForceOut six(double* f6) { return {f6, f6 + 3, 6, 6, {0, 0, 0}, -1}; }
 };
 
 // How the solid term reaches the PSM kernel:
