@@ -9,6 +9,7 @@
 #include "core/buffer.hpp"
 #include "lbm/dispatch.hpp"
 #include "lbm/solver.hpp"
+#include "population_stride.hpp"
 
 namespace lbdem::lbm {
 
@@ -46,7 +47,7 @@ class SolverImpl final : public LbmSolver {
   SolverImpl(const LbmSetup& s, Backend b) : s_(s), ex_(b) {
     g_ = s_.domain.view();
     owned_ = s_.domain.owned();
-    stride_ = (g_.n + 63) / 64 * 64;
+    stride_ = population_stride(g_.n);
     f0_ = Buffer<T>(b, stride_ * L::Q);
     if (s_.streaming == StreamKind::TwoLattice) f1_ = Buffer<T>(b, stride_ * L::Q);
     flags_ = Buffer<std::uint8_t>(b, g_.n);
