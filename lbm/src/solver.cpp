@@ -4,6 +4,7 @@
 #include <stdexcept>
 
 #include "core/error.hpp"
+#include "population_stride.hpp"
 
 namespace lbdem::lbm {
 
@@ -48,7 +49,7 @@ Index lbm_stage_cells(const LbmSetup& s) { return std::min<Index>(kOutputSlabCel
 
 MemoryUse lbm_memory(const LbmSetup& s) {
   const GridView g = s.domain.view();
-  const std::size_t stride = static_cast<std::size_t>((g.n + 63) / 64 * 64);
+  const std::size_t stride = static_cast<std::size_t>(population_stride(g.n));
   const auto tsize = static_cast<std::size_t>(storage_bytes(s.precision));
   const std::size_t lattices = s.streaming == StreamKind::AA ? 1 : 2;
   MemoryUse m;

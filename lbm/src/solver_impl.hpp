@@ -9,6 +9,7 @@
 #include "core/buffer.hpp"
 #include "lbm/dispatch.hpp"
 #include "lbm/solver.hpp"
+#include "population_stride.hpp"
 
 namespace lbdem::lbm {
 
@@ -27,6 +28,17 @@ struct PopulationKernel {
   }
 };
 
+// Zeroes the Q population slots of each cell it is run on (T{} is the zero
+// bit pattern of every storage type).
+template <class L, class T>
+struct ZeroPopulationsKernel {
+  PopView<T> f;
+  LBDEM_HD void operator()(Index cell, int, int, int) const {
+    LBDEM_UNROLL
+    for (int q = 0; q < L::Q; ++q) f.f[q * f.stride + cell] = T{};
+  }
+};
+
 template <class L, class T>
 class SolverImpl final : public LbmSolver {
   using R = compute_t<T>;  // the kernels' arithmetic type (lbm/storage.hpp)
@@ -35,13 +47,23 @@ class SolverImpl final : public LbmSolver {
   SolverImpl(const LbmSetup& s, Backend b) : s_(s), ex_(b) {
     g_ = s_.domain.view();
     owned_ = s_.domain.owned();
-    stride_ = (g_.n + 63) / 64 * 64;
+    stride_ = population_stride(g_.n);
     f0_ = Buffer<T>(b, stride_ * L::Q);
     if (s_.streaming == StreamKind::TwoLattice) f1_ = Buffer<T>(b, stride_ * L::Q);
     flags_ = Buffer<std::uint8_t>(b, g_.n);
     // Output and initial state pass through this buffer a slab at a time
     // (lbm_memory): reserved now, so that no output ever allocates.
     stage_ = Buffer<double>(b, 4 * lbm_stage_cells(s_));
+    // First touch on the host: the owned cells' population pages are written
+    // first by the loop and schedule that step them (for_each_cell_independent
+    // over the owned box), so on a NUMA machine each page sits on the node of
+    // the thread that streams it every step. The memsets that follow clear the
+    // rest (ghost cells, padding) and leave placed pages where they are.
+    if (!ex_.on_device()) {
+      for_each_cell_independent(ex_, g_, owned_, ZeroPopulationsKernel<L, T>{PopView<T>{f0_.data(), stride_}});
+      if (f1_.size())
+        for_each_cell_independent(ex_, g_, owned_, ZeroPopulationsKernel<L, T>{PopView<T>{f1_.data(), stride_}});
+    }
     flags_.fill_zero();
     f0_.fill_zero();
     if (f1_.size()) f1_.fill_zero();

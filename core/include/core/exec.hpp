@@ -153,24 +153,38 @@ struct BoxCells {
 // The host side of for_each_cell: the box's rows along x, the (y, z) rows
 // split over the threads in order (each thread a contiguous stretch of
 // storage, where a parallel first touch placed its pages), no division per
-// cell. Simd: the cells of a row have no dependence between them (each writes
-// only slots no other cell of the step reads or writes), so the compiler may
-// vectorise across x.
+// cell. Each thread runs a private copy of the functor: its pointers and
+// constants are then locals that no store through a field pointer can alias.
+// Simd: the cells of a row have no dependence between them (each writes only
+// slots no other cell of the step reads or writes), so the compiler may
+// vectorise across x. The cells off the storage's x ends get their x as
+// InnerX (core/grid.hpp): a kernel that takes it finds its x neighbours at
+// fixed offsets, the loads and stores of the row are then unit stride, and the
+// row vectorises; the (at most two) end cells run one by one.
 template <bool Simd, class F>
 void for_each_cell_host(const GridView& g, const CellBox& box, const F& f) {
   if (box.empty()) return;
   const Index rows = static_cast<Index>(box.ext[1]) * box.ext[2];
-  const int x0 = box.lo[0], nxr = box.ext[0];
-#pragma omp parallel for schedule(static)
-  for (Index r = 0; r < rows; ++r) {
-    const int y = box.lo[1] + static_cast<int>(r % box.ext[1]);
-    const int z = box.lo[2] + static_cast<int>(r / box.ext[1]);
-    const Index base = g.index(x0, y, z);
-    if constexpr (Simd) {
+  const int x0 = box.lo[0], x1 = box.lo[0] + box.ext[0];
+  const int xa = x0 > 1 ? x0 : 1, xb = x1 < g.nx - 1 ? x1 : g.nx - 1;  // the row's inner cells [xa, xb)
+#pragma omp parallel
+  {
+    const F k = f;
+#pragma omp for schedule(static)
+    for (Index r = 0; r < rows; ++r) {
+      const int y = box.lo[1] + static_cast<int>(r % box.ext[1]);
+      const int z = box.lo[2] + static_cast<int>(r / box.ext[1]);
+      const Index base = g.index(0, y, z);  // the row's cell at x = 0
+      if constexpr (Simd) {
+        if (xa < xb) {
+          for (int x = x0; x < xa; ++x) k(base + x, x, y, z);
 #pragma omp simd
-      for (int i = 0; i < nxr; ++i) f(base + i, x0 + i, y, z);
-    } else {
-      for (int i = 0; i < nxr; ++i) f(base + i, x0 + i, y, z);
+          for (int x = xa; x < xb; ++x) k(base + x, InnerX{x}, y, z);
+          for (int x = xb; x < x1; ++x) k(base + x, x, y, z);
+          continue;
+        }
+      }
+      for (int x = x0; x < x1; ++x) k(base + x, x, y, z);
     }
   }
 }

@@ -67,6 +67,18 @@ struct GridView {
   LBDEM_HD int extent(int a) const { return a == 0 ? nx : (a == 1 ? ny : nz); }
 };
 
+// An x storage coordinate known to lie strictly inside the storage along x
+// (0 < x < nx - 1), so that its x neighbours are x - 1 and x + 1 with no wrap.
+// The host row loop (core/exec.hpp for_each_cell_host) passes it for the
+// inner cells of a row; a kernel that takes its x coordinate as a template
+// parameter can then address its neighbours at fixed offsets from the cell,
+// unit stride across the row, which is what lets the compiler vectorise the
+// row. Converts to int, so a kernel taking `int x` sees no difference.
+struct InnerX {
+  int v;
+  LBDEM_HD constexpr operator int() const { return v; }
+};
+
 // A box of storage cells [lo, lo + ext) that a kernel iterates over: the
 // owned cells, the inner cells (whose update needs no ghost value), or one
 // slab of the outer shell. Thread t of a launch over the box takes the t-th

@@ -68,6 +68,36 @@ LBDEM_HD LBDEM_FORCEINLINE Neighbours neighbours_at(const GridView& g, int x, in
   return nb;
 }
 
+// Neighbour indices of a cell off the storage's x ends (InnerX, core/grid.hpp,
+// from the host row loop): the cell plus fixed offsets, x +- 1 along x and the
+// wrapped rows along y and z, in 64-bit signed arithmetic. Across a row these
+// are unit-stride addresses, which the vectoriser needs (the 32-bit unsigned
+// offsets of Neighbours may wrap, so their addresses do not advance linearly
+// in the compiler's analysis). The same indices as Neighbours gives.
+struct InnerNeighbours {
+  Index cell;
+  Index oy[3], oz[3];  // offsets of the neighbour rows along y and z from the cell's row
+  LBDEM_HD Index at(int cx, int cy, int cz) const { return cell + cx + oy[cy + 1] + oz[cz + 1]; }
+};
+
+template <class L>
+LBDEM_HD LBDEM_FORCEINLINE InnerNeighbours neighbours_at(const GridView& g, InnerX x, int y, int z) {
+  InnerNeighbours nb;
+  nb.cell = g.index(x.v, y, z);
+  const Index nx = g.nx;
+  nb.oy[0] = (y == 0 ? g.ny - 1 : -1) * nx;
+  nb.oy[1] = 0;
+  nb.oy[2] = (y == g.ny - 1 ? 1 - g.ny : 1) * nx;
+  if constexpr (L::D == 3) {
+    nb.oz[0] = (z == 0 ? g.nz - 1 : -1) * g.nxy;
+    nb.oz[1] = 0;
+    nb.oz[2] = (z == g.nz - 1 ? 1 - g.nz : 1) * g.nxy;
+  } else {
+    nb.oz[0] = nb.oz[1] = nb.oz[2] = 0;
+  }
+  return nb;
+}
+
 template <class L>
 LBDEM_HD LBDEM_FORCEINLINE Neighbours neighbours(const GridView& g, Index cell) {
   int x, y, z;
@@ -99,8 +129,9 @@ LBDEM_HD LBDEM_FORCEINLINE void moments(const R (&f)[L::Q], R& d, R (&j)[3]) {
 }
 
 // Loads the incoming (pre-collision) shifted populations of cell `cell`.
-template <class L, class T, class R, StreamKind S, int Parity>
-LBDEM_HD LBDEM_FORCEINLINE void load_incoming(const PopView<T>& src, const Neighbours& nb, Index cell,
+// NB: Neighbours or InnerNeighbours.
+template <class L, class T, class R, StreamKind S, int Parity, class NB>
+LBDEM_HD LBDEM_FORCEINLINE void load_incoming(const PopView<T>& src, const NB& nb, Index cell,
                                               R (&f)[L::Q]) {
   LBDEM_UNROLL
   for (int q = 0; q < L::Q; ++q) {
@@ -135,8 +166,8 @@ LBDEM_HD LBDEM_FORCEINLINE R reflect(int q, R fq, const BoundaryTable& bt, int i
 }
 
 // Stores post-collision populations according to the policy, with boundaries.
-template <class L, class T, class R, StreamKind S, int Parity, bool Bnd>
-LBDEM_HD LBDEM_FORCEINLINE void store_outgoing(const PopView<T>& dst, const Neighbours& nb, Index cell,
+template <class L, class T, class R, StreamKind S, int Parity, bool Bnd, class NB>
+LBDEM_HD LBDEM_FORCEINLINE void store_outgoing(const PopView<T>& dst, const NB& nb, Index cell,
                                                const R (&f)[L::Q], const std::uint8_t* flags,
                                                const BoundaryTable& bt, const R (&u)[3]) {
   LBDEM_UNROLL
@@ -169,13 +200,15 @@ struct StepKernel {
   BoundaryTable bt;
   Collider<L, R, Force> coll;
 
-  // Cell `cell` at storage coordinates (x, y, z) (core/exec.hpp for_each_cell).
-  // Always inlined: in the host row loop it then vectorises across x.
-  LBDEM_HD LBDEM_FORCEINLINE void operator()(Index cell, int x, int y, int z) const {
+  // Cell `cell` at storage coordinates (x, y, z) (core/exec.hpp for_each_cell);
+  // X is int, or InnerX for the inner cells of a host row (unit-stride
+  // neighbours). Always inlined: in the host row loop it then vectorises across x.
+  template <class X>
+  LBDEM_HD LBDEM_FORCEINLINE void operator()(Index cell, X x, int y, int z) const {
     if constexpr (Bnd) {
       if (flags[cell] != 0) return;
     }
-    const Neighbours nb = neighbours_at<L>(g, x, y, z);
+    const auto nb = neighbours_at<L>(g, x, y, z);
     R f[L::Q];
     load_incoming<L, T, R, S, Parity>(src, nb, cell, f);
     R drho, u[3];
