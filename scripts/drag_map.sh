@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Fixed-sphere drag error map over d/l x tau for the PSM weightings (bench/imb/NOTES.md, "Where the PSM
-# wall sits"): the rule (noble_torczynski_wall, "ntw") and the classic NT weighting ("nt"), both with
-# Lambda auto (1e-4 below d/l 16, 3e-2 from 16), NEBB, sphere centre on a cell centre, chi = 0.5,
-# Re_p 0.2, against Sangani & Acrivos (1982). One JSON, one heat-map PNG per weighting.
+# wall sits", "One rule for every tau"): the rule (noble_torczynski_wall, "ntw") and the classic NT
+# weighting ("nt"), both with Lambda auto (imb::psm_magic_auto: by d/l and tau; 1e-4 below d/l 16 and
+# 3e-2 from 16 as tau -> 1/2), NEBB, sphere centre on a cell centre, chi = 0.5, Re_p 0.2, against
+# Sangani & Acrivos (1982). One JSON, one heat-map PNG per weighting.
 #
 #   scripts/drag_map.sh BIN OUTDIR PART...     PART: host | gpu-a | gpu-b | gpu-c | merge | plot
 #
