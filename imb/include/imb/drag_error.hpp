@@ -119,9 +119,9 @@ inline constexpr double kNo = std::numeric_limits<double>::quiet_NaN();
 inline constexpr double kDragMapError[8][kMapTaus] = {
     // 0.505   0.52    0.55    0.6     0.7     0.8     0.9     1.0
     {-6.93,  -6.80,  -6.87,  -6.74,  -6.80,  -6.85,  -6.75,  -8.29},  // d/l 4
-    {-2.06,  kNo,    -1.55,  -2.04,  -2.24,  -2.17,  -2.02,  -1.84},  // d/l 6
-    {kNo,    kNo,    kNo,    kNo,    -0.73,  -0.68,  kNo,    kNo},  // d/l 8
-    {kNo,    kNo,    kNo,    kNo,    kNo,    kNo,    kNo,    +0.54},  // d/l 10
+    {-2.06,  -1.77,  -1.55,  -2.04,  -2.24,  -2.17,  -2.02,  -1.84},  // d/l 6
+    {kNo,    kNo,    kNo,    -0.67,  -0.73,  -0.68,  -0.80,  -0.64},  // d/l 8
+    {kNo,    kNo,    kNo,    +0.68,  +0.35,  +0.56,  +0.60,  +0.54},  // d/l 10
     {kNo,    -0.39,  kNo,    kNo,    kNo,    kNo,    kNo,    kNo},  // d/l 16
     {kNo,    -0.11,  kNo,    kNo,    kNo,    kNo,    kNo,    kNo},  // d/l 20
     {kNo,    +0.08,  kNo,    kNo,    kNo,    kNo,    kNo,    kNo},  // d/l 30

@@ -81,7 +81,7 @@ LBDEM_HD inline R psm_weight(R eps, R tm, PsmWeight w) {
 // finite t). The smallest sphere of the map (d/l 4, bar 8 %, -7.8 % as
 // tau -> 1/2) needs that limit: its drag rises monotonically with t, and at
 // tau = 1 even B = eps leaves it at -8.3 %. The exponent 3/2 is fitted at
-// d/l 4 (error -5 ... -7 % over tau 0.52 ... 0.9); larger spheres then get too
+// d/l 4 (-5.2 ... -6.9 % at Lambda 1e-4 over tau 0.52 ... 0.9); larger spheres get too
 // much drag, which the TRT Lambda takes out (psm_magic_auto, drag_error.hpp:
 // Lambda shifts the drag like a radius change, ~ 1/d). 1 - 2m is floored at
 // 1e-3 so that t stays finite at and above tau = 1 (B within 1e-4 of eps).
