@@ -36,7 +36,7 @@ parts=("$@")
 here="$(cd "$(dirname "$0")/.." && pwd)"
 mkdir -p "$out"
 
-TAUS=0.505,0.52,0.55,0.6,0.7,0.8,1.0
+TAUS=0.505,0.52,0.55,0.6,0.7,0.8,0.9,1.0
 t0=$SECONDS
 limit=${DRAG_MAP_LIMIT:-520}
 
@@ -63,11 +63,11 @@ for p in "${parts[@]}"; do
       "$bin" wall --out "$out/plane_wall.json" --magic 1e-4 > "$out/plane_wall.md" 2>&1
       echo "plane walls: $out/plane_wall.md"
       # Fast (large tau) first: a cut-off run keeps the rows it finished.
-      run drag_map_host_1 host 900 --d 4,6,8 --tau 1.0,0.8,0.7,0.6,0.55,0.52,0.505 --weights ntw,nt \
+      run drag_map_host_1 host 900 --d 4,6,8 --tau 1.0,0.9,0.8,0.7,0.6,0.55,0.52,0.505 --weights ntw,nt \
         --methods exact --precisions fp64
-      run drag_map_host_2 host 900 --d 10 --tau 1.0,0.8,0.7,0.6,0.55,0.52,0.505 --weights ntw,nt \
+      run drag_map_host_2 host 900 --d 10 --tau 1.0,0.9,0.8,0.7,0.6,0.55,0.52,0.505 --weights ntw,nt \
         --methods exact --precisions fp64
-      run drag_map_host_3 host 600 --d 4,6,8,10 --tau 1.0,0.8,0.6,0.52 --weights ntw --methods table \
+      run drag_map_host_3 host 600 --d 4,6,8,10 --tau 1.0,0.9,0.8,0.6,0.52 --weights ntw --methods table \
         --precisions fp64
       ;;
     gpu-a)
