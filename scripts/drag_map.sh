@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Fixed-sphere drag error map over d/l x tau for the PSM weightings (bench/imb/NOTES.md, "Where the PSM
-# wall sits"): the rule (noble_torczynski_wall, "ntw") and the classic NT weighting ("nt"), both with
-# Lambda auto (1e-4 below d/l 16, 3e-2 from 16), NEBB, sphere centre on a cell centre, chi = 0.5,
-# Re_p 0.2, against Sangani & Acrivos (1982). One JSON, one heat-map PNG per weighting.
+# wall sits", "One rule for every tau"): the rule (noble_torczynski_wall, "ntw") and the classic NT
+# weighting ("nt"), both with Lambda auto (imb::psm_magic_auto: by d/l and tau; 1e-4 below d/l 16 and
+# 3e-2 from 16 as tau -> 1/2), NEBB, sphere centre on a cell centre, chi = 0.5, Re_p 0.2, against
+# Sangani & Acrivos (1982). One JSON, one heat-map PNG per weighting.
 #
 #   scripts/drag_map.sh BIN OUTDIR PART...     PART: host | gpu-a | gpu-b | gpu-c | merge | plot
 #
@@ -35,7 +36,7 @@ parts=("$@")
 here="$(cd "$(dirname "$0")/.." && pwd)"
 mkdir -p "$out"
 
-TAUS=0.505,0.52,0.55,0.6,0.7,0.8,1.0
+TAUS=0.505,0.52,0.55,0.6,0.7,0.8,0.9,1.0
 t0=$SECONDS
 limit=${DRAG_MAP_LIMIT:-520}
 
@@ -62,11 +63,11 @@ for p in "${parts[@]}"; do
       "$bin" wall --out "$out/plane_wall.json" --magic 1e-4 > "$out/plane_wall.md" 2>&1
       echo "plane walls: $out/plane_wall.md"
       # Fast (large tau) first: a cut-off run keeps the rows it finished.
-      run drag_map_host_1 host 900 --d 4,6,8 --tau 1.0,0.8,0.7,0.6,0.55,0.52,0.505 --weights ntw,nt \
+      run drag_map_host_1 host 900 --d 4,6,8 --tau 1.0,0.9,0.8,0.7,0.6,0.55,0.52,0.505 --weights ntw,nt \
         --methods exact --precisions fp64
-      run drag_map_host_2 host 900 --d 10 --tau 1.0,0.8,0.7,0.6,0.55,0.52,0.505 --weights ntw,nt \
+      run drag_map_host_2 host 900 --d 10 --tau 1.0,0.9,0.8,0.7,0.6,0.55,0.52,0.505 --weights ntw,nt \
         --methods exact --precisions fp64
-      run drag_map_host_3 host 600 --d 4,6,8,10 --tau 1.0,0.8,0.6,0.52 --weights ntw --methods table \
+      run drag_map_host_3 host 600 --d 4,6,8,10 --tau 1.0,0.9,0.8,0.6,0.52 --weights ntw --methods table \
         --precisions fp64
       ;;
     gpu-a)

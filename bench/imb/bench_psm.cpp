@@ -2,7 +2,7 @@
 //
 //   lbdem_bench_psm sweep [--out FILE.json] [--d 4,6,8,...] [--tau 0.52] [--methods exact,table,linear]
 //                   [--precisions fp64,fp32,fp16s,fp16c] [--collisions trt,bgk] [--variants nebb,super] [--weights nt,eps]
-//                   [--magic 1e-4 (or auto: 1e-4 below d/l 16, 3e-2 from 16)] [--offset 0.5,0] [--re 0.2] [--chi 0.5] [--tol 1e-5]
+//                   [--magic 1e-4 (or auto: by d/l and tau, imb::psm_magic_auto)] [--offset 0.5,0] [--re 0.2] [--chi 0.5] [--tol 1e-5]
 //                   [--start estimate|rest] [--check N] [--max-steps N] [--backend host|cuda] [--dim 3] [-v]
 //   lbdem_bench_psm suspension [--out FILE.json] [--n 256 | --dims X,Y,Z] [--phi 0.128] [--d 10] [--steps 200]
 //                   [--substeps N (default: fewest accepted)] [--tau 0.6] [--precision fp32|fp64|fp16s|fp16c] [--fraction exact|table|linear]
@@ -32,6 +32,7 @@
 #include "dem/system.hpp"
 #include "imb/coupled.hpp"
 #include "imb/coupled_checks.hpp"
+#include "imb/drag_error.hpp"
 #include "imb/fraction_table.hpp"
 #include <algorithm>
 #include <chrono>
@@ -145,9 +146,8 @@ int sweep(int argc, char** argv) {
                       s.chi = chi;
                       s.re_p = std::stod(rs);
                       s.tau = std::stod(ts);
-                      // "auto": the resolution-dependent setting that meets every Table 1 bar
-                      // (bench/results/psm_drag_by_resolution_h200.json): Lambda 1e-4 below d/l 16, 3e-2 from 16.
-                      s.magic = ms == "auto" ? (s.diameter < 16.0 ? 1e-4 : 3e-2) : std::stod(ms);
+                      // "auto": Lambda by d/l and tau (imb::psm_magic_auto, bench/imb/NOTES.md).
+                      s.magic = ms == "auto" ? imb::psm_magic_auto(s.diameter, s.tau) : std::stod(ms);
                       s.offset = std::stod(os);
                       // fp32 round-off floors the drag's step-to-step change near 1e-6, 16-bit storage near 1e-4.
                       s.tolerance = pr == "fp64" ? tol : std::max(tol, pr == "fp32" ? 1e-5 : 5e-4);

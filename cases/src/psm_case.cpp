@@ -74,19 +74,21 @@ constexpr double kMagicAuto = -1.0;
 lbm::CollisionKind read_collision(const Config& f, double& magic, const std::string& def = "trt") {
   const auto c = f.choice("collision", def, {"bgk", "trt"});
   // The PSM drag depends on Lambda (bench/imb/NOTES.md, "Fixed-sphere drag"): auto
-  // takes 1e-4 below d/l 16 and 3e-2 from 16, the setting the drag map is built on.
+  // takes Lambda by d/l and tau (imb::psm_magic_auto), the setting the drag map is built on.
   if (!f.has("magic") || f.text("magic") == "auto") {
     if (f.has("magic")) f.accept("magic");
     magic = kMagicAuto;
   } else {
     magic = f.number_in("magic", 1e-6, 10.0,
-                        "TRT parameter Lambda, or auto (1e-4 below d/l 16, 3e-2 from 16: the mapped PSM setting)");
+                        "TRT parameter Lambda, or auto (by d/l and tau: the mapped PSM setting, imb::psm_magic_auto)");
   }
   return c == "bgk" ? lbm::CollisionKind::BGK : lbm::CollisionKind::TRT;
 }
 
-// Lambda of a PSM scene with particles of diameter d (cells): auto resolved.
-double resolve_magic(double magic, double d) { return magic == kMagicAuto ? imb::psm_magic_auto(d) : magic; }
+// Lambda of a PSM scene with particles of diameter d (cells) at tau: auto resolved.
+double resolve_magic(double magic, double d, double tau) {
+  return magic == kMagicAuto ? imb::psm_magic_auto(d, tau) : magic;
+}
 
 // tau, collision (with Lambda) and precision of a resolved scene's fluid
 // section (FixedSphereSpec and LbmSetup name these fields alike).
@@ -191,7 +193,7 @@ int run_fixed_sphere_case(const Config& root, const RunOptions& opt) {
     read_psm(*ps, po, s.slots, max_drag_error);
     ps->finish();
   }
-  s.magic = resolve_magic(s.magic, s.diameter);
+  s.magic = resolve_magic(s.magic, s.diameter, s.tau);
   s.method = po.map.method;
   s.pipeline = po.pipeline;
   s.variant = po.variant;
@@ -532,7 +534,7 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
     ps->finish();
   }
   c.coupling.psm.map.max_radius = r;
-  s.magic = resolve_magic(s.magic, diam);
+  s.magic = resolve_magic(s.magic, diam, s.tau);
   if (c.physical) {
     // time.steps, or time.end in seconds.
     if (t.has("steps") == t.has("end"))

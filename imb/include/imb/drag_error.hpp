@@ -22,11 +22,55 @@
 
 namespace lbdem::imb {
 
-// Lambda auto: 1e-4 below d/l 16, 3e-2 from 16 (the resolution rule of the
-// fixed-sphere study: small spheres need the most drag, Lambda -> 0; from d/l
-// 16 the O(1/d) hydrodynamic-radius excess that Lambda 1e-4 leaves is cut by
-// Lambda 3e-2).
-inline double psm_magic_auto(double diameter) { return diameter < 16.0 ? 1e-4 : 3e-2; }
+// Lambda auto, the TRT magic parameter of particle scenes, by particle
+// diameter d (cells) and tau (bench/imb/NOTES.md, "One rule for every tau").
+// tau -> 1/2: 1e-4 below d/l 16, 3e-2 from 16 (the fixed-sphere study: small
+// spheres need the most drag, Lambda -> 0; from d/l 16 the O(1/d)
+// hydrodynamic-radius excess that Lambda 1e-4 leaves is cut by 3e-2). Above
+// tau -> 1/2 the wall rule's weighting (psm_wall_weight_t) gives the d/l 4
+// sphere the drag it needs but larger spheres too much; a larger Lambda
+// lowers the drag like a smaller radius (by ~g(Lambda)/d %, g(1e-2) ~ 6,
+// g(3e-2) ~ 13, g(0.1) ~ 28 %-cells at tau 0.8 and 1). The table holds, per
+// d/l and tau, the Lambda that brings the drag back to its tau -> 1/2 value
+// (never below 1e-4): Lambda = g^-1(d (E_t - E_0)), E_t the error with
+// Lambda 1e-4 and E_0 the one at tau 0.52, from host runs at d/l 4-10
+// (bench/results/drag_map_host_rule.md); log Lambda is interpolated linearly
+// in tau and in 1/d, clamped at the table's edges. d/l 10-16 take the d/l 10
+// row; from d/l 16 the larger of 3e-2 and that row (the device map has not
+// measured d/l >= 16 at tau > 0.52 with this rule yet).
+namespace detail {
+inline constexpr double kMagicD[4] = {4, 6, 8, 10};
+inline constexpr double kMagicTau[6] = {0.52, 0.6, 0.7, 0.8, 0.9, 1.0};
+// clang-format off
+inline constexpr double kMagicTable[4][6] = {
+    // 0.52   0.6     0.7     0.8     0.9     1.0
+    {1e-4,   1.2e-4, 4.2e-3, 0.011,  9.7e-3, 1e-4},  // d/l 4
+    {1e-4,   0.01,   0.041,  0.08,   0.1,    0.062},  // d/l 6
+    {1e-4,   0.027,  0.085,  0.15,   0.2,    0.16},  // d/l 8
+    {1e-4,   0.014,  0.094,  0.17,   0.23,   0.21},  // d/l 10
+};
+// clang-format on
+
+// log Lambda of table row a at tau (linear in tau, clamped).
+inline double magic_row(int a, double tau) {
+  const double x = std::clamp(tau, kMagicTau[0], kMagicTau[5]);
+  int j = 0;
+  while (j < 4 && x > kMagicTau[j + 1]) ++j;
+  const double w = (x - kMagicTau[j]) / (kMagicTau[j + 1] - kMagicTau[j]);
+  return std::log(kMagicTable[a][j]) + w * (std::log(kMagicTable[a][j + 1]) - std::log(kMagicTable[a][j]));
+}
+}  // namespace detail
+
+inline double psm_magic_auto(double diameter, double tau) {
+  using namespace detail;
+  if (tau <= kMagicTau[0]) return diameter < 16.0 ? 1e-4 : 3e-2;  // the study's setting, exactly
+  if (diameter >= 16.0) return std::max(3e-2, std::exp(magic_row(3, tau)));
+  const double x = std::clamp(diameter, kMagicD[0], kMagicD[3]);
+  int i = 0;
+  while (i < 2 && x > kMagicD[i + 1]) ++i;
+  const double s = (1.0 / x - 1.0 / kMagicD[i]) / (1.0 / kMagicD[i + 1] - 1.0 / kMagicD[i]);
+  return std::exp(magic_row(i, tau) + s * (magic_row(i + 1, tau) - magic_row(i, tau)));
+}
 
 // Half the first paper's Table 1 error (Re_p 0.2 column) at d/l 4 ... 50,
 // interpolated in 1/d between the tabulated diameters (relative, not %).
@@ -61,25 +105,27 @@ struct DragErrorEstimate {
 namespace detail {
 // The map of the default setting: relative drag error (%), rows d/l, columns
 // tau; NaN where not measured yet (interpolated in tau from the row's measured
-// nodes). Host (this code, 2026-11-24, bench/results/drag_map_host.*): d/l 4-10;
-// tau 0.52 at every d/l and tau 0.505 at d/l 4-6: the fixed-sphere study
+// nodes). Host, d/l 4-10 (bench/results/drag_map_host_rule.*): the rule as
+// committed (t of psm_wall_weight_t, Lambda of psm_magic_auto). tau 0.505 at
+// d/l 4-6, and tau 0.52 from d/l 16: the fixed-sphere study
 // (bench/results/psm_drag_by_resolution_h200.json, classic NT weighting, whose
-// t differs from the rule's by < 4 % there). d/l 16-50 at tau != 0.52 await the
-// device part of scripts/drag_map.sh.
+// t is within 1.5 % of the rule's at tau 0.505 and 6 % at 0.52). d/l 16-50 at
+// tau > 0.52 await the device part of scripts/drag_map.sh.
+inline constexpr int kMapTaus = 8;
 inline constexpr double kDragMapD[8] = {4, 6, 8, 10, 16, 20, 30, 50};
-inline constexpr double kDragMapTau[7] = {0.505, 0.52, 0.55, 0.6, 0.7, 0.8, 1.0};
+inline constexpr double kDragMapTau[kMapTaus] = {0.505, 0.52, 0.55, 0.6, 0.7, 0.8, 0.9, 1.0};
 inline constexpr double kNo = std::numeric_limits<double>::quiet_NaN();
 // clang-format off
-inline constexpr double kDragMapError[8][7] = {
-    // 0.505   0.52    0.55    0.6     0.7     0.8     1.0
-    {-6.93,  -7.76,  kNo,    -8.86,  kNo,    -11.50, -12.59},  // d/l 4
-    {-2.06,  -2.43,  kNo,    -2.29,  -2.38,  -2.30,  -1.56},   // 6
-    {kNo,    -0.97,  kNo,    -0.34,  kNo,    +0.67,  +2.03},   // 8
-    {kNo,    -0.01,  kNo,    +0.57,  kNo,    +1.68,  +3.12},   // 10
-    {kNo,    -0.39,  kNo,    kNo,    kNo,    kNo,    kNo},     // 16
-    {kNo,    -0.11,  kNo,    kNo,    kNo,    kNo,    kNo},     // 20
-    {kNo,    +0.08,  kNo,    kNo,    kNo,    kNo,    kNo},     // 30
-    {kNo,    +0.13,  kNo,    kNo,    kNo,    kNo,    kNo},     // 50
+inline constexpr double kDragMapError[8][kMapTaus] = {
+    // 0.505   0.52    0.55    0.6     0.7     0.8     0.9     1.0
+    {-6.93,  -6.80,  -6.87,  -6.74,  -6.80,  -6.85,  -6.75,  -8.29},  // d/l 4
+    {-2.06,  -1.77,  -1.55,  -2.04,  -2.24,  -2.17,  -2.02,  -1.84},  // d/l 6
+    {kNo,    -0.38,  +0.01,  -0.67,  -0.73,  -0.68,  -0.80,  -0.64},  // d/l 8
+    {kNo,    kNo,    +0.77,  +0.68,  +0.35,  +0.56,  +0.60,  +0.54},  // d/l 10
+    {kNo,    -0.39,  kNo,    kNo,    kNo,    kNo,    kNo,    kNo},  // d/l 16
+    {kNo,    -0.11,  kNo,    kNo,    kNo,    kNo,    kNo,    kNo},  // d/l 20
+    {kNo,    +0.08,  kNo,    kNo,    kNo,    kNo,    kNo,    kNo},  // d/l 30
+    {kNo,    +0.13,  kNo,    kNo,    kNo,    kNo,    kNo,    kNo},  // d/l 50
 };
 // clang-format on
 
@@ -89,13 +135,13 @@ inline constexpr double kDragMapError[8][7] = {
 inline double map_node(int a, int b, bool& only) {
   const double v = kDragMapError[a][b];
   int lo = b, hi = b, n = 0;
-  for (int c = 0; c < 7; ++c) n += std::isnan(kDragMapError[a][c]) ? 0 : 1;
+  for (int c = 0; c < kMapTaus; ++c) n += std::isnan(kDragMapError[a][c]) ? 0 : 1;
   if (n <= 1) only = true;
   if (!std::isnan(v)) return v;
   while (lo >= 0 && std::isnan(kDragMapError[a][lo])) --lo;
-  while (hi < 7 && std::isnan(kDragMapError[a][hi])) ++hi;
+  while (hi < kMapTaus && std::isnan(kDragMapError[a][hi])) ++hi;
   if (lo < 0) return kDragMapError[a][hi];
-  if (hi >= 7) return kDragMapError[a][lo];
+  if (hi >= kMapTaus) return kDragMapError[a][lo];
   const double w = (kDragMapTau[b] - kDragMapTau[lo]) / (kDragMapTau[hi] - kDragMapTau[lo]);
   return kDragMapError[a][lo] + w * (kDragMapError[a][hi] - kDragMapError[a][lo]);
 }
@@ -114,7 +160,7 @@ inline DragErrorEstimate expected_drag_error(const DragErrorQuery& q) {
     r.reason = "only the NEBB operator is mapped";
     return r;
   }
-  if (!q.trt || std::abs(q.magic - psm_magic_auto(q.diameter)) > 1e-3 * psm_magic_auto(q.diameter)) {
+  if (!q.trt || std::abs(q.magic - psm_magic_auto(q.diameter, q.tau)) > 1e-3 * psm_magic_auto(q.diameter, q.tau)) {
     r.reason = "only TRT with fluid.magic: auto is mapped";
     return r;
   }
@@ -126,13 +172,13 @@ inline DragErrorEstimate expected_drag_error(const DragErrorQuery& q) {
     r.reason = "fp32 is not a validation precision past d/l 20 (its round-off moves a steady drag by up to 1 %)";
     return r;
   }
-  if (q.diameter < kDragMapD[0] || q.diameter > kDragMapD[7] || q.tau < kDragMapTau[0] || q.tau > kDragMapTau[6]) {
+  if (q.diameter < kDragMapD[0] || q.diameter > kDragMapD[7] || q.tau < kDragMapTau[0] || q.tau > kDragMapTau[kMapTaus - 1]) {
     r.reason = "outside the map (d/l 4-50, tau 0.505-1)";
     return r;
   }
   int i = 0, j = 0;
   while (i < 6 && q.diameter > kDragMapD[i + 1]) ++i;
-  while (j < 5 && q.tau > kDragMapTau[j + 1]) ++j;
+  while (j < kMapTaus - 2 && q.tau > kDragMapTau[j + 1]) ++j;
   const double s = (1.0 / q.diameter - 1.0 / kDragMapD[i]) / (1.0 / kDragMapD[i + 1] - 1.0 / kDragMapD[i]);
   const double t = (q.tau - kDragMapTau[j]) / (kDragMapTau[j + 1] - kDragMapTau[j]);
   bool assumed = false;
