@@ -172,7 +172,8 @@ inline DragErrorEstimate expected_drag_error(const DragErrorQuery& q) {
     r.reason = "fp32 is not a validation precision past d/l 20 (its round-off moves a steady drag by up to 1 %)";
     return r;
   }
-  if (q.diameter < kDragMapD[0] || q.diameter > kDragMapD[7] || q.tau < kDragMapTau[0] || q.tau > kDragMapTau[kMapTaus - 1]) {
+  if (q.diameter < kDragMapD[0] || q.diameter > kDragMapD[7] || q.tau < kDragMapTau[0] ||
+      q.tau > kDragMapTau[kMapTaus - 1]) {
     r.reason = "outside the map (d/l 4-50, tau 0.505-1)";
     return r;
   }
