@@ -121,7 +121,7 @@ inline constexpr double kDragMapError[8][kMapTaus] = {
     {-6.93,  -6.80,  -6.87,  -6.74,  -6.80,  -6.85,  -6.75,  -8.29},  // d/l 4
     {-2.06,  -1.77,  -1.55,  -2.04,  -2.24,  -2.17,  -2.02,  -1.84},  // d/l 6
     {kNo,    -0.38,  +0.01,  -0.67,  -0.73,  -0.68,  -0.80,  -0.64},  // d/l 8
-    {kNo,    kNo,    +0.77,  +0.68,  +0.35,  +0.56,  +0.60,  +0.54},  // d/l 10
+    {kNo,    +0.44,  +0.77,  +0.68,  +0.35,  +0.56,  +0.60,  +0.54},  // d/l 10
     {kNo,    -0.39,  kNo,    kNo,    kNo,    kNo,    kNo,    kNo},  // d/l 16
     {kNo,    -0.11,  kNo,    kNo,    kNo,    kNo,    kNo,    kNo},  // d/l 20
     {kNo,    +0.08,  kNo,    kNo,    kNo,    kNo,    kNo,    kNo},  // d/l 30
@@ -172,7 +172,8 @@ inline DragErrorEstimate expected_drag_error(const DragErrorQuery& q) {
     r.reason = "fp32 is not a validation precision past d/l 20 (its round-off moves a steady drag by up to 1 %)";
     return r;
   }
-  if (q.diameter < kDragMapD[0] || q.diameter > kDragMapD[7] || q.tau < kDragMapTau[0] || q.tau > kDragMapTau[kMapTaus - 1]) {
+  if (q.diameter < kDragMapD[0] || q.diameter > kDragMapD[7] || q.tau < kDragMapTau[0] ||
+      q.tau > kDragMapTau[kMapTaus - 1]) {
     r.reason = "outside the map (d/l 4-50, tau 0.505-1)";
     return r;
   }
