@@ -26,6 +26,8 @@
 #include <string>
 #include <vector>
 
+#include <unistd.h>
+
 #include "core/exec.hpp"
 #include "run_lbdem.hpp"
 
@@ -77,8 +79,9 @@ std::string yaml(const std::string& precision) {
          "time: {steps: " + std::to_string(kSteps) + "}\n";
 }
 
+// Per test process: ctest runs the cuts side by side, each with its own one-rank reference.
 std::string run_dir(const std::string& name) {
-  return (fs::temp_directory_path() / ("lbdem_mpi_particles_" + name)).string();
+  return (fs::temp_directory_path() / ("lbdem_mpi_particles_" + std::to_string(::getpid()) + "_" + name)).string();
 }
 
 // One run on `ranks` ranks (one rank: without mpirun), output every kSteps.
