@@ -1,6 +1,8 @@
 // The checkpoint side of the scene drivers (cases/src/checkpoint_case.hpp).
 #include "checkpoint_case.hpp"
 
+#include <exception>
+
 #include "core/error.hpp"
 #include "dem/system.hpp"
 #include "imb/coupled.hpp"
@@ -101,6 +103,22 @@ void refuse_distributed(const std::optional<std::string>& restart, ckpt::Policy&
     throw ConfigError("checkpoint: a run on several ranks cannot write checkpoints yet; leave out the checkpoint "
                       "section or run on one rank");
   p.on_signal = false;
+}
+
+void prepare_output_on_writer(ckpt::Run& run, bool writer, const halo::Comm& comm, bool overwrite,
+                              const std::string& outdir) {
+  std::exception_ptr failed;
+  if (writer) {
+    try {
+      run.prepare_output(overwrite);
+    } catch (...) {
+      failed = std::current_exception();
+    }
+  }
+  if (comm.any(failed != nullptr)) {
+    if (failed) std::rethrow_exception(failed);
+    throw Error("rank 0 could not prepare the output directory " + outdir);
+  }
 }
 
 }  // namespace lbdem::cases

@@ -8,6 +8,7 @@
 
 #include "core/checkpoint.hpp"
 #include "core/output.hpp"
+#include "halo/comm.hpp"
 #include "lbm/solver.hpp"
 
 namespace lbdem::dem {
@@ -47,5 +48,11 @@ io::TimeSeries open_series(const ckpt::Run& run, const std::string& path, const 
 // A run on several ranks: ConfigError for --restart or a checkpoint section
 // (not supported yet), and no checkpoint at a stop signal.
 void refuse_distributed(const std::optional<std::string>& restart, ckpt::Policy& p, bool distributed);
+
+// The writing rank prepares the output folder (ckpt::Run::prepare_output);
+// every rank learns whether it failed and throws (the writer its own error).
+// Collective.
+void prepare_output_on_writer(ckpt::Run& run, bool writer, const halo::Comm& comm, bool overwrite,
+                              const std::string& outdir);
 
 }  // namespace lbdem::cases

@@ -302,20 +302,7 @@ int run_dem_case(const Config& root, const RunOptions& opt) {
                    .add("friction", c.params.friction ? "on" : "off")
                    .add("force_path", dem::to_string(c.params.path)),
                opt.restart);
-  {
-    std::exception_ptr failed;
-    if (writer_rank) {
-      try {
-        ck.prepare_output(opt.overwrite);
-      } catch (...) {
-        failed = std::current_exception();
-      }
-    }
-    if (comm.any(failed != nullptr)) {
-      if (failed) std::rethrow_exception(failed);
-      throw Error("rank 0 could not prepare the output directory " + c.outdir);
-    }
-  }
+  cases::prepare_output_on_writer(ck, writer_rank, comm, opt.overwrite, c.outdir);
   dem::DemSystem sys(Exec(backend), c.params, c.particles, domain);
   const DemParams& p = sys.params();
   const Index n_particles = sys.global_size();

@@ -137,39 +137,30 @@ void DistributedFluid::macroscopic(std::vector<double>& rho, std::vector<double>
         mine.push_back(pr[i]);
         for (std::size_t k = 0; k < 3; ++k) mine.push_back(pu[3 * i + k]);
       }
-  const auto all = comm_.gather(std::as_bytes(std::span<const double>(mine)), 0);
+  // Cells no rank owns (wall layers): density 1, velocity 0.
+  const std::vector<double> all = gather_owned(mine, 4, {1.0, 0.0, 0.0, 0.0});
   rho.clear();
   u.clear();
   if (!comm_.root()) return;
-  const GridView gw = whole_.domain.view();
-  rho.assign(static_cast<std::size_t>(gw.n), 1.0);
-  u.assign(3 * static_cast<std::size_t>(gw.n), 0.0);
-  for (int r = 0; r < comm_.size(); ++r) {
-    const Grid q = dec_.piece(whole_.domain, r);
-    const CellBox qo = q.owned();
-    const auto& bytes = all[static_cast<std::size_t>(r)];
-    if (bytes.size() != static_cast<std::size_t>(qo.size()) * 4 * sizeof(double))
-      throw Error("gathering fields: rank " + std::to_string(r) + " sent a piece of the wrong size");
-    const auto* v = reinterpret_cast<const double*>(bytes.data());
-    std::size_t k = 0;
-    for (int z = 0; z < qo.ext[2]; ++z)
-      for (int y = 0; y < qo.ext[1]; ++y)
-        for (int x = 0; x < qo.ext[0]; ++x) {
-          const auto wi = static_cast<std::size_t>(gw.index(static_cast<int>(x + q.offset[0]), static_cast<int>(y + q.offset[1]),
-                                                            static_cast<int>(z + q.offset[2])));
-          rho[wi] = v[k++];
-          for (std::size_t c = 0; c < 3; ++c) u[3 * wi + c] = v[k++];
-        }
+  const std::size_t n = all.size() / 4;
+  rho.resize(n);
+  u.resize(3 * n);
+  for (std::size_t i = 0; i < n; ++i) {
+    rho[i] = all[4 * i];
+    for (std::size_t c = 0; c < 3; ++c) u[3 * i + c] = all[4 * i + 1 + c];
   }
 }
 
-std::vector<double> DistributedFluid::gather_owned(const std::vector<double>& mine, int comps) {
+std::vector<double> DistributedFluid::gather_owned(const std::vector<double>& mine, int comps,
+                                                   const std::vector<double>& fill) {
   const auto nc = static_cast<std::size_t>(comps);
   if (!halo_) return mine;
   const auto all = comm_.gather(std::as_bytes(std::span<const double>(mine)), 0);
   if (!comm_.root()) return {};
   const GridView gw = whole_.domain.view();
   std::vector<double> out(nc * static_cast<std::size_t>(gw.n), 0.0);
+  if (!fill.empty())
+    for (std::size_t i = 0; i < out.size(); ++i) out[i] = fill[i % nc];
   for (int r = 0; r < comm_.size(); ++r) {
     const Grid q = dec_.piece(whole_.domain, r);
     const CellBox qo = q.owned();

@@ -870,20 +870,7 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
   ckpt::Run ck(c.outdir, c.checkpoint,
                cases::fluid_identity("particles", c.setup).add("particles", std::to_string(c.particles.size())),
                opt.restart);
-  {
-    std::exception_ptr failed;
-    if (writer) {
-      try {
-        ck.prepare_output(opt.overwrite);
-      } catch (...) {
-        failed = std::current_exception();
-      }
-    }
-    if (comm.any(failed != nullptr)) {
-      if (failed) std::rethrow_exception(failed);
-      throw Error("rank 0 could not prepare the output directory " + c.outdir);
-    }
-  }
+  cases::prepare_output_on_writer(ck, writer, comm, opt.overwrite, c.outdir);
   // The fluid: the whole grid on one rank, this rank's piece (with its halo
   // exchange) on several.
   DistributedFluid dfluid(c.setup, backend, c.parallel, comm);

@@ -40,8 +40,9 @@ class DistributedFluid {
   void macroscopic(std::vector<double>& rho, std::vector<double>& u);
   // A field of `comps` values per cell given by each rank for its owned cells
   // (owned box x-fastest, components innermost), as the whole grid's on rank
-  // 0 (cells nobody owns: 0; empty on the other ranks). Collective.
-  std::vector<double> gather_owned(const std::vector<double>& mine, int comps);
+  // 0 (cells nobody owns: `fill` (one value per component), else 0; empty on
+  // the other ranks). Collective.
+  std::vector<double> gather_owned(const std::vector<double>& mine, int comps, const std::vector<double>& fill = {});
   void synchronize() { solver_->synchronize(); }
   std::size_t memory_bytes() const;  // all ranks
   lbm::LbmSolver& local() { return *solver_; }

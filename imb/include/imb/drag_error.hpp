@@ -34,7 +34,7 @@ namespace lbdem::imb {
 // d/l and tau, the Lambda that brings the drag back to its tau -> 1/2 value
 // (never below 1e-4): Lambda = g^-1(d (E_t - E_0)), E_t the error with
 // Lambda 1e-4 and E_0 the one at tau 0.52, from host runs at d/l 4-10
-// (bench/results/drag_map_host_rule.md); log Lambda is interpolated linearly
+// (bench/results/drag_map_host.md); log Lambda is interpolated linearly
 // in tau and in 1/d, clamped at the table's edges. d/l 10-16 take the d/l 10
 // row; from d/l 16 the larger of 3e-2 and that row (the device map has not
 // measured d/l >= 16 at tau > 0.52 with this rule yet).
@@ -105,7 +105,7 @@ struct DragErrorEstimate {
 namespace detail {
 // The map of the default setting: relative drag error (%), rows d/l, columns
 // tau; NaN where not measured yet (interpolated in tau from the row's measured
-// nodes). Host, d/l 4-10 (bench/results/drag_map_host_rule.*): the rule as
+// nodes). Host, d/l 4-10 (bench/results/drag_map_host.*): the rule as
 // committed (t of psm_wall_weight_t, Lambda of psm_magic_auto). tau 0.505 at
 // d/l 4-6, and tau 0.52 from d/l 16: the fixed-sphere study
 // (bench/results/psm_drag_by_resolution_h200.json, classic NT weighting, whose
