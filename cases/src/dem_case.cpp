@@ -214,7 +214,7 @@ DemCase read_case(const Config& root, const RunOptions& opt) {
     }
     dem::check_time_step(p, c.particles, t.full_key(t.has("dt") ? "dt" : "steps_per_collision"));
     if (t.has("steps") && t.has("end_time")) t.fail("end_time", "give either time.steps or time.end_time, not both");
-    if (t.has("end_time")) c.steps = static_cast<long>(std::ceil(t.positive("end_time") / p.dt - 1e-9));
+    if (t.has("end_time")) c.steps = cases::saturating_steps(std::ceil(t.positive("end_time") / p.dt - 1e-9));
     else c.steps = t.integer_in("steps", 0, std::numeric_limits<long>::max());
     t.finish();
   }

@@ -188,7 +188,7 @@ LbmCase parse(const Config& root, const RunOptions& opt) {
   if (s.collision == lbm::CollisionKind::BGK && s.tau < 0.51)
     throw ConfigError(root.source() + ": key 'collision.tau' = " + std::to_string(s.tau) +
                       ": BGK is unstable this close to 0.5; use tau >= 0.51 or collision.model: trt");
-  if (has_end) steps = std::max<long>(1, std::lround(t_end / c.units.dt));
+  if (has_end) steps = std::max<long>(1, cases::saturating_steps(std::round(t_end / c.units.dt)));
   if (opt.steps) steps = *opt.steps;
   c.steps = steps;
   {

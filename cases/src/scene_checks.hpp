@@ -1,4 +1,6 @@
 #pragma once
+
+#include <limits>
 // Checks that make a scene meaningless or impossible, run while a case file is
 // parsed (before any output folder, grid or particle array is made):
 //
@@ -134,6 +136,11 @@ constexpr double kMaxPlannedSeconds = 365.25 * 24 * 3600;
 // `steps_key` the key(s) that set the step count.
 void check_plan(const Config& root, const RunOptions& opt, double steps, double cell_updates, double particle_steps,
                 const std::string& steps_key);
+// A step count computed in double (end time over dt) as a long, saturated at
+// the largest long instead of overflowing; check_plan refuses such a plan.
+inline long saturating_steps(double steps) {
+  return steps < 9.2e18 ? static_cast<long>(steps) : std::numeric_limits<long>::max();
+}
 
 // ----------------------------------------------------------------- per scene
 // One call from each scene's parse (the checks above, with the scene's keys).

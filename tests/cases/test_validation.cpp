@@ -142,6 +142,15 @@ TEST_F(Validation, AbsurdStiffnessNeedsForce) {
   refused(s, {"time.end_time", "material.stiffness", "years", "--force"});
   EXPECT_EQ(run("check " + write_case(s) + " --force").code, 0);
 }
+TEST_F(Validation, EndTimeBeyondAStepCounterRefusedEvenWithForce) {
+  // end_time / dt far beyond a 64-bit count: refused with the keys, never cast out of range.
+  const std::string s = dem_case("{init: list, list: [{position: [0.5, 0.5, 0.5], radius: 0.1}]}",
+                                 "{stiffness: 1.0e5, restitution: 0.9}", "{end_time: 1.0e60}");
+  refused(s, {"time.end_time", "64-bit step counter"});
+  const auto r = run("check " + write_case(s) + " --force");
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.out.find("64-bit step counter"), std::string::npos) << r.out;
+}
 TEST_F(Validation, StepsOverrideAlsoPlanned) {
   const auto r = run("check " + write_case(particles_case()) + " --force");
   EXPECT_EQ(r.code, 0) << r.out;
