@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Builds the libFuzzer target for the case loader (tests/fuzz) with clang,
 # ASan and UBSan, and fuzzes it for N seconds from the seed corpus
-# tests/fuzz/corpus (the shipped cases). Needs clang (scripts/setup.sh installs it).
+# tests/fuzz/corpus (the shipped cases) and tests/fuzz/regressions (inputs of earlier findings).
+# Needs clang (scripts/setup.sh installs it).
 #   scripts/fuzz.sh [seconds] [build-dir]
 #     seconds     default 60
 #     build-dir   default build-fuzz
@@ -31,4 +32,4 @@ export OMP_NUM_THREADS=1
 # shellcheck disable=SC2086
 "$build/tests/fuzz/fuzz_case" -max_total_time="$secs" -timeout="${LBDEM_FUZZ_TIMEOUT:-1}" -rss_limit_mb=2048 \
   -artifact_prefix="$build/fuzz-artifacts/" ${LBDEM_FUZZ_FLAGS:-} \
-  "$build/fuzz-corpus" "$here/tests/fuzz/corpus"
+  "$build/fuzz-corpus" "$here/tests/fuzz/corpus" "$here/tests/fuzz/regressions"

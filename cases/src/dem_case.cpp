@@ -109,10 +109,11 @@ HostParticles read_particles(const Config& pc, const DemParams& p, std::uint64_t
     s.displace = !validate_only;
     hp = dem::random_packing(s);
   }
-  // Random initial velocities (zero mean), for granular-gas scenes.
+  // Random initial velocities (zero mean), for granular-gas scenes; a
+  // validation (lbdem check) reads the keys and draws none.
   const double vrms = pc.number_in("velocity_rms", 0.0, 0.0, 1e6);
   seed_out = static_cast<std::uint64_t>(pc.integer_in("velocity_seed", 7, 0, std::numeric_limits<long>::max()));
-  if (vrms > 0 && hp.size() > 0) {
+  if (vrms > 0 && hp.size() > 0 && !validate_only) {
     std::mt19937_64 rng(seed_out);
     std::normal_distribution<double> N(0, vrms / std::sqrt(3.0));
     Vec3d mean{};
