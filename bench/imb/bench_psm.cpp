@@ -204,7 +204,7 @@ int sweep(int argc, char** argv) {
                                   r.re_p, r.steps, r.converged ? "" : "*", r.seconds, r.mlups, r.remaining);
                       std::fflush(stdout);
                       std::ostringstream row;
-                      row << (rows.empty() ? "" : ",\n") << "    {\"d\": " << s.diameter << ", \"method\": \"" << m
+                      row << (rows.empty() ? "" : ",\n") << "    {\"d\": " << jnum(s.diameter) << ", \"method\": \"" << m
                           << "\", \"precision\": \"" << pr << "\", \"collision\": \"" << co << "\", \"variant\": \""
                           << va << "\", \"weight\": \"" << we << "\", \"tau\": " << s.tau << ", \"magic\": " << jnum(lam)
                           << ", \"chi\": " << jnum(s.diameter / double(std::lround(s.diameter / chi)))
