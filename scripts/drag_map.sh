@@ -17,7 +17,7 @@
 # host    d/l 4, 6, 8, 10 x tau {0.505 ... 1.0}: ntw and nt exact fp64, ntw table fp64; the plane-wall
 #         runs (lbdem_bench_psm wall); the dense array, chi = (6 phi / pi)^(1/3) at Zick & Homsy's
 #         phi 0.343, L = 5, 7, 9, 12 (d = chi L: d/l 4.34, 6.08, 7.82, 10.42) x tau {0.505 ... 1.0}, ntw
-#         exact fp64. About 50 min of one CPU core.
+#         exact fp64. About 20 min of one CPU core (the dense array: 1 min).
 # gpu-a   d/l 16, 20, 30 x every tau: ntw exact fp64, nt exact fp64; ntw table fp64 and exact fp32 at
 #         d/l 16 and 20 (fp32 is not a validation precision past d/l 20). About 7 min on an H200.
 # gpu-b   d/l 50 x tau 0.52 ... 1.0: ntw exact fp64. About 4 min on an H200.

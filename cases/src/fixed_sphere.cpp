@@ -69,7 +69,7 @@ FixedSphereResult run_fixed_sphere(const FixedSphereSpec& c, Backend b) {
                       ": must be in (0, 0.75] (range of the reference, Sangani & Acrivos's series)" +
                       (d3 ? " or, within " + num(kZickHomsyChiTolerance) +
                                 ", a dense point tabulated by Zick & Homsy (1982): " + points
-                          : " (2D)"));
+                          : " (2D: no dense reference)"));
   }
   const long L = std::lround(c.diameter / c.chi);
   if (L < 4) throw ConfigError("fixed_sphere: period L = d/chi = " + std::to_string(L) + " cells: must be >= 4");
