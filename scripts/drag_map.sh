@@ -3,7 +3,8 @@
 # wall sits", "One rule for every tau"): the rule (noble_torczynski_wall, "ntw") and the classic NT
 # weighting ("nt"), both with Lambda auto (imb::psm_magic_auto: by d/l and tau; 1e-4 below d/l 16 and
 # 3e-2 from 16 as tau -> 1/2), NEBB, sphere centre on a cell centre, chi = 0.5, Re_p 0.2, against
-# Sangani & Acrivos (1982). One JSON, one heat-map PNG per weighting.
+# Sangani & Acrivos (1982); and the dense array, chi 0.8685 (phi 0.343, spheres nearly touching), against
+# Zick & Homsy (1982). One JSON, one heat-map PNG per weighting.
 #
 #   scripts/drag_map.sh BIN OUTDIR PART...     PART: host | gpu-a | gpu-b | gpu-c | merge | plot
 #
@@ -14,7 +15,9 @@
 #   env     DRAG_MAP_LIMIT (s per part, default 520: one device call of at most 9 minutes)
 #
 # host    d/l 4, 6, 8, 10 x tau {0.505 ... 1.0}: ntw and nt exact fp64, ntw table fp64; the plane-wall
-#         runs (lbdem_bench_psm wall). About 20 min of one CPU core.
+#         runs (lbdem_bench_psm wall); the dense array, chi = (6 phi / pi)^(1/3) at Zick & Homsy's
+#         phi 0.343, L = 5, 7, 9, 12 (d = chi L: d/l 4.34, 6.08, 7.82, 10.42) x tau {0.505 ... 1.0}, ntw
+#         exact fp64. About 20 min of one CPU core (the dense array: 1 min).
 # gpu-a   d/l 16, 20, 30 x every tau: ntw exact fp64, nt exact fp64; ntw table fp64 and exact fp32 at
 #         d/l 16 and 20 (fp32 is not a validation precision past d/l 20). About 7 min on an H200.
 # gpu-b   d/l 50 x tau 0.52 ... 1.0: ntw exact fp64. About 4 min on an H200.
@@ -28,7 +31,7 @@
 #   scripts/drag_map.sh build-cuda/bench/imb/lbdem_bench_psm $OUT gpu-c
 # then, here: copy the JSONs beside the host ones and run `merge plot`.
 set -uo pipefail
-if [ $# -lt 3 ]; then sed -n 2,31p "$0"; exit 2; fi
+if [ $# -lt 3 ]; then sed -n 2,32p "$0"; exit 2; fi
 bin="$1"
 out="$2"
 shift 2
@@ -59,7 +62,7 @@ for p in "${parts[@]}"; do
   [ "$p" = merge ] || [ "$p" = plot ] || [ -x "$bin" ] || { echo "drag_map: $bin is not an executable"; exit 2; }
   case "$p" in
     host)
-      limit=${DRAG_MAP_LIMIT:-2400}
+      limit=${DRAG_MAP_LIMIT:-3300}
       "$bin" wall --out "$out/plane_wall.json" --magic 1e-4 > "$out/plane_wall.md" 2>&1
       echo "plane walls: $out/plane_wall.md"
       # Fast (large tau) first: a cut-off run keeps the rows it finished.
@@ -69,6 +72,9 @@ for p in "${parts[@]}"; do
         --methods exact --precisions fp64
       run drag_map_host_3 host 600 --d 4,6,8,10 --tau 1.0,0.9,0.8,0.6,0.52 --weights ntw --methods table \
         --precisions fp64
+      # The dense array: d = chi L for an integer period L (the reference holds at that chi only).
+      run drag_map_host_dense host 900 --chi 0.8684907 --d 4.342453,6.079435,7.816416,10.421888 --offset centre \
+        --tau 1.0,0.9,0.8,0.7,0.6,0.55,0.52,0.505 --weights ntw --methods exact --precisions fp64
       ;;
     gpu-a)
       run drag_map_gpu_a1 cuda 240 --d 16,20,30 --tau "$TAUS" --weights ntw --methods exact --precisions fp64

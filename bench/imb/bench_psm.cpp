@@ -2,15 +2,18 @@
 //
 //   lbdem_bench_psm sweep [--out FILE.json] [--d 4,6,8,...] [--tau 0.52] [--methods exact,table,linear]
 //                   [--precisions fp64,fp32,fp16s,fp16c] [--collisions trt,bgk] [--variants nebb,super] [--weights nt,eps]
-//                   [--magic 1e-4 (or auto: by d/l and tau, imb::psm_magic_auto)] [--offset 0.5,0] [--re 0.2] [--chi 0.5] [--tol 1e-5]
-//                   [--start estimate|rest] [--check N] [--max-steps N] [--backend host|cuda] [--dim 3] [-v]
+//                   [--magic 1e-4 (or auto: by d/l and tau, imb::psm_magic_auto)] [--offset 0.5,0,centre] [--re 0.2]
+//                   [--chi 0.5 (<= 0.75, or a dense point of Zick & Homsy: 0.8685, 0.9508, 1)] [--tol 1e-5]
+//                   [--start estimate|rest] [--check N] [--max-steps N] [--periods 0 (per axis; 0: as needed)]
+//                   [--backend host|cuda] [--dim 3] [-v]
 //   lbdem_bench_psm suspension [--out FILE.json] [--n 256 | --dims X,Y,Z] [--phi 0.128] [--d 10] [--steps 200]
 //                   [--substeps N (default: fewest accepted)] [--tau 0.6] [--precision fp32|fp64|fp16s|fp16c] [--fraction exact|table|linear]
 //                   [--pipeline auto|fused|mapped] [--backend host|cuda]
 //
 // sweep: fixed sphere in a simple cubic array (the first paper's Table 1
 // test) for every combination; per row the drag coefficient K against
-// Sangani & Acrivos (1982), the steps and wall time to the detected steady
+// Sangani & Acrivos (1982) (chi <= 0.75) or Zick & Homsy (1982) (their
+// tabulated dense points, cases::sphere_array_K), the steps and wall time to the detected steady
 // state, and MLUPS. suspension: coupled MLUPS of a periodic suspension
 // against fluid-only MLUPS on the same grid.
 #include <cmath>
@@ -55,11 +58,15 @@ std::string option_value(int argc, char** argv, int& i) {
   return argv[++i];
 }
 
-// First paper Table 1, Re_p = 0.2 column (relative error in %).
+// First paper Table 1, Re_p = 0.2 column (relative error in %); between its
+// diameters (the dense array's d = chi L is not an integer) interpolated
+// linearly in d/l; NaN outside d/l 4-50.
 double paper_error(double d) {
   const double dl[8] = {4, 6, 8, 10, 16, 20, 30, 50};
   const double e[8] = {15.99, 6.953, 4.352, 2.868, 2.101, 1.367, 0.6503, 0.3335};
   for (int i = 0; i < 8; ++i) if (std::abs(dl[i] - d) < 1e-9) return e[i];
+  for (int i = 0; i < 7; ++i)
+    if (d > dl[i] && d < dl[i + 1]) return e[i] + (d - dl[i]) / (dl[i + 1] - dl[i]) * (e[i + 1] - e[i]);
   return NAN;
 }
 
@@ -80,8 +87,9 @@ std::string jnum(double v) {
 // Defaults (bench/imb/NOTES.md, "Fixed-sphere drag"): tau 0.52, TRT Lambda
 // 1e-4, NEBB, Noble-Torczynski B, exact fractions, fp64; sphere centre on a
 // cell centre (offset 0.5: the first paper does not say where its sphere
-// sits); Re_p = 0.2, the paper's (the reference, Sangani & Acrivos, is Stokes
-// flow; the inertial change of K at this Re_p is far below the bars, NOTES);
+// sits; "centre" puts it on a cell centre for every period: 0.5 for even L,
+// 0 for odd L); Re_p = 0.2, the paper's (both references are Stokes flow;
+// the inertial change of K at this Re_p is far below the bars, NOTES);
 // start from the Stokes estimate; tolerance 1e-5 on the estimated remaining
 // relative change of the drag.
 int sweep(int argc, char** argv) {
@@ -91,6 +99,7 @@ int sweep(int argc, char** argv) {
   double chi = 0.5, tol = 1e-5;
   int dim = 3;
   long max_steps = 4000000, check = 0;
+  int periods = 0;
   bool verbose = false;
   for (int i = 2; i < argc; ++i) {
     const std::string k = argv[i];
@@ -113,10 +122,22 @@ int sweep(int argc, char** argv) {
     else if (k == "--dim") dim = std::stoi(next());
     else if (k == "--max-steps") max_steps = std::stol(next());
     else if (k == "--check") check = std::stol(next());
+    else if (k == "--periods") periods = std::stoi(next());
     else if (k == "-v") verbose = true;
     else throw ConfigError("unknown option " + k);
   }
   if (start != "rest" && start != "estimate") throw ConfigError("--start " + start + ": must be rest or estimate");
+  // The reference: Sangani & Acrivos to chi 0.75, Zick & Homsy's tabulated dense points above (3D).
+  const char* reference = "";
+  if (std::isnan(cases::sphere_array_K(chi, &reference)) || (chi > 0.75 && dim != 3)) {
+    std::string points;
+    for (const auto& p : cases::kZickHomsy)
+      if (cases::zick_homsy_chi(p.phi) > 0.75)
+        points += (points.empty() ? "" : ", ") + jnum(std::round(cases::zick_homsy_chi(p.phi) * 1e4) / 1e4);
+    throw ConfigError("--chi " + jnum(chi) + ": must be in (0, 0.75] (Sangani & Acrivos's series) or, in 3D, within " +
+                      jnum(cases::kZickHomsyChiTolerance) + " of a dense point tabulated by Zick & Homsy (1982): " +
+                      points);
+  }
   const Backend b = resolve_backend(backend);
   std::vector<imb::FractionTable> tables;
   tables.reserve(1);
@@ -124,10 +145,11 @@ int sweep(int argc, char** argv) {
   head << "{\n" << bench::json_header("lbdem_bench_psm sweep", bench::device_name(b), {}) << ",\n  \"backend\": \""
        << (b == Backend::Cuda ? "cuda" : "host") << "\",\n  \"chi\": " << chi
        << ",\n  \"tolerance\": " << tol << ",\n  \"start\": \"" << start
-       << "\",\n  \"reference\": \"Sangani & Acrivos (1982) Eq. 60, Stokes flow\""
+       << "\",\n  \"reference\": \"" << reference << ", Stokes flow\""
        << ",\n  \"paper\": \"first paper Table 1, Re_p = 0.2, against Fluent at the same Re_p\",\n  \"rows\": [\n";
   std::string rows;
-  std::printf("# K against Sangani & Acrivos (Stokes); paper %% = first paper Table 1 (Re_p = 0.2); bar = half of it\n");
+  std::printf("# K against %s (Stokes); paper %% = first paper Table 1 (Re_p = 0.2; linear in d/l between its diameters); "
+              "bar = half of it\n", reference);
   std::printf("| d/l | method | prec | coll | weight, operator | tau | Lambda | offset | K | error %% | paper %% | bar %% | Re_p | steps | time s | MLUPS | remaining |\n");
   std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const auto& dstr : split(ds))
@@ -148,11 +170,13 @@ int sweep(int argc, char** argv) {
                       s.tau = std::stod(ts);
                       // "auto": Lambda by d/l and tau (imb::psm_magic_auto, bench/imb/NOTES.md).
                       s.magic = ms == "auto" ? imb::psm_magic_auto(s.diameter, s.tau) : std::stod(ms);
-                      s.offset = std::stod(os);
+                      // "centre": the sphere centre on a cell centre (L/2 is one for odd L, a corner for even L).
+                      s.offset = os == "centre" ? (std::lround(s.diameter / chi) % 2 == 0 ? 0.5 : 0.0) : std::stod(os);
                       // fp32 round-off floors the drag's step-to-step change near 1e-6, 16-bit storage near 1e-4.
                       s.tolerance = pr == "fp64" ? tol : std::max(tol, pr == "fp32" ? 1e-5 : 5e-4);
                       s.max_steps = max_steps;
                       s.check_every = check;
+                      s.periods = periods;
                       s.start = start == "rest" ? cases::FixedSphereSpec::Start::Rest
                                                 : cases::FixedSphereSpec::Start::Estimate;
                       s.quiet = !verbose;
@@ -180,15 +204,16 @@ int sweep(int argc, char** argv) {
                                   r.re_p, r.steps, r.converged ? "" : "*", r.seconds, r.mlups, r.remaining);
                       std::fflush(stdout);
                       std::ostringstream row;
-                      row << (rows.empty() ? "" : ",\n") << "    {\"d\": " << s.diameter << ", \"method\": \"" << m
+                      row << (rows.empty() ? "" : ",\n") << "    {\"d\": " << jnum(s.diameter) << ", \"method\": \"" << m
                           << "\", \"precision\": \"" << pr << "\", \"collision\": \"" << co << "\", \"variant\": \""
                           << va << "\", \"weight\": \"" << we << "\", \"tau\": " << s.tau << ", \"magic\": " << jnum(lam)
+                          << ", \"chi\": " << jnum(s.diameter / double(std::lround(s.diameter / chi)))
                           << ", \"offset\": " << s.offset << ", \"re_target\": " << s.re_p << ", \"K\": " << jnum(r.K)
                           << ", \"K_ref\": " << jnum(r.K_ref) << ", \"error\": " << jnum(r.rel_error)
                           << ", \"paper_error\": " << jnum(paper / 100) << ", \"re_p\": " << jnum(r.re_p)
                           << ", \"steps\": " << r.steps << ", \"converged\": " << (r.converged ? "true" : "false")
                           << ", \"remaining\": " << jnum(r.remaining) << ", \"seconds\": " << jnum(r.seconds)
-                          << ", \"mlups\": " << jnum(r.mlups) << ", \"cells\": " << std::lround(std::pow(std::lround(s.diameter / chi), dim))
+                          << ", \"mlups\": " << jnum(r.mlups) << ", \"cells\": " << r.cells
                           << ", \"flux_over_u\": " << jnum(r.mean_flux / r.mean_u) << "}";
                       rows += row.str();
                       if (!out.empty()) std::ofstream(out) << head.str() << rows << "\n  ]\n}\n";

@@ -4,6 +4,9 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <limits>
+#include <sstream>
+#include <string>
 #include <vector>
 
 #include "core/buffer.hpp"
@@ -26,6 +29,20 @@ double sangani_acrivos_K(double chi) {
   return K;
 }
 
+double zick_homsy_chi(double phi) { return std::cbrt(6.0 * phi / M_PI); }
+
+double zick_homsy_K(double chi) {
+  for (const auto& p : kZickHomsy)
+    if (std::abs(chi - zick_homsy_chi(p.phi)) <= kZickHomsyChiTolerance) return p.K;
+  return std::numeric_limits<double>::quiet_NaN();
+}
+
+double sphere_array_K(double chi, const char** name) {
+  const bool series = chi > 0 && chi <= 0.75;
+  if (name) *name = series ? "Sangani & Acrivos (1982) Eq. 60" : "Zick & Homsy (1982) Table 2";
+  return series ? sangani_acrivos_K(chi) : zick_homsy_K(chi);
+}
+
 double sangani_acrivos_cylinders(double c) {
   return 1.0 / (-0.5 * std::log(c) - 0.738 + c - 0.887 * c * c + 2.038 * c * c * c);
 }
@@ -33,16 +50,59 @@ double sangani_acrivos_cylinders(double c) {
 FixedSphereResult run_fixed_sphere(const FixedSphereSpec& c, Backend b) {
   const bool d3 = c.dim == 3;
   if (c.dim != 2 && c.dim != 3) throw ConfigError("fixed_sphere.dim = " + std::to_string(c.dim) + ": must be 2 or 3");
-  if (!(c.chi > 0 && c.chi <= 0.75))
-    throw ConfigError("fixed_sphere.chi = " + std::to_string(c.chi) + ": must be in (0, 0.75] (range of the reference)");
+  auto num = [](double v) {
+    std::ostringstream o;
+    o.precision(7);
+    o << v;
+    return o.str();
+  };
+  // The reference: Sangani & Acrivos's series to chi 0.75; above it, in 3D,
+  // only the dense points Zick & Homsy tabulate (the table is not interpolated).
+  const bool dense = c.chi > 0.75;
+  if (!(c.chi > 0) || (dense && (!d3 || std::isnan(zick_homsy_K(c.chi))))) {
+    std::string points;
+    for (const auto& p : kZickHomsy)
+      if (zick_homsy_chi(p.phi) > 0.75)
+        points += (points.empty() ? "" : ", ") + num(std::round(zick_homsy_chi(p.phi) * 1e4) / 1e4) + " (phi " +
+                  num(p.phi) + ")";
+    throw ConfigError("fixed_sphere.chi = " + num(c.chi) +
+                      ": must be in (0, 0.75] (range of the reference, Sangani & Acrivos's series)" +
+                      (d3 ? " or, within " + num(kZickHomsyChiTolerance) +
+                                ", a dense point tabulated by Zick & Homsy (1982): " + points
+                          : " (2D: no dense reference)"));
+  }
   const long L = std::lround(c.diameter / c.chi);
   if (L < 4) throw ConfigError("fixed_sphere: period L = d/chi = " + std::to_string(L) + " cells: must be >= 4");
+  if (dense && std::isnan(zick_homsy_K(c.diameter / double(L))))
+    throw ConfigError("fixed_sphere.diameter = " + num(c.diameter) + " with fixed_sphere.chi = " + num(c.chi) +
+                      ": the period L = round(d / chi) = " + std::to_string(L) + " cells makes d / L = " +
+                      num(c.diameter / double(L)) + ", off the tabulated point by more than " +
+                      num(kZickHomsyChiTolerance) + ": use d = " + num(c.chi) + " * L, e.g. " +
+                      num(c.chi * double(L)));
   const double a = 0.5 * c.diameter;
+  // The cell map visits floor(2a) + 2 cells per axis around a particle and
+  // refuses more than a periodic axis holds (imb/cell_slots.hpp: a particle
+  // would meet its own image), which a sphere with less than about a cell of
+  // gap to its neighbour in the array needs. The array is then simulated on a
+  // period of 2L per axis holding a sphere at the same place in each L-cell:
+  // the flow stays L-periodic, and every sum below is per sphere.
+  if (c.periods < 0 || c.periods > 4)
+    throw ConfigError("fixed_sphere.periods = " + std::to_string(c.periods) + ": must be 0 (as needed) or 1-4");
+  const long rep = c.periods > 0 ? c.periods : static_cast<long>(std::floor(2.0 * a)) + 2 > L ? 2 : 1;
+  const long M = rep * L;  // cells per axis of the simulated domain
+  const int spheres = static_cast<int>(d3 ? rep * rep * rep : rep * rep);
   const double nu = (c.tau - 0.5) / 3.0, mu = nu;  // rho = 1
   const double V = d3 ? double(L) * L * L : double(L) * L;
   const double phi = d3 ? M_PI * c.diameter * c.diameter * c.diameter / 6.0 / V : M_PI * a * a / V;
   const double chi_true = c.diameter / double(L);
-  const double K_ref = d3 ? sangani_acrivos_K(chi_true) : sangani_acrivos_cylinders(phi);
+  const char* reference = "Sangani & Acrivos (1982), square array of cylinders";
+  double K_ref = 0;
+  if (!d3) K_ref = sangani_acrivos_cylinders(phi);
+  else if (dense) K_ref = sphere_array_K(chi_true, &reference);  // d / L is within the tolerance of the point
+  else {
+    K_ref = sangani_acrivos_K(chi_true);
+    reference = "Sangani & Acrivos (1982) Eq. 60";
+  }
   // Body force g per unit volume for the target Re_p (Stokes estimate):
   // the array theory's force balance is n F = -grad p = g, F = 6 pi mu a K U.
   const double U_target = c.re_p * nu / c.diameter;
@@ -56,7 +116,7 @@ FixedSphereResult run_fixed_sphere(const FixedSphereSpec& c, Backend b) {
   s.streaming = c.streaming;
   s.tau = c.tau;
   s.magic = c.magic;
-  s.domain.global = s.domain.local = {L, L, d3 ? L : 1};
+  s.domain.global = s.domain.local = {M, M, d3 ? M : 1};
   s.body_force = {g, 0, 0};
   // On several ranks each takes its piece of the period (ghost cells flagged)
   // and exchanges halos; sums over cells (drag, mean velocity) are over ranks.
@@ -67,7 +127,7 @@ FixedSphereResult run_fixed_sphere(const FixedSphereSpec& c, Backend b) {
     s.domain = dec.piece(s.domain, c.comm->rank());
   }
   auto solver = lbm::make_lbm_solver(s, b);
-  const double N = d3 ? double(L) * L * L : double(L) * L;  // cells of the whole period
+  const double N = d3 ? double(M) * M * M : double(M) * M;  // cells of the whole domain
   const auto Ns = static_cast<std::size_t>(s.domain.storage_cells());
   const GridView gv = s.domain.view();
   const CellBox own = s.domain.owned();
@@ -93,16 +153,26 @@ FixedSphereResult run_fixed_sphere(const FixedSphereSpec& c, Backend b) {
     return v;
   };
 
+  // Particle arrays x, y, z, r, v, w of `spheres` entries each (at rest).
   const double ctr = 0.5 * L + c.offset;
-  std::vector<double> host = {ctr, ctr, d3 ? ctr : 0.5, a, 0, 0, 0, 0, 0, 0};
-  Buffer<double> pd(b, 10);
+  const std::size_t n = static_cast<std::size_t>(spheres);
+  std::vector<double> host(10 * n, 0.0);
+  for (long k = 0, i = 0; k < (d3 ? rep : 1); ++k)
+    for (long j = 0; j < rep; ++j)
+      for (long q = 0; q < rep; ++q, ++i) {
+        host[i] = ctr + double(q * L);
+        host[n + i] = ctr + double(j * L);
+        host[2 * n + i] = d3 ? ctr + double(k * L) : 0.5;
+        host[3 * n + i] = a;
+      }
+  Buffer<double> pd(b, 10 * spheres);
   pd.copy_from_host(host);
-  Buffer<double> f6(b, 6);
+  Buffer<double> f6(b, 6 * spheres);
   imb::PsmParticles p;
   double* d = pd.data();
-  p.x = d; p.y = d + 1; p.z = d3 ? d + 2 : nullptr; p.r = d + 3;
-  p.vx = d + 4; p.vy = d + 5; p.vz = d + 6; p.wx = d + 7; p.wy = d + 8; p.wz = d + 9;
-  p.n = 1;
+  p.x = d; p.y = d + n; p.z = d3 ? d + 2 * n : nullptr; p.r = d + 3 * n;
+  p.vx = d + 4 * n; p.vy = d + 5 * n; p.vz = d + 6 * n; p.wx = d + 7 * n; p.wy = d + 8 * n; p.wz = d + 9 * n;
+  p.n = spheres;
   imb::PsmCoupling coupling(*solver, c.slots);
   imb::PsmOptions opt;
   opt.variant = c.variant;
@@ -122,7 +192,7 @@ FixedSphereResult run_fixed_sphere(const FixedSphereSpec& c, Backend b) {
     for (std::size_t i = 0; i < Ns; ++i)
       if (owned[i]) s2 += (1.0 - std::min(1.0, eps0[i])) * (1.0 - std::min(1.0, eps0[i]));
     s2 = global_sum({s2})[0];
-    const double U0 = U_target * V / s2;
+    const double U0 = U_target * V * spheres / s2;
     std::vector<double> u0(3 * Ns, 0.0);
     for (std::size_t i = 0; i < Ns; ++i) u0[3 * i] = U0 * (1.0 - std::min(1.0, eps0[i]));
     solver->initialize(flags, std::vector<double>(Ns, 1.0), u0);
@@ -160,7 +230,10 @@ FixedSphereResult run_fixed_sphere(const FixedSphereSpec& c, Backend b) {
     }
     psm_step(imb::ForceOut::six(f6.data()));
     step += check;
-    F = global_sum({f6.to_vector()[0]})[0];
+    const auto f = f6.to_vector();
+    F = f[0];
+    for (std::size_t i = 1; i < n; ++i) F += f[6 * i];
+    F = global_sum({F})[0] / spheres;
     if (!std::isfinite(F)) throw DivergenceError("fixed_sphere: drag is not finite at step " + std::to_string(step));
     const double delta = std::abs(F - prev);
     if (step >= 4 * check && prev_delta > 0) {
@@ -185,6 +258,7 @@ FixedSphereResult run_fixed_sphere(const FixedSphereSpec& c, Backend b) {
   r.interrupted = interrupted;
   r.remaining = remaining_rel;
   r.mlups = N * double(step) / r.seconds / 1e6;
+  r.cells = std::lround(N);
 
   std::vector<double> rho, u;
   solver->macroscopic(rho, u);
@@ -199,9 +273,9 @@ FixedSphereResult run_fixed_sphere(const FixedSphereSpec& c, Backend b) {
     fluid_weight += 1.0 - B;
   }
   const auto sums = global_sum({usum, flux, fluid_weight});
-  usum = sums[0];
-  flux = sums[1];
-  fluid_weight = sums[2];
+  usum = sums[0] / spheres;  // per period
+  flux = sums[1] / spheres;
+  fluid_weight = sums[2] / spheres;
   r.mean_u = usum / V;
   r.mean_flux = flux / V;
   r.exchange = F;
@@ -214,6 +288,7 @@ FixedSphereResult run_fixed_sphere(const FixedSphereSpec& c, Backend b) {
   r.body_force = g;
   r.K = d3 ? r.force / (6 * M_PI * mu * a * r.mean_u) : r.force / (4 * M_PI * mu * r.mean_u);
   r.K_ref = K_ref;
+  r.reference = reference;
   r.rel_error = (r.K - K_ref) / K_ref;
   r.re_p = r.mean_u * c.diameter / nu;
   return r;
