@@ -1,11 +1,16 @@
 // The checkpoint side of the scene drivers (cases/src/checkpoint_case.hpp).
 #include "checkpoint_case.hpp"
 
+#include <algorithm>
+#include <cstring>
 #include <exception>
+#include <functional>
+#include <span>
 
 #include "core/error.hpp"
 #include "dem/system.hpp"
 #include "imb/coupled.hpp"
+#include "lbm/boundary.hpp"
 
 namespace lbdem::cases {
 
@@ -96,12 +101,15 @@ io::TimeSeries open_series(const ckpt::Run& run, const std::string& path, const 
   return ts;
 }
 
-void refuse_distributed(const std::optional<std::string>& restart, ckpt::Policy& p, bool distributed) {
+void refuse_distributed(const std::string& scene, const std::optional<std::string>& restart, ckpt::Policy& p,
+                        bool distributed) {
   if (!distributed) return;
-  if (restart) throw ConfigError("--restart: a run on several ranks cannot be restarted yet; restart on one rank");
+  if (restart)
+    throw ConfigError("--restart: the " + scene + " scene on several ranks cannot be restarted yet (the fluid scenes "
+                      "can); restart on one rank");
   if (p.interval > 0 || p.minutes > 0)
-    throw ConfigError("checkpoint: a run on several ranks cannot write checkpoints yet; leave out the checkpoint "
-                      "section or run on one rank");
+    throw ConfigError("checkpoint: the " + scene + " scene on several ranks cannot write checkpoints yet (the fluid "
+                      "scenes can); leave out the checkpoint section or run on one rank");
   p.on_signal = false;
 }
 

@@ -2,11 +2,14 @@
 // The checkpoint side of the scene drivers (core/checkpoint.hpp): what a
 // scene's checkpoint is of, the sections it writes, and the time series a
 // restart continues. Each run loop calls these in a few lines.
+#include <cstdint>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "core/checkpoint.hpp"
+#include "core/grid.hpp"
 #include "core/output.hpp"
 #include "halo/comm.hpp"
 #include "lbm/solver.hpp"
@@ -45,9 +48,103 @@ RunValues load_dem(ckpt::Reader& r, dem::DemSystem& dem);
 io::TimeSeries open_series(const ckpt::Run& run, const std::string& path, const std::vector<std::string>& columns,
                            long interval);
 
-// A run on several ranks: ConfigError for --restart or a checkpoint section
-// (not supported yet), and no checkpoint at a stop signal.
-void refuse_distributed(const std::optional<std::string>& restart, ckpt::Policy& p, bool distributed);
+// ---------------------------------------------------------------------------
+// Several ranks. One file all the same (core/checkpoint.hpp), written by rank
+// 0; the other ranks stream their sections to it through MPI in rank order,
+// a few MiB at a time, so that no rank holds more than its own piece.
+//
+// The fluid of a run on several ranks is stored canonically: section
+// "lbm.<k>" holds rank k's owned box (global offset and extent), the step
+// count and, per population slot q, the stored values of its owned cells
+// (x fastest). After a whole step the owned slots of all pieces together are
+// the one-rank storage (LbmSolver::read_slot says why), so a restart on any
+// number of ranks, cut any way, continues bit for bit: rank 0 reads the
+// pieces (or a one-rank checkpoint's raw "lbm" section) slab by slab and
+// broadcasts them; each rank keeps the cells its storage holds (owned cells,
+// and ghost copies of fluid cells, which then need no halo fill: A-A at either
+// parity and two-lattice alike). A one-rank run restarted on one rank keeps
+// the raw path (save_fluid / load_fluid above).
+// ---------------------------------------------------------------------------
+
+// The layout lines of a checkpoint written on `ranks` ranks cut as `dims`.
+ckpt::Identity rank_layout(int ranks, const std::string& dims);
+
+// Opens the checkpoint side of a run on every rank (collective): rank 0
+// reads and checks a restart's checkpoint (when it refuses, every rank
+// throws ConfigError, rank 0 with the reason); the others follow its step.
+ckpt::Run open_run(const std::string& outdir, const ckpt::Policy& policy, const ckpt::Identity& id,
+                   const std::optional<std::string>& restart, const halo::Comm& comm);
+
+// ckpt::Run::due agreed by every rank (wall-clock minutes differ between ranks). Collective.
+bool checkpoint_due(const ckpt::Run& run, const halo::Comm& comm, long step, bool stopping, bool finished = false);
+
+// One checkpoint written by every rank of `comm` (collective; every rank
+// makes the same calls in the same order). Write errors on rank 0 are
+// reported by commit() on every rank, after the others have sent their part.
+class SharedWriter {
+ public:
+  SharedWriter(ckpt::Run& run, const halo::Comm& comm, long step, double time);
+  ~SharedWriter();
+  SharedWriter(const SharedWriter&) = delete;
+  SharedWriter& operator=(const SharedWriter&) = delete;
+  // Section `name`, written by rank 0 alone (fill is called there only).
+  template <class Fill>
+  void root_section(const std::string& name, Fill&& fill) {
+    if (!comm_.root()) return;
+    begin(name);
+    fill(sink());
+  }
+  // Sections "<name>.0", "<name>.1", ...: fill(sink) on every rank, for its own.
+  template <class Fill>
+  void rank_sections(const std::string& name, Fill&& fill) {
+    if (comm_.root()) {
+      begin(name + ".0");
+      fill(sink());
+      for (int k = 1; k < comm_.size(); ++k) receive(name + "." + std::to_string(k), k);
+    } else {
+      ckpt::Sink& out = forward();
+      fill(out);
+      close_forward();
+    }
+  }
+  void commit();
+
+ private:
+  void begin(const std::string& name);
+  ckpt::Sink& sink();
+  void receive(const std::string& name, int rank);
+  ckpt::Sink& forward();
+  void close_forward();
+  struct State;
+  ckpt::Run& run_;
+  const halo::Comm& comm_;
+  long step_;
+  std::unique_ptr<State> st_;
+};
+
+// Sections of a fluid scene written by every rank: the raw one-rank path on
+// one rank, else "run" and the canonical pieces. Collective.
+void save_fluid(ckpt::Run& run, const halo::Comm& comm, long step, double time, lbm::LbmSolver& fluid,
+                const RunValues& values);
+// The canonical piece of `fluid` (section "lbm.<rank>").
+void save_fluid_piece(ckpt::Sink& out, lbm::LbmSolver& fluid);
+// Loads a fluid scene's checkpoint on every rank (collective), however many
+// ranks wrote it. `whole`: the whole grid; `flags`: its cell flags, compared
+// with the checkpoint's (empty: not compared). The run values on every rank.
+RunValues load_fluid(ckpt::Run& run, const halo::Comm& comm, lbm::LbmSolver& fluid, const Grid& whole,
+                     const std::vector<std::uint8_t>& flags);
+// The "run" section (rank 0 reads it), on every rank. Collective.
+RunValues load_run_shared(ckpt::Run& run, const halo::Comm& comm);
+// Rank 0 reads the fluid sections (pieces or a one-rank raw section) and
+// every rank keeps its cells. Collective.
+void load_fluid_shared(ckpt::Run& run, const halo::Comm& comm, lbm::LbmSolver& fluid, const Grid& whole,
+                       const std::vector<std::uint8_t>& flags);
+
+// A run on several ranks of a scene that cannot yet checkpoint there:
+// ConfigError for --restart or a checkpoint section, and no checkpoint at a
+// stop signal.
+void refuse_distributed(const std::string& scene, const std::optional<std::string>& restart, ckpt::Policy& p,
+                        bool distributed);
 
 // The writing rank prepares the output folder (ckpt::Run::prepare_output);
 // every rank learns whether it failed and throws (the writer its own error).

@@ -294,7 +294,7 @@ int run_dem_case(const Config& root, const RunOptions& opt) {
                                     : dem::DemDomain{};
   if (opt.validate_only) return 0;
   const bool writer_rank = comm.root();
-  cases::refuse_distributed(opt.restart, c.checkpoint, domain.decomposed() || comm.size() > 1);
+  cases::refuse_distributed("dem", opt.restart, c.checkpoint, domain.decomposed() || comm.size() > 1);
   ckpt::Run ck(c.outdir, c.checkpoint,
                ckpt::Identity{}
                    .add("scene", "dem")

@@ -864,7 +864,7 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
                 static_cast<long long>(c.particles.size()), cases::memory_table(planned, cells).c_str());
     return 0;
   }
-  cases::refuse_distributed(opt.restart, c.checkpoint, ranks);
+  cases::refuse_distributed("particles", opt.restart, c.checkpoint, ranks);
   const bool quiet = opt.quiet || !writer;
   // A restart checks its checkpoint against this case before any output is touched.
   ckpt::Run ck(c.outdir, c.checkpoint,
