@@ -94,13 +94,17 @@ class SharedWriter {
     begin(name);
     fill(sink());
   }
-  // Sections "<name>.0", "<name>.1", ...: fill(sink) on every rank, for its own.
+  // Sections "<name>.0", "<name>.1", ...: fill(sink) on every rank, for its
+  // own. `chunked`: each section's data as chunks (u64 length, bytes) ended
+  // by a zero length, so that a reader can pass a section on without
+  // parsing it (ChunkSource reads it).
   template <class Fill>
-  void rank_sections(const std::string& name, Fill&& fill) {
+  void rank_sections(const std::string& name, Fill&& fill, bool chunked = false) {
     if (comm_.root()) {
       begin(name + ".0");
-      fill(sink());
-      for (int k = 1; k < comm_.size(); ++k) receive(name + "." + std::to_string(k), k);
+      fill(chunked ? chunk_sink() : sink());
+      if (chunked) close_chunks();
+      for (int k = 1; k < comm_.size(); ++k) receive(name + "." + std::to_string(k), k, chunked);
     } else {
       ckpt::Sink& out = forward();
       fill(out);
@@ -112,7 +116,9 @@ class SharedWriter {
  private:
   void begin(const std::string& name);
   ckpt::Sink& sink();
-  void receive(const std::string& name, int rank);
+  ckpt::Sink& chunk_sink();
+  void close_chunks();
+  void receive(const std::string& name, int rank, bool chunked);
   ckpt::Sink& forward();
   void close_forward();
   struct State;
@@ -133,6 +139,26 @@ void save_fluid_piece(ckpt::Sink& out, lbm::LbmSolver& fluid);
 // with the checkpoint's (empty: not compared). The run values on every rank.
 RunValues load_fluid(ckpt::Run& run, const halo::Comm& comm, lbm::LbmSolver& fluid, const Grid& whole,
                      const std::vector<std::uint8_t>& flags);
+// Sections of the dem scene on every rank: the raw one-rank path on one
+// rank; else "run" and each rank's DemSystem::save_state ("dem.<k>",
+// chunked). Collective.
+void save_dem(ckpt::Run& run, const halo::Comm& comm, long step, double time, const dem::DemSystem& dem,
+              const RunValues& values);
+// Loads the dem scene's checkpoint on every rank (collective): the same
+// rank count and decomposition `dims` (halo::Decomposition::describe) load
+// each rank's raw section (bit for bit); any other reads the particles of
+// every section and hands each rank those in its piece
+// (DemSystem::restore_particles, to round-off).
+RunValues load_dem(ckpt::Run& run, const halo::Comm& comm, dem::DemSystem& dem, const std::string& dims);
+void load_dem_shared(ckpt::Run& run, const halo::Comm& comm, dem::DemSystem& dem, const std::string& dims);
+// The coupled particles scene on every rank: "run", the fluid pieces, the
+// DEM sections, "coupling". Collective.
+void save_coupled(ckpt::Run& run, const halo::Comm& comm, long step, double time, lbm::LbmSolver& fluid,
+                  const dem::DemSystem& dem, const imb::CoupledSolver& cs, const RunValues& values);
+RunValues load_coupled(ckpt::Run& run, const halo::Comm& comm, lbm::LbmSolver& fluid, const Grid& whole,
+                       const std::vector<std::uint8_t>& flags, dem::DemSystem& dem, imb::CoupledSolver& cs,
+                       const std::string& dims);
+
 // The "run" section (rank 0 reads it), on every rank. Collective.
 RunValues load_run_shared(ckpt::Run& run, const halo::Comm& comm);
 // Rank 0 reads the fluid sections (pieces or a one-rank raw section) and

@@ -7,7 +7,10 @@
 //    the final checkpoints (canonical: the same bytes whatever the cut);
 //  - a stop signal on two ranks writes one checkpoint, and the restart from it
 //    ends in the straight run's state;
-//  - refusals: another grid; dem and particles scenes on several ranks.
+//  - the dem scene (friction, walls) and the coupled particles scene: the
+//    same rank count and cut bit for bit; another rank count to round-off
+//    (the neighbour list is rebuilt at the load, tangential histories kept);
+//  - refusals: another grid.
 // Skipped where the build has no MPI launcher.
 #include <gtest/gtest.h>
 #include <signal.h>
@@ -16,6 +19,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -256,6 +260,105 @@ TEST_F(MpiRestart, RefusesCheckpointOfAnotherGrid) {
   EXPECT_EQ(r.code, 2) << r.out;
   EXPECT_NE(r.out.find("grid '16x14x1'"), std::string::npos) << r.out;
   EXPECT_EQ(slurp(R / ckpt::kFileName), before);
+}
+
+// ---------------------------------------------------------------------------
+// Particles: the dem scene (friction, walls) and the coupled particles scene.
+// ---------------------------------------------------------------------------
+
+// The named datasets of two particle snapshots (ascending id): bitwise when
+// `rel` is 0, else within rel of the largest magnitude of each dataset.
+void expect_close(const fs::path& a, const fs::path& b, const std::vector<std::string>& names, double rel) {
+  for (const auto& n : names) {
+    const auto va = io::read_dataset(a.string(), n), vb = io::read_dataset(b.string(), n);
+    ASSERT_FALSE(va.empty()) << a << " " << n;
+    ASSERT_EQ(va.size(), vb.size()) << n;
+    if (rel == 0) {
+      EXPECT_EQ(0, std::memcmp(va.data(), vb.data(), va.size() * sizeof(double))) << a << " vs " << b << ": " << n;
+      continue;
+    }
+    double scale = 0, worst = 0;
+    for (std::size_t i = 0; i < va.size(); ++i) {
+      scale = std::max(scale, std::abs(va[i]));
+      worst = std::max(worst, std::abs(va[i] - vb[i]));
+    }
+    EXPECT_LE(worst, rel * scale) << a << " vs " << b << ": " << n;
+  }
+}
+
+std::string snap(const std::string& prefix, long step) {
+  char t[64];
+  std::snprintf(t, sizeof t, "%s_%08ld.h5", prefix.c_str(), step);
+  return t;
+}
+
+const char* kDem = R"(scene: dem
+domain: {lo: [0, 0, 0], hi: [0.01, 0.01, 0.01], periodic: [1, 0, 1]}
+physics: {gravity: [0, -9.81, 0], friction: true}
+material: {stiffness: 1000, restitution: 0.9, friction: 0.3}
+particles: {init: random, density: 2500, radius: [0.5e-3], solid_fraction: 0.2, velocity_rms: 0.05}
+time: {steps_per_collision: 50, steps: 600}
+output: {interval: 200, series_interval: 100}
+checkpoint: {interval: 300}
+)";
+
+// Straight on `b` ranks into S; to `first` on `a` ranks, --restart on `b` into R.
+void particle_chain(MpiRestart& t, const std::string& yaml, long steps, long first, const Cut& a, const Cut& b,
+                    const std::string& name, const std::vector<std::string>& particle_sets, double rel,
+                    bool fields) {
+  const fs::path S = t.dir_ / (name + "_S"), R = t.dir_ / (name + "_R");
+  const auto s = t.lbdem(yaml, b.ranks, b.dims, S);
+  ASSERT_EQ(s.code, 0) << s.out;
+  const auto r1 = t.lbdem(yaml, a.ranks, a.dims, R, "--steps " + std::to_string(first));
+  ASSERT_EQ(r1.code, 0) << r1.out;
+  {
+    ckpt::Reader ck((R / ckpt::kFileName).string());
+    EXPECT_EQ(ck.step(), first);
+    EXPECT_EQ(ck.meta("ranks"), a.ranks > 1 ? std::to_string(a.ranks) : "");
+  }
+  const auto r2 = t.lbdem(yaml, b.ranks, b.dims, R, "--restart " + R.string());
+  ASSERT_EQ(r2.code, 0) << r2.out;
+  expect_close(S / snap("particles", steps), R / snap("particles", steps), particle_sets, rel);
+  if (fields) expect_close(S / snap("fields", steps), R / snap("fields", steps), {"density", "velocity", "solid_fraction"}, rel);
+  if (rel == 0) EXPECT_EQ(slurp(S / "series.csv"), slurp(R / "series.csv")) << name;
+  fs::remove_all(S);
+  fs::remove_all(R);
+}
+
+TEST_F(MpiRestart, DemSameCutBitwise) {
+  particle_chain(*this, kDem, 600, 300, {2, "[1, 1, 2]"}, {2, "[1, 1, 2]"}, "2to2",
+                 {"positions", "velocity", "angular_velocity", "id", "force"}, 0, false);
+}
+
+// Another rank count: the particles are handed to the ranks whose pieces
+// hold them and the neighbour list is rebuilt at the load (tangential
+// histories carried by partner id). Sums in global-id order (as on several
+// ranks): the straight run's state to round-off.
+TEST_F(MpiRestart, DemOtherRankCountsWithinRoundOff) {
+  std::string yaml = kDem;
+  yaml += "neighbours: {contact_order: global_id}\n";
+  const std::vector<std::string> sets{"positions", "velocity", "angular_velocity", "id", "force"};
+  particle_chain(*this, yaml, 600, 300, {2, "[1, 1, 2]"}, {1, ""}, "2to1", sets, 1e-12, false);
+  particle_chain(*this, yaml, 600, 300, {1, ""}, {2, "[2, 1, 1]"}, "1to2", sets, 1e-12, false);
+}
+
+// A small suspension with friction and walls on y, particles crossing the cut.
+const char* kParticles = R"(scene: particles
+units: lattice
+domain: {cells: [20, 20, 20], periodic: [1, 0, 1]}
+fluid: {tau: 0.55}
+physics: {gravity: [0, -2.0e-5, 0]}
+particles: {init: random, diameter: 4, density_ratio: 2, solid_fraction: 0.15, seed: 3, velocity: [0.01, -0.03, 0.006]}
+dem: {stiffness: 2, restitution: 0.5, friction: 0.3, substeps: 5}
+time: {steps: 40}
+output: {interval: 20, series_interval: 10}
+checkpoint: {interval: 20}
+)";
+
+TEST_F(MpiRestart, ParticlesSameCutBitwiseAndOtherCutWithinRoundOff) {
+  const std::vector<std::string> sets{"positions", "velocity", "angular_velocity", "id", "hydrodynamic_force"};
+  particle_chain(*this, kParticles, 40, 20, {2, "[2, 1, 1]"}, {2, "[2, 1, 1]"}, "2to2", sets, 0, true);
+  particle_chain(*this, kParticles, 40, 20, {2, "[2, 1, 1]"}, {3, "[1, 1, 3]"}, "2to3", sets, 1e-12, true);
 }
 
 }  // namespace
