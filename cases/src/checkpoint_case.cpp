@@ -2,6 +2,7 @@
 #include "checkpoint_case.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cstring>
 #include <exception>
 #include <optional>
@@ -11,6 +12,7 @@
 #include "dem/system.hpp"
 #include "imb/coupled.hpp"
 #include "lbm/boundary.hpp"
+#include "lbm/lattice.hpp"
 
 namespace lbdem::cases {
 
@@ -141,6 +143,18 @@ constexpr std::size_t kChunkBytes = std::size_t{4} << 20;
 constexpr std::uint32_t kTagPiece = 0x4c425031;  // "LBP1": the layout of a fluid piece
 
 int lattice_q(const lbm::LbmSetup& s) { return s.lattice == lbm::LatticeKind::D2Q9 ? 9 : 19; }
+
+// Lattice velocities c_q of the set-up's lattice.
+std::vector<std::array<int, 3>> lattice_c(const lbm::LbmSetup& s) {
+  std::vector<std::array<int, 3>> c;
+  auto fill = [&](auto lat) {
+    using L = decltype(lat);
+    for (int q = 0; q < L::Q; ++q) c.push_back({L::c(q, 0), L::c(q, 1), L::c(q, 2)});
+  };
+  if (s.lattice == lbm::LatticeKind::D2Q9) fill(lbm::D2Q9{});
+  else fill(lbm::D3Q19{});
+  return c;
+}
 
 // Rank 0's part of a collective step that can fail: every rank learns
 // whether it did; rank 0 rethrows its error, the others throw ConfigError
@@ -454,11 +468,41 @@ void save_fluid_piece(ckpt::Sink& out, lbm::LbmSolver& fluid) {
   std::vector<std::uint8_t> flags(static_cast<std::size_t>(g.n));
   fluid.read_flags(flags.data());
   rows(reinterpret_cast<const std::byte*>(flags.data()), 1);
+  // Ghost copies of boundary cells: the reflections this piece's fluid cells
+  // stored there (lbm/kernels.hpp: a reflected value goes into the boundary
+  // cell's slot, which the same fluid cell reads next step; on a cut grid
+  // that slot lies in the writer's ghost copy, not in the owner's cell).
+  std::vector<std::int32_t> where;  // global coordinates
+  std::vector<std::size_t> at;      // storage index
+  for (int z = 0; z < g.nz; ++z)
+    for (int y = 0; y < g.ny; ++y)
+      for (int x = 0; x < g.nx; ++x) {
+        const int c[3] = {x, y, z};
+        bool owned = true;
+        for (int a = 0; a < 3; ++a)
+          if (c[a] < o.lo[a] || c[a] >= o.lo[a] + o.ext[a]) owned = false;
+        const auto i = static_cast<std::size_t>(g.index(x, y, z));
+        if (owned || !lbm::reflects(flags[i])) continue;
+        for (int a = 0; a < 3; ++a) {
+          const auto ua = static_cast<std::size_t>(a);
+          long w = c[a] + p.offset[ua] - p.ghost_on(a);
+          w = (w % p.global[ua] + p.global[ua]) % p.global[ua];
+          where.push_back(static_cast<std::int32_t>(w));
+        }
+        at.push_back(i);
+      }
   std::vector<std::byte> slot(static_cast<std::size_t>(g.n) * static_cast<std::size_t>(tb));
+  std::vector<std::byte> ghosts(at.size() * static_cast<std::size_t>(q_count) * static_cast<std::size_t>(tb));
   for (int q = 0; q < q_count; ++q) {
     fluid.read_slot(q, slot.data());
     rows(slot.data(), static_cast<std::size_t>(tb));
+    for (std::size_t k = 0; k < at.size(); ++k)
+      std::memcpy(ghosts.data() + (static_cast<std::size_t>(q) * at.size() + k) * static_cast<std::size_t>(tb),
+                  slot.data() + at[k] * static_cast<std::size_t>(tb), static_cast<std::size_t>(tb));
   }
+  out.put<std::uint64_t>(at.size());
+  if (!where.empty()) out.write(where.data(), where.size() * sizeof(std::int32_t));
+  if (!ghosts.empty()) out.write(ghosts.data(), ghosts.size());
 }
 
 void save_fluid(ckpt::Run& run, const halo::Comm& comm, long step, double time, lbm::LbmSolver& fluid,
@@ -498,11 +542,17 @@ namespace {
 // of the cells of a global box (x fastest, in the storage precision) follows
 // the head; `done` ends it with the step count; `failed` says rank 0 refused.
 struct SlabHead {
-  std::int32_t kind = 0;  // 0 slab, 1 done, 2 failed
+  std::int32_t kind = 0;  // 0 slab, 1 done, 2 failed, 3 boundary cells (below)
   std::int32_t q = 0;
   std::int64_t t = 0;
   std::int32_t lo[3] = {0, 0, 0};
   std::int32_t ext[3] = {0, 0, 0};
+  // The owned box of the piece the values come from (global).
+  std::int32_t src_lo[3] = {0, 0, 0};
+  std::int32_t src_ext[3] = {0, 0, 0};
+  // kind 3: `count` ghost copies of boundary cells of that piece follow:
+  // their global coordinates (3 x i32 each), then slot by slot their values.
+  std::int64_t count = 0;
 };
 
 // Boxes of whole rows of `box` (x fastest: each box's cells follow the
@@ -569,12 +619,57 @@ void load_fluid_shared(ckpt::Run& run, const halo::Comm& comm, lbm::LbmSolver& f
   fluid.read_flags(mine_flags.data());
   const CellBox own = p.owned();
   auto is_owned = [&](int a, int c) { return c >= own.lo[a] && c < own.lo[a] + own.ext[a]; };
+  const auto cq = lattice_c(s);
+  // The slot q of boundary cell b (global) holds the reflection stored by the
+  // fluid cell b + c_q (two-lattice) or b - c_q (A-A): the piece that owns
+  // that cell has it. A writer beyond a closed face: any piece (the slot is
+  // never read).
+  const int sigma = s.streaming == lbm::StreamKind::TwoLattice ? 1 : -1;
+  auto writer_in = [&](const SlabHead& h, const long* b, int q) {
+    for (int a = 0; a < 3; ++a) {
+      const auto ua = static_cast<std::size_t>(a);
+      long x = b[a] + sigma * cq[static_cast<std::size_t>(q)][ua];
+      if (x < 0 || x >= whole.global[ua]) {
+        if (!whole.periodic[ua]) return true;
+        x = (x % whole.global[ua] + whole.global[ua]) % whole.global[ua];
+      }
+      if (x < h.src_lo[a] || x >= h.src_lo[a] + h.src_ext[a]) return false;
+    }
+    return true;
+  };
   std::int64_t steps = -1;
   // One slab: each cell's values go to the storage cells that hold it (the
   // owned cell; a ghost copy only where it copies a fluid cell).
   auto place = [&](const std::vector<std::byte>& msg) {
     SlabHead h;
     std::memcpy(&h, msg.data(), sizeof h);
+    if (h.kind == 3) {
+      // Ghost copies of boundary cells of the source piece: the slots its fluid cells wrote.
+      const auto n = static_cast<std::size_t>(h.count);
+      if (h.count < 0 || msg.size() != sizeof h + n * (3 * sizeof(std::int32_t) + static_cast<std::size_t>(q_count) * tb))
+        throw Error("restart: boundary cells of the fluid state of the wrong size reached rank " +
+                    std::to_string(comm.rank()));
+      std::vector<std::int32_t> xyz(3 * n);
+      std::memcpy(xyz.data(), msg.data() + sizeof h, xyz.size() * sizeof(std::int32_t));
+      const std::byte* vals = msg.data() + sizeof h + xyz.size() * sizeof(std::int32_t);
+      int im[3][3], cnt[3];
+      for (std::size_t k = 0; k < n; ++k) {
+        const long b[3] = {xyz[3 * k], xyz[3 * k + 1], xyz[3 * k + 2]};
+        for (int a = 0; a < 3; ++a) cnt[a] = images(p, a, b[a], im[a]);
+        for (int q = 0; q < q_count; ++q) {
+          if (!writer_in(h, b, q)) continue;
+          const std::byte* src = vals + (static_cast<std::size_t>(q) * n + k) * tb;
+          std::byte* dst = pop.data() + static_cast<std::size_t>(q) * cells * tb;
+          for (int kz = 0; kz < cnt[2]; ++kz)
+            for (int ky = 0; ky < cnt[1]; ++ky)
+              for (int kx = 0; kx < cnt[0]; ++kx) {
+                const auto c = static_cast<std::size_t>(g.index(im[0][kx], im[1][ky], im[2][kz]));
+                if (lbm::reflects(mine_flags[c])) std::memcpy(dst + c * tb, src, tb);
+              }
+        }
+      }
+      return;
+    }
     CellBox b;
     for (int a = 0; a < 3; ++a) {
       b.lo[a] = h.lo[a];
@@ -597,8 +692,15 @@ void load_fluid_shared(ckpt::Run& run, const halo::Comm& comm, lbm::LbmSolver& f
             for (int ky = 0; ky < ny; ++ky)
               for (int kx = 0; kx < nx; ++kx) {
                 const auto c = static_cast<std::size_t>(g.index(ix[kx], iy[ky], iz[kz]));
-                const bool owned = is_owned(0, ix[kx]) && is_owned(1, iy[ky]) && is_owned(2, iz[kz]);
-                if (!owned && mine_flags[c] != lbm::kGhostFlag) continue;
+                const std::uint8_t f = mine_flags[c];
+                if (lbm::reflects(f)) {
+                  // A boundary cell (owned or a ghost copy): the slot its writer's piece holds.
+                  const long gb[3] = {b.lo[0] + x, b.lo[1] + y, b.lo[2] + z};
+                  if (!writer_in(h, gb, h.q)) continue;
+                } else {
+                  const bool owned = is_owned(0, ix[kx]) && is_owned(1, iy[ky]) && is_owned(2, iz[kz]);
+                  if (!owned && f != lbm::kGhostFlag) continue;
+                }
                 std::memcpy(dst + c * tb, v + k * tb, tb);
               }
         }
@@ -638,6 +740,8 @@ void load_fluid_shared(ckpt::Run& run, const halo::Comm& comm, lbm::LbmSolver& f
           for (int a = 0; a < 3; ++a) {
             h.lo[a] = b.lo[a];
             h.ext[a] = b.ext[a];
+            h.src_lo[a] = box.lo[a];
+            h.src_ext[a] = box.ext[a];
           }
           const std::size_t n = static_cast<std::size_t>(b.size()) * tb;
           std::vector<std::byte> msg(sizeof h + n);
@@ -673,7 +777,7 @@ void load_fluid_shared(ckpt::Run& run, const halo::Comm& comm, lbm::LbmSolver& f
         r.expect<std::uint64_t>(static_cast<std::uint64_t>(stride) * static_cast<std::uint64_t>(q_count),
                                 "the population count");
         for (int q = 0; q < q_count; ++q) {
-          read_slot(q, all, t);
+          read_slot(q, all, t);  // the whole grid is one piece: every slot of it
           skip(static_cast<std::uint64_t>(stride - gw.n) * tb);
         }
         if (s.streaming == lbm::StreamKind::TwoLattice) {
@@ -706,6 +810,23 @@ void load_fluid_shared(ckpt::Run& run, const halo::Comm& comm, lbm::LbmSolver& f
           steps = t;
           read_flags(box);
           for (int q = 0; q < q_count; ++q) read_slot(q, box, t);
+          // Its ghost copies of boundary cells, in slabs of whole records.
+          const auto count = r.get<std::uint64_t>();
+          const std::size_t rec = 3 * sizeof(std::int32_t) + static_cast<std::size_t>(q_count) * tb;
+          if (count > static_cast<std::uint64_t>(gw.n) * 27) r.mismatch("a boundary-cell count out of range");
+          SlabHead h;
+          h.kind = 3;
+          h.t = t;
+          h.count = static_cast<std::int64_t>(count);
+          for (int a = 0; a < 3; ++a) {
+            h.src_lo[a] = box.lo[a];
+            h.src_ext[a] = box.ext[a];
+          }
+          std::vector<std::byte> msg(sizeof h + static_cast<std::size_t>(count) * rec);
+          std::memcpy(msg.data(), &h, sizeof h);
+          if (count > 0) r.read(msg.data() + sizeof h, msg.size() - sizeof h);
+          comm.broadcast(msg, 0);
+          place(msg);
         }
       }
     } catch (...) {
@@ -836,7 +957,12 @@ void load_dem_shared(ckpt::Run& run, const halo::Comm& comm, dem::DemSystem& dem
     const auto kept = dem.select_particles(recs);
     mine.insert(mine.end(), kept.begin(), kept.end());
   }
+  const auto want = dem.global_size();
   dem.restore_particles(mine, counters);
+  const auto got = dem.global_size();
+  if (got != want)
+    throw ConfigError("--restart: the checkpoint holds " + std::to_string(got) + " particles where this case has " +
+                      std::to_string(want));
 }
 
 RunValues load_dem(ckpt::Run& run, const halo::Comm& comm, dem::DemSystem& dem, const std::string& dims) {
