@@ -216,46 +216,6 @@ class ChunkSource final : public ckpt::Source {
   std::uint64_t left_ = 0;
 };
 
-// A rank's chunked section as rank 0 passes it on (swap_chunk; an empty chunk ends it).
-class RemoteSource final : public ckpt::Source {
- public:
-  explicit RemoteSource(const halo::Comm& comm) : comm_(comm) {}
-  void read(void* data, std::size_t bytes) override {
-    auto* p = static_cast<std::byte*>(data);
-    while (bytes > 0) {
-      if (at_ == buf_.size()) {
-        if (ended_) mismatch("its data end early");
-        buf_ = swap_chunk(comm_, 0, {});
-        at_ = 0;
-        if (buf_.empty()) {
-          ended_ = true;
-          mismatch("its data end early");
-        }
-      }
-      const std::size_t k = std::min(bytes, buf_.size() - at_);
-      std::memcpy(p, buf_.data() + at_, k);
-      p += k;
-      bytes -= k;
-      at_ += k;
-    }
-  }
-  // Printed by every rank (the CLI prints only rank 0's ConfigError).
-  [[noreturn]] void mismatch(const std::string& what) const override {
-    throw Error("restart: rank " + std::to_string(comm_.rank()) + "'s part of the checkpoint does not fit this run: " +
-                what);
-  }
-  void finish() {
-    if (at_ != buf_.size()) mismatch("bytes left unread at its end");
-    if (!ended_ && !swap_chunk(comm_, 0, {}).empty()) mismatch("bytes left unread at its end");
-  }
-
- private:
-  const halo::Comm& comm_;
-  std::vector<std::byte> buf_;
-  std::size_t at_ = 0;
-  bool ended_ = false;
-};
-
 // Bytes in memory as a section.
 class BytesSource final : public ckpt::Source {
  public:
@@ -265,9 +225,11 @@ class BytesSource final : public ckpt::Source {
     std::memcpy(data, b_.data() + at_, bytes);
     at_ += bytes;
   }
+  // Printed by every rank (the CLI prints only rank 0's ConfigError).
   [[noreturn]] void mismatch(const std::string& what) const override {
-    throw Error("restart: a broadcast part of the checkpoint does not fit this run: " + what);
+    throw Error("restart: a part of the checkpoint does not fit this run: " + what);
   }
+  bool done() const { return at_ == b_.size(); }
 
  private:
   const std::vector<std::byte>& b_;
@@ -886,11 +848,20 @@ void load_dem_shared(ckpt::Run& run, const halo::Comm& comm, dem::DemSystem& dem
   same = comm.any(same);
   if (same) {
     if (comm.root()) {
+      // Rank 0's own section is loaded last, after the others have theirs:
+      // a load rebinds the ghost refresh, which pairs each rank with its
+      // neighbours (halo::Transport::bind).
       ckpt::Reader& r = run.reader();
       r.section("dem.0");
-      ChunkSource cs(r);
-      dem.load_state(cs);
-      cs.finish();
+      std::vector<std::byte> own;
+      for (;;) {
+        const auto len = r.get<std::uint64_t>();
+        if (len == 0) break;
+        if (len > kChunkBytes) r.mismatch("a chunk of " + std::to_string(len) + " bytes");
+        const std::size_t at = own.size();
+        own.resize(at + static_cast<std::size_t>(len));
+        r.read(own.data() + at, static_cast<std::size_t>(len));
+      }
       for (int k = 1; k < comm.size(); ++k) {
         r.section("dem." + std::to_string(k));
         for (;;) {
@@ -902,10 +873,20 @@ void load_dem_shared(ckpt::Run& run, const halo::Comm& comm, dem::DemSystem& dem
           if (len == 0) break;
         }
       }
-    } else {
-      RemoteSource src(comm);
+      BytesSource src(own);
       dem.load_state(src);
-      src.finish();
+      if (!src.done()) r.mismatch("bytes left unread at the end of rank 0's DEM section");
+    } else {
+      // The whole section first (the load pairs this rank with its neighbours at its end).
+      std::vector<std::byte> own;
+      for (;;) {
+        const auto chunk = swap_chunk(comm, 0, {});
+        if (chunk.empty()) break;
+        own.insert(own.end(), chunk.begin(), chunk.end());
+      }
+      BytesSource src(own);
+      dem.load_state(src);
+      if (!src.done()) src.mismatch("bytes left unread at the end of this rank's DEM section");
     }
     return;
   }

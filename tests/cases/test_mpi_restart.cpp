@@ -63,7 +63,12 @@ class MpiRestart : public ::testing::Test {
                       const std::string& extra) {
     static int n = 0;
     const fs::path file = dir_ / ("case" + std::to_string(n++) + ".yaml");
-    std::ofstream(file) << yaml << (ranks > 1 && !dims.empty() ? "parallel: {decomposition: " + dims + "}\n" : "");
+    // The dem scene names its cut at the top level, the others in `parallel`.
+    const bool dem = yaml.rfind("scene: dem", 0) == 0;
+    std::ofstream(file) << yaml
+                        << (ranks > 1 && !dims.empty()
+                                ? (dem ? "decomposition: " + dims + "\n" : "parallel: {decomposition: " + dims + "}\n")
+                                : "");
     std::string args = "run " + file.string() + " --backend cpu --quiet --output " + out.string() + " " + extra;
     if (ranks == 1) return std::string("env OMP_NUM_THREADS=1 ") + LBDEM_EXE + " " + args;
     return std::string("env OMP_NUM_THREADS=1 ") + LBDEM_MPIEXEC + " " + std::to_string(ranks) + " " + LBDEM_EXE +
@@ -314,7 +319,7 @@ physics: {gravity: [0, -9.81, 0], friction: true}
 material: {stiffness: 1000, restitution: 0.9, friction: 0.3}
 particles: {init: random, density: 2500, radius: [0.5e-3], solid_fraction: 0.2, velocity_rms: 0.05}
 time: {steps_per_collision: 50, steps: 600}
-output: {interval: 200, series_interval: 100}
+output: {directory: unused, interval: 200, series_interval: 100}
 checkpoint: {interval: 300}
 )";
 
@@ -367,7 +372,7 @@ physics: {gravity: [0, -2.0e-5, 0]}
 particles: {init: random, diameter: 4, density_ratio: 2, solid_fraction: 0.15, seed: 3, velocity: [0.01, -0.03, 0.006]}
 dem: {stiffness: 2, restitution: 0.5, friction: 0.3, substeps: 5}
 time: {steps: 40}
-output: {interval: 20, series_interval: 10}
+output: {directory: unused, interval: 20, series_interval: 10}
 checkpoint: {interval: 20}
 )";
 
