@@ -103,18 +103,6 @@ io::TimeSeries open_series(const ckpt::Run& run, const std::string& path, const 
   return ts;
 }
 
-void refuse_distributed(const std::string& scene, const std::optional<std::string>& restart, ckpt::Policy& p,
-                        bool distributed) {
-  if (!distributed) return;
-  if (restart)
-    throw ConfigError("--restart: the " + scene + " scene on several ranks cannot be restarted yet (the fluid scenes "
-                      "can); restart on one rank");
-  if (p.interval > 0 || p.minutes > 0)
-    throw ConfigError("checkpoint: the " + scene + " scene on several ranks cannot write checkpoints yet (the fluid "
-                      "scenes can); leave out the checkpoint section or run on one rank");
-  p.on_signal = false;
-}
-
 void prepare_output_on_writer(ckpt::Run& run, bool writer, const halo::Comm& comm, bool overwrite,
                               const std::string& outdir) {
   std::exception_ptr failed;
@@ -205,7 +193,10 @@ class ChunkSource final : public ckpt::Source {
       left_ -= k;
     }
   }
-  [[noreturn]] void mismatch(const std::string& what) const override { in_.mismatch(what); }
+  [[noreturn]] void mismatch(const std::string& what) const override {
+    in_.mismatch(what);
+    throw Error(what);  // not reached: the source throws
+  }
   // The section read to its end.
   void finish() {
     if (left_ != 0 || in_.get<std::uint64_t>() != 0) in_.mismatch("bytes left unread at the end of a rank's section");

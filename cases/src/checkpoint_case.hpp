@@ -51,19 +51,33 @@ io::TimeSeries open_series(const ckpt::Run& run, const std::string& path, const 
 // ---------------------------------------------------------------------------
 // Several ranks. One file all the same (core/checkpoint.hpp), written by rank
 // 0; the other ranks stream their sections to it through MPI in rank order,
-// a few MiB at a time, so that no rank holds more than its own piece.
+// a few MiB at a time. The header's layout lines name the rank count and the
+// cut; a restart on any rank count and cut reads it (rank 0 reads the file).
 //
-// The fluid of a run on several ranks is stored canonically: section
-// "lbm.<k>" holds rank k's owned box (global offset and extent), the step
-// count and, per population slot q, the stored values of its owned cells
-// (x fastest). After a whole step the owned slots of all pieces together are
-// the one-rank storage (LbmSolver::read_slot says why), so a restart on any
-// number of ranks, cut any way, continues bit for bit: rank 0 reads the
-// pieces (or a one-rank checkpoint's raw "lbm" section) slab by slab and
-// broadcasts them; each rank keeps the cells its storage holds (owned cells,
-// and ghost copies of fluid cells, which then need no halo fill: A-A at either
-// parity and two-lattice alike). A one-rank run restarted on one rank keeps
-// the raw path (save_fluid / load_fluid above).
+// Fluid, stored canonically: section "lbm.<k>" holds rank k's owned box
+// (global offset and extent), the step count and, per population slot q, the
+// stored values of its owned cells (x fastest), then its ghost copies of
+// boundary cells. After a whole step the owned slots of all pieces together
+// are the one-rank storage (LbmSolver::read_slot says why), with one
+// exception: a fluid cell stores its reflections in the neighbouring boundary
+// cell's slot (lbm/kernels.hpp), which across a cut is the writer's ghost
+// copy; so slot q of a boundary cell is taken from the piece that owns the
+// fluid cell that writes it. Rank 0 reads the pieces (or a one-rank
+// checkpoint's raw "lbm" section) and broadcasts them in slabs of a few MiB;
+// each rank keeps the cells its storage holds (owned cells, ghost copies of
+// fluid cells, the boundary slots its own fluid cells read), so no halo fill
+// is needed afterwards (A-A at either parity, two-lattice alike) and the
+// restart is bit for bit on any cut. Each rank holds a host copy of its own
+// piece's populations while loading.
+//
+// Particles: section "dem.<k>" (chunked) holds rank k's DemSystem::save_state.
+// The same rank count and cut: each rank loads its own (bit for bit). Any
+// other: rank 0 turns every section into portable particle records
+// (DemSystem::saved_particles) and broadcasts them; each rank keeps those in
+// its piece and rebuilds (DemSystem::restore_particles; to round-off, bitwise
+// where contacts are summed in global-id order).
+//
+// A one-rank run writes and reads the one-rank sections above unchanged.
 // ---------------------------------------------------------------------------
 
 // The layout lines of a checkpoint written on `ranks` ranks cut as `dims`.
@@ -165,12 +179,6 @@ RunValues load_run_shared(ckpt::Run& run, const halo::Comm& comm);
 // every rank keeps its cells. Collective.
 void load_fluid_shared(ckpt::Run& run, const halo::Comm& comm, lbm::LbmSolver& fluid, const Grid& whole,
                        const std::vector<std::uint8_t>& flags);
-
-// A run on several ranks of a scene that cannot yet checkpoint there:
-// ConfigError for --restart or a checkpoint section, and no checkpoint at a
-// stop signal.
-void refuse_distributed(const std::string& scene, const std::optional<std::string>& restart, ckpt::Policy& p,
-                        bool distributed);
 
 // The writing rank prepares the output folder (ckpt::Run::prepare_output);
 // every rank learns whether it failed and throws (the writer its own error).
