@@ -271,6 +271,21 @@ TEST_F(MpiRestart, StopSignalOnTwoRanksWritesOneCheckpoint) {
   expect_same_fields(S / tag(to), R / tag(to));
 }
 
+// Checkpoints by wall time: the ranks agree on when (their clocks differ),
+// and the restart from the last one is bit for bit.
+TEST_F(MpiRestart, WallClockCheckpointsOnTwoRanks) {
+  std::string yaml = kBoxAa;
+  yaml.replace(yaml.find("checkpoint: {interval: 1000}"), 28, "checkpoint: {minutes: 1.0e-7}");
+  const fs::path R = dir_ / "minutes", S = dir_ / "straight";
+  const auto r1 = lbdem(yaml, 2, "[1, 2, 1]", R, "--steps 9");
+  ASSERT_EQ(r1.code, 0) << r1.out;
+  EXPECT_EQ(ckpt::Reader((R / ckpt::kFileName).string()).step(), 9);
+  const auto r2 = lbdem(yaml, 2, "[2, 1, 1]", R, "--restart " + R.string());
+  ASSERT_EQ(r2.code, 0) << r2.out;
+  ASSERT_EQ(lbdem(yaml, 1, "", S).code, 0);
+  expect_same_fields(S / tag(12), R / tag(12));
+}
+
 TEST_F(MpiRestart, RefusesCheckpointOfAnotherGrid) {
   const fs::path R = dir_ / "grid";
   ASSERT_EQ(lbdem(kBoxAa, 2, "", R, "--steps 4").code, 0);

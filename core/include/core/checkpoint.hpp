@@ -287,6 +287,7 @@ class Run {
   std::vector<std::vector<double>> kept_rows(const std::string& csv, const std::vector<std::string>& columns,
                                              long interval) const;
   const std::string& path() const { return path_; }
+  const Policy& policy() const { return policy_; }
   long checkpoints_written() const { return written_; }
   // The two halves of write() for a writer filled by several ranks
   // (cases/src/checkpoint_case.cpp): the writer of `step` (one rank), and
