@@ -295,14 +295,16 @@ int run_dem_case(const Config& root, const RunOptions& opt) {
                                     : dem::DemDomain{};
   if (opt.validate_only) return 0;
   const bool writer_rank = comm.root();
-  cases::refuse_distributed(opt.restart, c.checkpoint, domain.decomposed() || comm.size() > 1);
-  ckpt::Run ck(c.outdir, c.checkpoint,
-               ckpt::Identity{}
-                   .add("scene", "dem")
-                   .add("particles", std::to_string(c.particles.size()))
-                   .add("friction", c.params.friction ? "on" : "off")
-                   .add("force_path", dem::to_string(c.params.path)),
-               opt.restart);
+  // A checkpoint of any rank count restarts here (rank 0 reads it).
+  ckpt::Run ck = cases::open_run(c.outdir, c.checkpoint,
+                                 ckpt::Identity{}
+                                     .add("scene", "dem")
+                                     .add("particles", std::to_string(c.particles.size()))
+                                     .add("friction", c.params.friction ? "on" : "off")
+                                     .add("force_path", dem::to_string(c.params.path)),
+                                 opt.restart, comm);
+  const std::string dims = domain.decomposed() ? domain.dec.describe() : "1 x 1 x 1";
+  if (comm.distributed()) ck.set_layout(cases::rank_layout(comm.size(), dims));
   cases::prepare_output_on_writer(ck, writer_rank, comm, opt.overwrite, c.outdir);
   dem::DemSystem sys(Exec(backend), c.params, c.particles, domain);
   const DemParams& p = sys.params();
@@ -326,7 +328,7 @@ int run_dem_case(const Config& root, const RunOptions& opt) {
   io::ParticleWriter* w = writer ? &*writer : nullptr;
   long step = 0;
   if (ck.restarting()) {  // the state of the checkpoint's step; its series and snapshots are kept
-    cases::load_dem(ck.reader(), sys);
+    cases::load_dem(ck, comm, sys, dims);
     step = ck.restart_step();
     if (writer) writer->resume(step);
   } else {
@@ -335,8 +337,7 @@ int run_dem_case(const Config& root, const RunOptions& opt) {
     if (series) series->append(row);
   }
   auto checkpoint = [&](bool stopping, bool finished = false) {
-    if (ck.due(step, stopping, finished))
-      ck.write(step, sys.time(), [&](ckpt::Writer& cw) { cases::save_dem(cw, sys, {}); });
+    if (cases::checkpoint_due(ck, comm, step, stopping, finished)) cases::save_dem(ck, comm, step, sys.time(), sys, {});
   };
   Progress prog("dem", c.steps, 5.0, quiet);
   // A stop signal (core/signals.hpp) is honoured between advance() calls: the

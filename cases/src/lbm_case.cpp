@@ -384,9 +384,9 @@ int run_parsed(LbmCase& c, const RunOptions& opt) {
   if (opt.validate_only) return 0;
   const halo::Comm& comm = halo::Comm::world();
   const bool root = comm.root();
-  cases::refuse_distributed(opt.restart, c.checkpoint, comm.distributed());
-  // A restart checks its checkpoint against this case before any output is touched.
-  ckpt::Run ck(c.outdir, c.checkpoint, cases::fluid_identity(c.scene, s), opt.restart);
+  // A restart checks its checkpoint against this case before any output is
+  // touched (rank 0 reads it; a checkpoint of any rank count restarts here).
+  ckpt::Run ck = cases::open_run(c.outdir, c.checkpoint, cases::fluid_identity(c.scene, s), opt.restart, comm);
   if (root) ck.prepare_output(opt.overwrite);
 
   const Units& U = c.units;
@@ -403,6 +403,7 @@ int run_parsed(LbmCase& c, const RunOptions& opt) {
   auto* solver = &fluid;
   solver->initialize(c.flags, c.rho, c.u);
   if (!opt.quiet && comm.distributed()) spdlog::info("parallel: {} ({})", fluid.describe(), comm.describe());
+  if (comm.distributed()) ck.set_layout(cases::rank_layout(comm.size(), fluid.decomposition().describe()));
 
   // Rank 0 writes everything: the files do not depend on the rank count.
   std::optional<io::GridWriter> writer;
@@ -460,14 +461,14 @@ int run_parsed(LbmCase& c, const RunOptions& opt) {
   auto d0 = solver->diagnostics();
   long step = 0;
   if (ck.restarting()) {  // the state of the checkpoint's step; its series and fields are kept
-    d0.mass = cases::load_fluid(ck.reader(), fluid.local()).at(0);
+    d0.mass = cases::load_fluid(ck, comm, fluid.local(), s.domain, c.flags).at(0);
     step = ck.restart_step();
     if (writer) writer->resume(step);
   }
   const long step0 = step;
   auto checkpoint = [&](bool stopping, bool finished = false) {
-    if (ck.due(step, stopping, finished))
-      ck.write(step, step * U.dt, [&](ckpt::Writer& w) { cases::save_fluid(w, fluid.local(), {d0.mass}); });
+    if (cases::checkpoint_due(ck, comm, step, stopping, finished))
+      cases::save_fluid(ck, comm, step, step * U.dt, fluid.local(), {d0.mass});
   };
   Progress prog(c.scene, c.steps, 5.0, opt.quiet);
   if (c.out_interval > 0 && step0 == 0) {

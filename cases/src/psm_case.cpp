@@ -864,17 +864,19 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
                 static_cast<long long>(c.particles.size()), cases::memory_table(planned, cells).c_str());
     return 0;
   }
-  cases::refuse_distributed(opt.restart, c.checkpoint, ranks);
   const bool quiet = opt.quiet || !writer;
-  // A restart checks its checkpoint against this case before any output is touched.
-  ckpt::Run ck(c.outdir, c.checkpoint,
-               cases::fluid_identity("particles", c.setup).add("particles", std::to_string(c.particles.size())),
-               opt.restart);
+  // A restart checks its checkpoint against this case before any output is
+  // touched (rank 0 reads it; a checkpoint of any rank count restarts here).
+  ckpt::Run ck = cases::open_run(
+      c.outdir, c.checkpoint,
+      cases::fluid_identity("particles", c.setup).add("particles", std::to_string(c.particles.size())), opt.restart,
+      comm);
   cases::prepare_output_on_writer(ck, writer, comm, opt.overwrite, c.outdir);
   // The fluid: the whole grid on one rank, this rank's piece (with its halo
   // exchange) on several.
   DistributedFluid dfluid(c.setup, backend, c.parallel, comm);
   lbm::LbmSolver* fluid = &dfluid.local();
+  if (ranks) ck.set_layout(cases::rank_layout(comm.size(), dfluid.decomposition().describe()));
   const auto& n = c.setup.domain.local;  // the whole grid (Grid::whole)
   const auto N = static_cast<std::size_t>(n[0] * n[1] * n[2]);
   // Closed axes carry one layer of half-way bounce-back wall cells on each side
@@ -986,17 +988,17 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
   series.average_from(c.steps / 2);  // the mean slip of summary.json: the run's second half
   long step = 0;
   if (ck.restarting()) {  // the state of the checkpoint's step; its series and snapshots are kept
-    series.restore(cases::load_coupled(ck.reader(), *fluid, dem, cs));
+    series.restore(cases::load_coupled(ck, comm, *fluid, c.setup.domain, flags, dem, cs,
+                                       dfluid.decomposition().describe()));
     step = ck.restart_step();
-    pwo->resume(step);
-    gwo->resume(step);
+    if (pwo) pwo->resume(step);
+    if (gwo) gwo->resume(step);
   }
   const long step0 = step;
   auto checkpoint = [&](bool stopping, bool finished = false) {
-    if (!ck.due(step, stopping, finished)) return;
+    if (!cases::checkpoint_due(ck, comm, step, stopping, finished)) return;
     const auto w0 = std::chrono::steady_clock::now();
-    ck.write(step, double(step) * c.units.dt,
-             [&](ckpt::Writer& w) { cases::save_coupled(w, *fluid, dem, cs, series.state()); });
+    cases::save_coupled(ck, comm, step, double(step) * c.units.dt, *fluid, dem, cs, series.state());
     checkpoint_secs += std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
   };
   auto series_row = [&](long step) {

@@ -111,7 +111,7 @@ std::string Source::get_string() {
 // ---------------------------------------------------------------------------
 // Writer
 // ---------------------------------------------------------------------------
-Writer::Writer(std::string path, const Identity& id, long step, double time)
+Writer::Writer(std::string path, const Identity& id, long step, double time, const Identity& layout)
     : path_(std::move(path)), tmp_(path_ + ".tmp" + std::to_string(static_cast<long>(::getpid()))), hash_(kFnvOffset) {
   const fs::path p(path_);
   record_in_manifest(p.has_parent_path() ? p.parent_path() : fs::path("."), p.filename().string());
@@ -121,6 +121,7 @@ Writer::Writer(std::string path, const Identity& id, long step, double time)
   std::ostringstream h;
   h << "build=" << build_id() << "\n";
   for (const auto& [k, v] : id.items) h << k << "=" << v << "\n";
+  for (const auto& [k, v] : layout.items) h << k << "=" << v << "\n";
   h << "step=" << step << "\ntime=" << num(time) << "\n";
   const std::string text = h.str();
   raw(kMagic, sizeof kMagic);

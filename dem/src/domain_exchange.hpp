@@ -51,6 +51,10 @@ class DomainExchange {
   // each owner adding the shares to its own value peer by peer in ascending
   // peer rank (a fixed order for a given decomposition).
   void return_coupling(DemSystem::Impl& m);
+  // Checkpoint state (dem/src/system_state.cpp): the ghost bookkeeping of the
+  // last build (bind_refresh() then rebinds the refresh from it).
+  void save_state(ckpt::Sink& out) const;
+  void load_state(ckpt::Source& in);
 
   DemDomain dom;
   long migrations[3] = {0, 0, 0};  // sent across a face, an edge, a corner (DemStats)

@@ -292,12 +292,36 @@ class SolverImpl final : public LbmSolver {
     t_ = static_cast<long>(t);
     ex_.synchronize();
   }
+  void read_slot(int q, void* host) override {
+    check_slot(q);
+    ex_.synchronize();
+    f0_.copy_to_host(static_cast<T*>(host), g_.n, static_cast<Index>(q) * stride_);
+  }
+  void write_slot(int q, const void* host) override {
+    check_slot(q);
+    ex_.synchronize();
+    f0_.copy_from_host(static_cast<const T*>(host), g_.n, static_cast<Index>(q) * stride_);
+    ex_.synchronize();
+  }
+  void read_flags(std::uint8_t* host) override {
+    ex_.synchronize();
+    flags_.copy_to_host(host, g_.n);
+  }
+  void set_steps_done(long t) override {
+    if (t < 0) throw Error("LbmSolver::set_steps_done: a negative step count " + std::to_string(t));
+    t_ = t;
+  }
 
  private:
   // Calls fn(scheme, parity of the next step) as integral constants (lbm/dispatch.hpp).
   template <class Fn>
   void with_parity(Fn&& fn) {
     dispatch_parity(s_.streaming, t_, fn);
+  }
+
+  void check_slot(int q) const {
+    if (q < 0 || q >= L::Q)
+      throw Error("LbmSolver: population slot " + std::to_string(q) + " is not one of 0.." + std::to_string(L::Q - 1));
   }
 
   PopView<T> src_view() const { return PopView<T>{f0_.data(), stride_}; }

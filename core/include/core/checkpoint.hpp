@@ -23,6 +23,12 @@
 // Reading (Reader): the whole file is checked (magic, version, length,
 // checksum) before any state is read, so a truncated or corrupt file is
 // refused with one line and nothing of the run is touched.
+//
+// Several ranks (cases/src/checkpoint_case.cpp): one file all the same, written
+// by rank 0; the other ranks stream their sections to it in rank order. The
+// header's layout lines ("ranks", "decomposition"; not part of the identity)
+// say how the run was cut; a run cut otherwise reads it all the same (rank 0
+// reads and hands each rank what it owns).
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
@@ -163,7 +169,9 @@ class Writer final : public Sink {
  public:
   // `path`: the final file; `id`: what the checkpoint is of; `step`, `time`:
   // where the run stands (also in the header, for `lbdem` messages and users).
-  Writer(std::string path, const Identity& id, long step, double time);
+  // `layout`: header lines that describe how the state is stored (the rank
+  // count, ...) and are not compared at restart.
+  Writer(std::string path, const Identity& id, long step, double time, const Identity& layout = {});
   ~Writer() override;
   Writer(const Writer&) = delete;
   Writer& operator=(const Writer&) = delete;
@@ -240,10 +248,21 @@ class Run {
   // fresh run). A restart opens and checks the checkpoint file here (its
   // folder must be the run's output folder), before anything is written.
   Run(std::string outdir, Policy policy, Identity id, const std::optional<std::string>& restart);
-  bool restarting() const { return reader_ != nullptr; }
-  // The checkpoint read from (restart only).
+  bool restarting() const { return reader_ != nullptr || following_; }
+  // The checkpoint read from (a restart on the rank that reads it).
+  bool has_reader() const { return reader_ != nullptr; }
   Reader& reader() { return *reader_; }
-  long restart_step() const { return reader_ ? reader_->step() : 0; }
+  long restart_step() const { return reader_ ? reader_->step() : (following_ ? follow_step_ : 0); }
+  // A restart on a rank that does not read the file (several ranks: rank 0
+  // reads and hands the others their state): the run restarts from `step`.
+  void follow(long step) {
+    following_ = true;
+    follow_step_ = step;
+    last_step_ = step;
+  }
+  // Header lines of the checkpoints this run writes that describe the layout
+  // (Writer's `layout`).
+  void set_layout(Identity layout) { layout_ = std::move(layout); }
   // The output folder: a fresh run goes through io::prepare_output_dir; a
   // restart keeps the folder and removes the output files of steps after
   // the checkpoint (named in the run manifest: "<prefix>_<step>.h5").
@@ -256,7 +275,7 @@ class Run {
   // Writes a checkpoint of `step`: fill(writer) writes the sections.
   template <class Fill>
   void write(long step, double time, Fill&& fill) {
-    Writer w(path_, id_, step, time);
+    Writer w(path_, id_, step, time, layout_);
     fill(w);
     w.commit();
     written(step);
@@ -268,14 +287,23 @@ class Run {
   std::vector<std::vector<double>> kept_rows(const std::string& csv, const std::vector<std::string>& columns,
                                              long interval) const;
   const std::string& path() const { return path_; }
+  const Policy& policy() const { return policy_; }
   long checkpoints_written() const { return written_; }
+  // The two halves of write() for a writer filled by several ranks
+  // (cases/src/checkpoint_case.cpp): the writer of `step` (one rank), and
+  // the bookkeeping of a committed checkpoint (every rank).
+  std::unique_ptr<Writer> open_writer(long step, double time) const {
+    return std::make_unique<Writer>(path_, id_, step, time, layout_);
+  }
+  void written(long step);
 
  private:
-  void written(long step);
   std::string outdir_, path_;
   Policy policy_;
-  Identity id_;
+  Identity id_, layout_;
   std::unique_ptr<Reader> reader_;
+  bool following_ = false;
+  long follow_step_ = 0;
   std::chrono::steady_clock::time_point last_;
   long last_step_ = -1, written_ = 0;
 };

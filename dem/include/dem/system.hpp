@@ -3,6 +3,7 @@
 // forces, walls, velocity-Verlet integration. dem/README.md describes the time
 // step, the rebuild decisions (RebuildCheck) and the two force paths.
 #include <array>
+#include <cstddef>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -168,10 +169,32 @@ class DemSystem {
   // reports and the step count and time, so that advance() goes on as if
   // never stopped. Load into a system constructed from the same parameters
   // and particles; a stored set of another size or layout is refused
-  // (ConfigError). One rank only (a decomposed system throws ConfigError).
-  // Synchronous.
+  // (ConfigError). A decomposed system saves its rank's records (owned and
+  // ghosts) and the ghost bookkeeping, and loads them into a system of the
+  // same decomposition (cases/src/checkpoint_case.cpp). Synchronous.
   void save_state(ckpt::Sink& out) const;
   void load_state(ckpt::Source& in);
+
+  // A restart on another decomposition (or rank count). saved_particles()
+  // reads a section save_state() wrote (one rank's, decomposed or not) and
+  // appends its owned particles to `out` as portable records: every
+  // per-particle array, the wall histories and the list row as (partner
+  // global id, tangential history); it returns the system's counters.
+  // select_particles() keeps the records whose centre lies in this rank's
+  // piece; restore_particles() replaces the particles with them (sorted by
+  // global id), rebuilds the neighbour list (carrying the tangential
+  // histories by partner id, as a build after migration does) and restores
+  // the counters (collective on a decomposed system). The rebuild at load
+  // makes the continued run agree with the straight one to round-off (the
+  // contact sums follow the new storage order), not bitwise.
+  struct SavedCounters {
+    std::int64_t steps = 0, rebuilds = 0;
+    double time = 0;
+    std::uint8_t forces_valid = 0, old_valid = 0;
+  };
+  SavedCounters saved_particles(ckpt::Source& in, std::vector<std::byte>& out) const;
+  std::vector<std::byte> select_particles(const std::vector<std::byte>& records) const;
+  void restore_particles(const std::vector<std::byte>& mine, const SavedCounters& c);
 
   struct Impl;  // opaque; defined in dem/src/system_impl.hpp
 

@@ -133,6 +133,19 @@ class LbmSolver {
   // Synchronous.
   virtual void save_state(ckpt::Sink& out) = 0;
   virtual void load_state(ckpt::Source& in) = 0;
+  // The canonical form of the state that a checkpoint of several ranks holds
+  // (cases/src/checkpoint_case.cpp): after a whole step, every population a
+  // cell's next step needs lies in an owned cell's own slot of the incoming
+  // array (A-A: the write-back after an odd step puts them there; two-lattice:
+  // the array the next step pulls from), so that the owned slots of all pieces
+  // together are the one-rank storage, whatever the cut. These copy slot q of
+  // every storage cell (ghosts included, storage order) in the storage
+  // precision (storage_bytes() per value), and the cell flags. Synchronous.
+  virtual void read_slot(int q, void* host) = 0;
+  virtual void write_slot(int q, const void* host) = 0;
+  virtual void read_flags(std::uint8_t* host) = 0;
+  // The step count after write_slot() restored the state of step `t`.
+  virtual void set_steps_done(long t) = 0;
 };
 
 // What the solver allocates for this setup, by component, before anything is
