@@ -277,9 +277,8 @@ struct SharedWriter::State {
       }
     }
   };
-  // A rank other than 0: bytes gathered and sent to rank 0 a chunk at a time.
-  struct Forward final : ckpt::Sink {
-    const halo::Comm* comm = nullptr;
+  // Bytes gathered into chunks of kChunkBytes; flush() passes a chunk on.
+  struct Chunking : ckpt::Sink {
     std::vector<std::byte> buf;
     void write(const void* data, std::size_t bytes) override {
       const auto* p = static_cast<const std::byte*>(data);
@@ -291,27 +290,21 @@ struct SharedWriter::State {
         if (buf.size() == kChunkBytes) flush();
       }
     }
+    virtual void flush() = 0;
+  };
+  // A rank other than 0: chunks sent to rank 0.
+  struct Forward final : Chunking {
+    const halo::Comm* comm = nullptr;
     // (An empty chunk ends the rank's section.)
-    void flush() {
+    void flush() override {
       swap_chunk(*comm, 0, std::move(buf));
       buf.clear();
     }
   };
   // Rank 0's own data of a chunked section: chunks of up to kChunkBytes.
-  struct Chunks final : ckpt::Sink {
+  struct Chunks final : Chunking {
     Guard* guard = nullptr;
-    std::vector<std::byte> buf;
-    void write(const void* data, std::size_t bytes) override {
-      const auto* p = static_cast<const std::byte*>(data);
-      while (bytes > 0) {
-        const std::size_t k = std::min(bytes, kChunkBytes - buf.size());
-        buf.insert(buf.end(), p, p + k);
-        p += k;
-        bytes -= k;
-        if (buf.size() == kChunkBytes) flush();
-      }
-    }
-    void flush() {
+    void flush() override {
       if (buf.empty()) return;
       guard->put<std::uint64_t>(buf.size());
       guard->write(buf.data(), buf.size());

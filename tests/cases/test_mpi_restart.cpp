@@ -31,6 +31,7 @@
 
 #include "core/checkpoint.hpp"
 #include "core/output.hpp"
+#include "restart_scenes.hpp"
 #include "run_lbdem.hpp"
 
 namespace lbdem::test {
@@ -328,16 +329,6 @@ std::string snap(const std::string& prefix, long step) {
   return t;
 }
 
-const char* kDem = R"(scene: dem
-domain: {lo: [0, 0, 0], hi: [0.01, 0.01, 0.01], periodic: [1, 0, 1]}
-physics: {gravity: [0, -9.81, 0], friction: true}
-material: {stiffness: 1000, restitution: 0.9, friction: 0.3}
-particles: {init: random, density: 2500, radius: [0.5e-3], solid_fraction: 0.2, velocity_rms: 0.05}
-time: {steps_per_collision: 50, steps: 600}
-output: {directory: unused, interval: 200, series_interval: 100}
-checkpoint: {interval: 300}
-)";
-
 // Straight on `b` ranks into S; to `first` on `a` ranks, --restart on `b` into R.
 void particle_chain(MpiRestart& t, const std::string& yaml, long steps, long first, const Cut& a, const Cut& b,
                     const std::string& name, const std::vector<std::string>& particle_sets, double rel,
@@ -356,13 +347,15 @@ void particle_chain(MpiRestart& t, const std::string& yaml, long steps, long fir
   ASSERT_EQ(r2.code, 0) << r2.out;
   expect_close(S / snap("particles", steps), R / snap("particles", steps), particle_sets, rel);
   if (fields) expect_close(S / snap("fields", steps), R / snap("fields", steps), {"density", "velocity", "solid_fraction"}, rel);
-  if (rel == 0) EXPECT_EQ(slurp(S / "series.csv"), slurp(R / "series.csv")) << name;
+  if (rel == 0) {
+    EXPECT_EQ(slurp(S / "series.csv"), slurp(R / "series.csv")) << name;
+  }
   fs::remove_all(S);
   fs::remove_all(R);
 }
 
 TEST_F(MpiRestart, DemSameCutBitwise) {
-  particle_chain(*this, kDem, 600, 300, {2, "[1, 1, 2]"}, {2, "[1, 1, 2]"}, "2to2",
+  particle_chain(*this, test::kRestartDem, 600, 300, {2, "[1, 1, 2]"}, {2, "[1, 1, 2]"}, "2to2",
                  {"positions", "velocity", "angular_velocity", "id", "force"}, 0, false);
 }
 
@@ -371,30 +364,18 @@ TEST_F(MpiRestart, DemSameCutBitwise) {
 // histories carried by partner id). Sums in global-id order (as on several
 // ranks): the straight run's state to round-off.
 TEST_F(MpiRestart, DemOtherRankCountsWithinRoundOff) {
-  std::string yaml = kDem;
+  std::string yaml = test::kRestartDem;
   yaml += "neighbours: {contact_order: global_id}\n";
   const std::vector<std::string> sets{"positions", "velocity", "angular_velocity", "id", "force"};
   particle_chain(*this, yaml, 600, 300, {2, "[1, 1, 2]"}, {1, ""}, "2to1", sets, 1e-12, false);
   particle_chain(*this, yaml, 600, 300, {1, ""}, {2, "[2, 1, 1]"}, "1to2", sets, 1e-12, false);
 }
 
-// A small suspension with friction and walls on y, particles crossing the cut.
-const char* kParticles = R"(scene: particles
-units: lattice
-domain: {cells: [20, 20, 20], periodic: [1, 0, 1]}
-fluid: {tau: 0.55}
-physics: {gravity: [0, -2.0e-5, 0]}
-particles: {init: random, diameter: 4, density_ratio: 2, solid_fraction: 0.15, seed: 3, velocity: [0.01, -0.03, 0.006]}
-dem: {stiffness: 2, restitution: 0.5, friction: 0.3, substeps: 5}
-time: {steps: 40}
-output: {directory: unused, interval: 20, series_interval: 10}
-checkpoint: {interval: 20}
-)";
-
+// The small suspension of the one-rank restart tests, cut so that particles cross the cut.
 TEST_F(MpiRestart, ParticlesSameCutBitwiseAndOtherCutWithinRoundOff) {
   const std::vector<std::string> sets{"positions", "velocity", "angular_velocity", "id", "hydrodynamic_force"};
-  particle_chain(*this, kParticles, 40, 20, {2, "[2, 1, 1]"}, {2, "[2, 1, 1]"}, "2to2", sets, 0, true);
-  particle_chain(*this, kParticles, 40, 20, {2, "[2, 1, 1]"}, {3, "[1, 1, 3]"}, "2to3", sets, 1e-12, true);
+  particle_chain(*this, test::kRestartParticles, 40, 20, {2, "[2, 1, 1]"}, {2, "[2, 1, 1]"}, "2to2", sets, 0, true);
+  particle_chain(*this, test::kRestartParticles, 40, 20, {2, "[2, 1, 1]"}, {3, "[1, 1, 3]"}, "2to3", sets, 1e-12, true);
 }
 
 }  // namespace

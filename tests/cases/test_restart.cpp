@@ -31,6 +31,7 @@
 #include "core/checkpoint.hpp"
 #include "core/exec.hpp"
 #include "core/output.hpp"
+#include "restart_scenes.hpp"
 #include "run_lbdem.hpp"
 
 namespace fs = std::filesystem;
@@ -70,31 +71,6 @@ class Restart : public ::testing::Test {
   fs::path dir_;
   std::string backend_ = "cpu";
 };
-
-// A coupled scene with friction, walls on y, particles moving fast enough
-// (0.03 cells per step against a skin of 0.4 cells) to need a neighbour-list
-// rebuild in each half of the 40 steps.
-const char* kParticles = R"(scene: particles
-units: lattice
-domain: {cells: [20, 20, 20], periodic: [1, 0, 1]}
-fluid: {tau: 0.55}
-physics: {gravity: [0, -2.0e-5, 0]}
-particles: {init: random, diameter: 4, density_ratio: 2, solid_fraction: 0.15, seed: 3, velocity: [0.01, -0.03, 0.006]}
-dem: {stiffness: 2, restitution: 0.5, friction: 0.3, substeps: 5}
-time: {steps: 40}
-output: {directory: unused, interval: 20, series_interval: 10}
-checkpoint: {interval: 20}
-)";
-
-const char* kDem = R"(scene: dem
-domain: {lo: [0, 0, 0], hi: [0.01, 0.01, 0.01], periodic: [1, 0, 1]}
-physics: {gravity: [0, -9.81, 0], friction: true}
-material: {stiffness: 1000, restitution: 0.9, friction: 0.3}
-particles: {init: random, density: 2500, radius: [0.5e-3], solid_fraction: 0.2, velocity_rms: 0.05}
-time: {steps_per_collision: 50, steps: 600}
-output: {directory: unused, interval: 200, series_interval: 100}
-checkpoint: {interval: 300}
-)";
 
 const char* kFluid = R"(scene: periodic_box
 lattice: D2Q9
@@ -175,7 +151,7 @@ long json_long(const std::string& js, const std::string& key) {
 
 TEST_F(Restart, ParticlesStraightEqualsHalfPlusRestartBitwise) {
   const fs::path A = dir_ / "A", B = dir_ / "B";
-  const std::string first = straight_vs_restart(*this, write_case(kParticles), 20, "series.csv", A, B);
+  const std::string first = straight_vs_restart(*this, write_case(test::kRestartParticles), 20, "series.csv", A, B);
   if (HasFatalFailure()) return;
   const std::string js = slurp(B / "summary.json");
   EXPECT_NE(js.find("\"steps\": 40"), std::string::npos) << js;
@@ -198,7 +174,7 @@ TEST_F(Restart, ParticlesCudaStraightEqualsHalfPlusRestartBitwise) {
   if (!cuda_unavailable_reason().empty()) GTEST_SKIP() << "no usable GPU: " << cuda_unavailable_reason();
   backend_ = "cuda";
   const fs::path A = dir_ / "A", B = dir_ / "B";
-  const std::string first = straight_vs_restart(*this, write_case(kParticles), 20, "series.csv", A, B);
+  const std::string first = straight_vs_restart(*this, write_case(test::kRestartParticles), 20, "series.csv", A, B);
   if (HasFatalFailure()) return;
   expect_same_datasets(A / "fields_00000040.h5", B / "fields_00000040.h5", {"density", "velocity", "solid_fraction"});
   EXPECT_GE(json_long(first, "dem_rebuilds"), 1) << first;
@@ -206,7 +182,7 @@ TEST_F(Restart, ParticlesCudaStraightEqualsHalfPlusRestartBitwise) {
 
 TEST_F(Restart, DemStraightEqualsHalfPlusRestartBitwise) {
   const fs::path A = dir_ / "A", B = dir_ / "B";
-  straight_vs_restart(*this, write_case(kDem), 300, "series.csv", A, B);
+  straight_vs_restart(*this, write_case(test::kRestartDem), 300, "series.csv", A, B);
   if (HasFatalFailure()) return;
   expect_same_datasets(A / "particles_00000600.h5", B / "particles_00000600.h5",
                        {"positions", "velocity", "angular_velocity", "id", "force"});
@@ -232,7 +208,7 @@ TEST_F(Restart, FluidFp32AaOddStepStraightEqualsRestartBitwise) {
 TEST_F(Restart, SecondRestartFromFinishedRunContinuesLonger) {
   // A chain of jobs: 20 steps, then to 40 from its final checkpoint (the
   // case plans 40), again bitwise to the straight run.
-  const std::string c = write_case(kParticles);
+  const std::string c = write_case(test::kRestartParticles);
   const fs::path A = dir_ / "A", B = dir_ / "B";
   ASSERT_EQ(lbdem(c + " --output " + A.string()).code, 0);
   ASSERT_EQ(lbdem(c + " --output " + B.string() + " --steps 20").code, 0);
@@ -248,7 +224,7 @@ TEST_F(Restart, SecondRestartFromFinishedRunContinuesLonger) {
 // the final name is always complete (the previous one until the rename), and
 // a restart from it reaches the straight run's state.
 TEST_F(Restart, KillDuringCheckpointWriteKeepsPreviousAndRestartIsBitwise) {
-  std::string yaml = kParticles;
+  std::string yaml = test::kRestartParticles;
   yaml.replace(yaml.find("checkpoint: {interval: 20}"), 26, "checkpoint: {interval: 1}");
   yaml.replace(yaml.find("steps: 40"), 9, "steps: 60");
   const std::string c = write_case(yaml);
@@ -323,7 +299,7 @@ class RestartRefusal : public Restart {
  public:
   // A finished particles run in R (2 steps, checkpoint at 2).
   void make_run() {
-    case_ = write_case(kParticles);
+    case_ = write_case(test::kRestartParticles);
     R_ = dir_ / "R";
     const auto r = lbdem(case_ + " --output " + R_.string() + " --steps 2");
     ASSERT_EQ(r.code, 0) << r.out;
@@ -373,7 +349,7 @@ TEST_F(RestartRefusal, CorruptAndTruncated) {
 TEST_F(RestartRefusal, OtherGridPrecisionLatticeScene) {
   make_run();
   auto variant = [&](const std::string& from, const std::string& to, const std::string& name) {
-    std::string y = kParticles;
+    std::string y = test::kRestartParticles;
     y.replace(y.find(from), from.size(), to);
     return write_case(y, name);
   };
@@ -395,7 +371,7 @@ output: {directory: unused, interval: 20, series_interval: 10}
 )",
                                     "d2.yaml");
   expect_refused(d2 + " --restart " + R_.string(), "lattice 'D3Q19' (this run: 'D2Q9')");
-  expect_refused(write_case(kDem, "dem.yaml") + " --restart " + R_.string(), "scene 'particles' (this run: 'dem')");
+  expect_refused(write_case(test::kRestartDem, "dem.yaml") + " --restart " + R_.string(), "scene 'particles' (this run: 'dem')");
   // A scene that writes no checkpoints.
   const std::string fs_case = write_case(R"(scene: fixed_sphere
 units: lattice
