@@ -503,7 +503,7 @@ struct Coarsest {
 // and fewer a block does in a few microseconds what would otherwise be four
 // launches per level.
 constexpr int kTailMax = 8;
-constexpr int kTailThreads = 512;
+[[maybe_unused]] constexpr int kTailThreads = 512;  // (device code only)
 constexpr Index kTailCells = 2048;
 struct TailArgs {
   int count;  // levels smoothed here before the coarsest grid

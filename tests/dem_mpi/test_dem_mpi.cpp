@@ -276,8 +276,12 @@ TEST(DemMpi, GasCrossesEveryFaceAndEdgeLikeOneRank) {
       EXPECT_GT(c.face, 100) << text(dims);
       EXPECT_GT(c.periodic, 20) << text(dims);
     }
-    if (split >= 2) EXPECT_GT(c.edge, 0) << text(dims);
-    if (split == 3) EXPECT_GT(c.corner, 0) << text(dims);
+    if (split >= 2) {
+      EXPECT_GT(c.edge, 0) << text(dims);
+    }
+    if (split == 3) {
+      EXPECT_GT(c.corner, 0) << text(dims);
+    }
     std::printf("[ dem_mpi ] cut %s: %ld face, %ld edge, %ld corner crossings (%ld through a periodic face)\n",
                 text(dims).c_str(), c.face, c.edge, c.corner, c.periodic);
   }

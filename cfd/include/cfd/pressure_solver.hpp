@@ -135,10 +135,10 @@ class PressureSolver {
   int tail_ = 0;  // the first level of the V-cycle's one-block kernel (device)
   // The device's CUDA graphs (0: the start of a solve, 1: `poll_every`
   // iterations), the stream they were captured on, and the pointers each was
-  // captured with.
-  void* graph_exec_[2] = {nullptr, nullptr};
-  void* cap_stream_ = nullptr;
-  const void* graph_key_[2][5] = {};
+  // captured with (unused by a build without CUDA).
+  [[maybe_unused]] void* graph_exec_[2] = {nullptr, nullptr};
+  [[maybe_unused]] void* cap_stream_ = nullptr;
+  [[maybe_unused]] const void* graph_key_[2][5] = {};
 };
 
 }  // namespace lbdem::cfd
