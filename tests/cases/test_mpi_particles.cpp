@@ -90,14 +90,7 @@ Result run_case(const std::string& name, const std::string& precision, int ranks
                       << (dims.empty() ? "" : "parallel: {decomposition: " + dims + "}\n");
   // One OpenMP thread per rank (one rank: without mpirun): the runs share two cores.
   const std::string args = "run " + file + " --backend " + backend + " --quiet";
-  const std::string launch = ranks == 1 ? std::string() : std::string(LBDEM_MPIEXEC) + " " + std::to_string(ranks) + " ";
-  const std::string cmd = "env OMP_NUM_THREADS=1 " + launch + LBDEM_EXE + " " + args + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
-  std::string out;
-  char buf[4096];
-  while (std::size_t n = fread(buf, 1, sizeof buf, p)) out.append(buf, n);
-  const int st = pclose(p);
-  return {WIFEXITED(st) ? WEXITSTATUS(st) : -1, out};
+  return test::run_on_ranks(ranks, args);
 }
 
 std::string tag(long step) {

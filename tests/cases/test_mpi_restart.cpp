@@ -71,19 +71,11 @@ class MpiRestart : public ::testing::Test {
                                 ? (dem ? "decomposition: " + dims + "\n" : "parallel: {decomposition: " + dims + "}\n")
                                 : "");
     std::string args = "run " + file.string() + " --backend cpu --quiet --output " + out.string() + " " + extra;
-    if (ranks == 1) return std::string("env OMP_NUM_THREADS=1 ") + LBDEM_EXE + " " + args;
-    return std::string("env OMP_NUM_THREADS=1 ") + LBDEM_MPIEXEC + " " + std::to_string(ranks) + " " + LBDEM_EXE +
-           " " + args;
+    return ranks_command(ranks, args);
   }
   Result lbdem(const std::string& yaml, int ranks, const std::string& dims, const fs::path& out,
                const std::string& extra = "") {
-    const std::string cmd = command(yaml, ranks, dims, out, extra) + " 2>&1";
-    FILE* p = popen(cmd.c_str(), "r");
-    std::string text;
-    char buf[4096];
-    while (std::size_t k = fread(buf, 1, sizeof buf, p)) text.append(buf, k);
-    const int st = pclose(p);
-    return {WIFEXITED(st) ? WEXITSTATUS(st) : -1, text};
+    return run_command(command(yaml, ranks, dims, out, extra) + " 2>&1");
   }
   fs::path dir_;
 };

@@ -59,15 +59,7 @@ Result run_ranks(const Case& c, int ranks, const std::string& outdir) {
                       << (ranks > 1 && !c.decomposition.empty() ? "parallel: {decomposition: " + c.decomposition + "}\n" : "");
   const std::string args = "run " + file + " --backend " + c.backend + " --quiet --steps " + std::to_string(c.steps);
   if (ranks == 1) return run(args);
-  // One OpenMP thread per rank: the ranks share two cores.
-  const std::string cmd = std::string("env OMP_NUM_THREADS=1 ") + LBDEM_MPIEXEC + " " + std::to_string(ranks) + " " +
-                          LBDEM_EXE + " " + args + " 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
-  std::string out;
-  char buf[4096];
-  while (std::size_t n = fread(buf, 1, sizeof buf, p)) out.append(buf, n);
-  const int st = pclose(p);
-  return {WIFEXITED(st) ? WEXITSTATUS(st) : -1, out};
+  return test::run_on_ranks(ranks, args);
 }
 
 class MpiRuns : public ::testing::TestWithParam<Case> {};
