@@ -93,25 +93,6 @@ struct GhostRecord {
   int type;
   int pad;
 };
-struct RowEntry {
-  std::int64_t gid;
-  Vec3d h;
-};
-
-template <class T>
-void append(std::vector<std::byte>& b, const T& v) {
-  const std::size_t at = b.size();
-  b.resize(at + sizeof(T));
-  std::memcpy(b.data() + at, &v, sizeof(T));
-}
-template <class T>
-T take(const std::vector<std::byte>& b, std::size_t& at) {
-  T v;
-  std::memcpy(&v, b.data() + at, sizeof(T));
-  at += sizeof(T);
-  return v;
-}
-
 // Per-particle list rows on the host: entries [off[i], off[i + 1]).
 struct Rows {
   std::vector<std::size_t> off{0};
@@ -292,9 +273,9 @@ void DomainExchange::redistribute(DemSystem::Impl& m) {
     }
     auto& b = out[static_cast<std::size_t>(it - peers.begin())];
     const auto u = static_cast<std::size_t>(i);
-    append(b, record(u));
-    for (int w = 0; w < nw; ++w) append(b, h.whist[static_cast<std::size_t>(w * no + i)]);
-    for (std::size_t e = rows.off[u]; e < rows.off[u + 1]; ++e) append(b, rows.e[e]);
+    append_pod(b, record(u));
+    for (int w = 0; w < nw; ++w) append_pod(b, h.whist[static_cast<std::size_t>(w * no + i)]);
+    for (std::size_t e = rows.off[u]; e < rows.off[u + 1]; ++e) append_pod(b, rows.e[e]);
   }
   const std::vector<int> tags_m(np, kTagMigrate);
   const auto in = comm.exchange(peers, tags_m, out, tags_m);
@@ -318,9 +299,9 @@ void DomainExchange::redistribute(DemSystem::Impl& m) {
   for (const auto& b : in) {
     std::size_t at = 0;
     while (at < b.size()) {
-      own.push_back(take<Migrant>(b, at));
-      for (int w = 0; w < nw; ++w) own_wh.push_back(take<Vec3d>(b, at));
-      for (int e = 0; e < own.back().nrow; ++e) own_row.push_back(take<RowEntry>(b, at));
+      own.push_back(take_pod<Migrant>(b, at));
+      for (int w = 0; w < nw; ++w) own_wh.push_back(take_pod<Vec3d>(b, at));
+      for (int e = 0; e < own.back().nrow; ++e) own_row.push_back(take_pod<RowEntry>(b, at));
       ro.push_back(own_row.size());
     }
   }
@@ -340,7 +321,7 @@ void DomainExchange::redistribute(DemSystem::Impl& m) {
     sent[k].clear();
     for (const auto& [g, i] : pick[k]) {
       const Migrant& o = own[static_cast<std::size_t>(i)];
-      append(out[k], GhostRecord{o.a[0], o.a[7], o.a[8], o.gid, o.type, 0});
+      append_pod(out[k], GhostRecord{o.a[0], o.a[7], o.a[8], o.gid, o.type, 0});
       sent[k].push_back(g);
     }
   }
@@ -351,7 +332,7 @@ void DomainExchange::redistribute(DemSystem::Impl& m) {
     received[k].clear();
     std::size_t at = 0;
     while (at < gin[k].size()) {
-      const GhostRecord g = take<GhostRecord>(gin[k], at);
+      const GhostRecord g = take_pod<GhostRecord>(gin[k], at);
       received[k].push_back(g.gid);
       ghosts.push_back(g);
     }

@@ -4,11 +4,14 @@
 // centre and the rebuild of the ghost copies, both at neighbour-list builds;
 // the refresh of the ghosts' positions and predicted velocities before every
 // force evaluation in between.
+#include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <memory>
 #include <vector>
 
 #include "core/buffer.hpp"
+#include "core/error.hpp"
 #include "core/exec.hpp"
 #include "dem/domain.hpp"
 #include "dem/geometry.hpp"
@@ -17,6 +20,30 @@
 #include "particle_store.hpp"
 
 namespace lbdem::dem {
+
+// Plain records packed into byte messages (particle migration, checkpoint
+// sections): append_pod writes one, take_pod reads the next one at `at`
+// (Error when the message ends first).
+template <class T>
+void append_pod(std::vector<std::byte>& b, const T& v) {
+  const std::size_t at = b.size();
+  b.resize(at + sizeof(T));
+  std::memcpy(b.data() + at, &v, sizeof(T));
+}
+template <class T>
+T take_pod(const std::vector<std::byte>& b, std::size_t& at) {
+  if (at + sizeof(T) > b.size()) throw Error("DEM: a particle message or record cut short");
+  T v;
+  std::memcpy(&v, b.data() + at, sizeof(T));
+  at += sizeof(T);
+  return v;
+}
+// One row entry of the neighbour list by partner: its global id and the
+// tangential history of the contact.
+struct RowEntry {
+  std::int64_t gid;
+  Vec3d h;
+};
 
 class DomainExchange {
  public:

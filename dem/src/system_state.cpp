@@ -257,33 +257,13 @@ void DemSystem::load_state(ckpt::Source& in) {
 namespace {
 
 // The fixed part of a record; then wall histories (Vec3d each) and the list
-// row (RowRecord each).
+// row (RowEntry each).
 struct ParticleRecord {
   Real4 a[11];  // pos vel omg frc trq frco trqo vpr wpr extf extt
   std::int64_t gid;
   std::int32_t type;
   std::int32_t nrow;
 };
-struct RowRecord {
-  std::int64_t gid;
-  Vec3d h;
-};
-
-template <class T>
-void append_pod(std::vector<std::byte>& b, const T& v) {
-  const std::size_t at = b.size();
-  b.resize(at + sizeof(T));
-  std::memcpy(b.data() + at, &v, sizeof(T));
-}
-template <class T>
-T take_pod(const std::vector<std::byte>& b, std::size_t& at) {
-  if (at + sizeof(T) > b.size()) throw Error("DEM restart: a particle record cut short");
-  T v;
-  std::memcpy(&v, b.data() + at, sizeof(T));
-  at += sizeof(T);
-  return v;
-}
-
 // Reads a stored array (count, then count values) into v (count at most max).
 template <class T>
 void read_array(ckpt::Source& in, std::vector<T>& v, std::uint64_t max) { v = in.get_vector<T>(max); }
@@ -295,7 +275,7 @@ std::vector<std::size_t> record_offsets(const std::vector<std::byte>& buf, int n
   while (at < buf.size()) {
     off.push_back(at);
     const auto r = take_pod<ParticleRecord>(buf, at);
-    at += static_cast<std::size_t>(nw) * sizeof(Vec3d) + static_cast<std::size_t>(r.nrow) * sizeof(RowRecord);
+    at += static_cast<std::size_t>(nw) * sizeof(Vec3d) + static_cast<std::size_t>(r.nrow) * sizeof(RowEntry);
     if (r.nrow < 0 || at > buf.size()) throw Error("DEM restart: a particle record cut short");
   }
   return off;
@@ -387,7 +367,7 @@ DemSystem::SavedCounters DemSystem::saved_particles(ckpt::Source& in, std::vecto
     r.gid = gid[u];
     r.type = type[u];
     r.nrow = 0;
-    std::vector<RowRecord> row;
+    std::vector<RowEntry> row;
     if (have_list && m.lists.history) {
       const int cnt = count[u];
       if (cnt < 0 || cnt > lcap) in.mismatch("a neighbour-list row out of range");
@@ -401,7 +381,7 @@ DemSystem::SavedCounters DemSystem::saved_particles(ckpt::Source& in, std::vecto
     r.nrow = static_cast<std::int32_t>(row.size());
     append_pod(out, r);
     for (int w = 0; w < nw; ++w) append_pod(out, whist[static_cast<std::size_t>(w) * static_cast<std::size_t>(n) + u]);
-    for (const RowRecord& e : row) append_pod(out, e);
+    for (const RowEntry& e : row) append_pod(out, e);
   }
   return c;
 }
@@ -450,7 +430,7 @@ void DemSystem::restore_particles(const std::vector<std::byte>& mine, const Save
   for (Index i = 0; i < n_own; ++i) at.emplace(order[static_cast<std::size_t>(i)].first, static_cast<int>(i));
   std::vector<std::int64_t> extra;
   std::vector<ParticleRecord> recs;
-  std::vector<std::vector<RowRecord>> rows;
+  std::vector<std::vector<RowEntry>> rows;
   std::vector<Vec3d> wh;
   for (const auto& [g, o] : order) {
     std::size_t t = o;
@@ -458,7 +438,7 @@ void DemSystem::restore_particles(const std::vector<std::byte>& mine, const Save
     for (int w = 0; w < nw; ++w) wh.push_back(take_pod<Vec3d>(mine, t));
     rows.emplace_back();
     for (int e = 0; e < recs.back().nrow; ++e) {
-      rows.back().push_back(take_pod<RowRecord>(mine, t));
+      rows.back().push_back(take_pod<RowEntry>(mine, t));
       const std::int64_t pg = rows.back().back().gid;
       if (!at.count(pg)) {
         at.emplace(pg, static_cast<int>(n_own + static_cast<Index>(extra.size())));
