@@ -13,7 +13,7 @@
 // sweep: fixed sphere in a simple cubic array (the first paper's Table 1
 // test) for every combination; per row the drag coefficient K against
 // Sangani & Acrivos (1982) (chi <= 0.75) or Zick & Homsy (1982) (their
-// tabulated dense points, cases::sphere_array_K), the steps and wall time to the detected steady
+// tabulated dense points, imb::sphere_array_K), the steps and wall time to the detected steady
 // state, and MLUPS. suspension: coupled MLUPS of a periodic suspension
 // against fluid-only MLUPS on the same grid.
 #include <cmath>
@@ -27,7 +27,7 @@
 
 #include "bench_support.hpp"
 #include "psm_plane_wall.hpp"
-#include "cases/fixed_sphere.hpp"
+#include "imb/fixed_sphere.hpp"
 #include "core/error.hpp"
 #include "core/exec.hpp"
 #include "core/buffer.hpp"
@@ -129,13 +129,13 @@ int sweep(int argc, char** argv) {
   if (start != "rest" && start != "estimate") throw ConfigError("--start " + start + ": must be rest or estimate");
   // The reference: Sangani & Acrivos to chi 0.75, Zick & Homsy's tabulated dense points above (3D).
   const char* reference = "";
-  if (std::isnan(cases::sphere_array_K(chi, &reference)) || (chi > 0.75 && dim != 3)) {
+  if (std::isnan(imb::sphere_array_K(chi, &reference)) || (chi > 0.75 && dim != 3)) {
     std::string points;
-    for (const auto& p : cases::kZickHomsy)
-      if (cases::zick_homsy_chi(p.phi) > 0.75)
-        points += (points.empty() ? "" : ", ") + jnum(std::round(cases::zick_homsy_chi(p.phi) * 1e4) / 1e4);
+    for (const auto& p : imb::kZickHomsy)
+      if (imb::zick_homsy_chi(p.phi) > 0.75)
+        points += (points.empty() ? "" : ", ") + jnum(std::round(imb::zick_homsy_chi(p.phi) * 1e4) / 1e4);
     throw ConfigError("--chi " + jnum(chi) + ": must be in (0, 0.75] (Sangani & Acrivos's series) or, in 3D, within " +
-                      jnum(cases::kZickHomsyChiTolerance) + " of a dense point tabulated by Zick & Homsy (1982): " +
+                      jnum(imb::kZickHomsyChiTolerance) + " of a dense point tabulated by Zick & Homsy (1982): " +
                       points);
   }
   const Backend b = resolve_backend(backend);
@@ -162,7 +162,7 @@ int sweep(int argc, char** argv) {
                 for (const auto& ms : split(magics))
                   for (const auto& os : split(offsets))
                     for (const auto& rs : split(res)) {
-                      cases::FixedSphereSpec s;
+                      imb::FixedSphereSpec s;
                       s.dim = dim;
                       s.diameter = std::stod(dstr);
                       s.chi = chi;
@@ -177,8 +177,8 @@ int sweep(int argc, char** argv) {
                       s.max_steps = max_steps;
                       s.check_every = check;
                       s.periods = periods;
-                      s.start = start == "rest" ? cases::FixedSphereSpec::Start::Rest
-                                                : cases::FixedSphereSpec::Start::Estimate;
+                      s.start = start == "rest" ? imb::FixedSphereSpec::Start::Rest
+                                                : imb::FixedSphereSpec::Start::Estimate;
                       s.quiet = !verbose;
                       s.precision = lbm::precision_from_string(pr);
                       s.collision = co == "bgk" ? lbm::CollisionKind::BGK : lbm::CollisionKind::TRT;
@@ -195,7 +195,7 @@ int sweep(int argc, char** argv) {
                       }
                       // BGK: the solver's Lambda is (tau - 1/2)^2 whatever --magic says.
                       const double lam = s.collision == lbm::CollisionKind::BGK ? (s.tau - 0.5) * (s.tau - 0.5) : s.magic;
-                      const auto r = cases::run_fixed_sphere(s, b);
+                      const auto r = imb::run_fixed_sphere(s, b);
                       const double paper = paper_error(s.diameter);
                       std::printf("| %s | %s | %s | %s | %s | %s | %.2g | %g | %.5f | %+.3f | %.3f | %.3f%s | %.4f | %ld%s | %.2f | %.0f | %.1e |\n",
                                   dstr.c_str(), m.c_str(), pr.c_str(), co.c_str(), (we + ", " + va).c_str(), ts.c_str(), lam,

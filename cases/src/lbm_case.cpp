@@ -9,7 +9,7 @@
 #include <optional>
 #include <sstream>
 
-#include "cases/parallel.hpp"
+#include "lbm/distributed_fluid.hpp"
 #include "cases/scenes.hpp"
 #include "checkpoint_case.hpp"
 #include "scene_checks.hpp"
@@ -46,7 +46,7 @@ struct LbmCase {
   double max_mach = 0.3;
   std::array<long, 3> fluid_cells{1, 1, 1};
   std::array<int, 3> pad{0, 0, 0};  // boundary layers added below each axis
-  ParallelOptions parallel;
+  halo::ParallelOptions parallel;
   std::vector<std::uint8_t> flags;
   std::vector<double> rho, u;
   ckpt::Policy checkpoint;
@@ -87,7 +87,7 @@ LbmCase parse(const Config& root, const RunOptions& opt) {
   s.precision = lbm::precision_from_string(root.choice("precision", "fp64", {"fp32", "fp64", "fp16s", "fp16c"}));
   s.streaming = root.choice("streaming", "aa", {"aa", "two_lattice"}) == "aa" ? lbm::StreamKind::AA : lbm::StreamKind::TwoLattice;
 
-  c.parallel = parse_parallel(root);
+  c.parallel = halo::parse_parallel(root);
   const Config coll = root.section("collision");
   s.collision = coll.choice("model", "trt", {"bgk", "trt"}) == "bgk" ? lbm::CollisionKind::BGK : lbm::CollisionKind::TRT;
   s.magic = coll.number_in("magic", 3.0 / 16.0, 1e-6, 100.0, "TRT magic parameter Lambda; 3/16 exact walls, 1/4 most stable");
@@ -228,7 +228,7 @@ int run_parsed(LbmCase& c, const RunOptions& opt);
 // 1 + 5 doubles per cell) for set-up and output.
 void check_memory(const LbmCase& c, Backend backend) {
   // Each rank holds its piece (the decomposition is checked here, before anything is allocated).
-  const std::size_t need = distributed_fluid_memory(c.setup, c.parallel, halo::Comm::world().size());
+  const std::size_t need = lbm::distributed_fluid_memory(c.setup, c.parallel, halo::Comm::world().size());
   const auto cells = static_cast<std::size_t>(c.setup.domain.storage_cells());
   const std::size_t host_need = cells * (1 + 5 * sizeof(double)) + (backend == Backend::Host ? need : 0);
   const std::size_t have = backend_free_bytes(backend);
@@ -399,7 +399,7 @@ int run_parsed(LbmCase& c, const RunOptions& opt) {
     spdlog::info("units: dx = {:.6g} m, dt = {:.6g} s, tau = {:.6g}, {} steps = {:.6g} s; output in {}", U.dx, U.dt,
                  U.tau, c.steps, c.steps * U.dt, c.outdir);
   }
-  DistributedFluid fluid(s, backend, c.parallel, comm);
+  lbm::DistributedFluid fluid(s, backend, c.parallel, comm);
   auto* solver = &fluid;
   solver->initialize(c.flags, c.rho, c.u);
   if (!opt.quiet && comm.distributed()) spdlog::info("parallel: {} ({})", fluid.describe(), comm.describe());

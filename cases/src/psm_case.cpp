@@ -33,8 +33,8 @@
 #include <unordered_map>
 #include <spdlog/spdlog.h>
 
-#include "cases/fixed_sphere.hpp"
-#include "cases/parallel.hpp"
+#include "imb/fixed_sphere.hpp"
+#include "lbm/distributed_fluid.hpp"
 #include "halo/comm.hpp"
 #include "halo/decomposition.hpp"
 #include "cases/particle_output.hpp"
@@ -173,7 +173,7 @@ imb::DragErrorQuery drag_query(double d, double tau, lbm::CollisionKind coll, do
 // ------------------------------------------------------------ fixed sphere
 int run_fixed_sphere_case(const Config& root, const RunOptions& opt) {
   require_lattice_units(root);
-  cases::FixedSphereSpec s;
+  imb::FixedSphereSpec s;
   const Config g = root.section("geometry");
   s.dim = static_cast<int>(g.integer_in("dim", 3, 2, 3));
   s.diameter = g.number_in("diameter", 2.0, 1000.0, "sphere diameter in cells (d/l)");
@@ -205,7 +205,7 @@ int run_fixed_sphere_case(const Config& root, const RunOptions& opt) {
   const Config o = root.section("output");
   std::string outdir = o.text("directory");
   o.finish();
-  s.parallel = parse_parallel(root);
+  s.parallel = halo::parse_parallel(root);
   root.accept("scene");
   root.finish();
   if (opt.output) outdir = *opt.output;
@@ -243,7 +243,7 @@ int run_fixed_sphere_case(const Config& root, const RunOptions& opt) {
     spdlog::info("scene fixed_sphere: {}D, d/l = {}, chi = {}, tau = {}, {} Lambda = {}, {} fractions, backend {}",
                  s.dim, s.diameter, s.chi, s.tau, to_string(s.collision), s.magic, imb::to_string(s.method),
                  to_string(backend));
-  const auto r = cases::run_fixed_sphere(s, backend);
+  const auto r = imb::run_fixed_sphere(s, backend);
   std::ostringstream js;
   js.precision(17);  // K to the last digit: runs are compared across rank counts and settings
   js << "{\n  \"scene\": \"fixed_sphere\",\n  \"dim\": " << s.dim << ",\n  \"diameter\": " << s.diameter
@@ -293,7 +293,7 @@ struct ParticlesCase {
   bool final_output = true;   // output.final
   ckpt::Policy checkpoint;
   double max_drag_error = kMaxDragErrorBar;
-  ParallelOptions parallel;  // mpirun: how the grid (and with it the particles) is cut
+  halo::ParallelOptions parallel;  // mpirun: how the grid (and with it the particles) is cut
 };
 
 // The particle scene in SI units (units: physical): the keys whose meaning
@@ -565,7 +565,7 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
   c.final_output = o.boolean("final", true);
   o.finish();
   c.checkpoint = ckpt::read_policy(root);
-  c.parallel = parse_parallel(root);
+  c.parallel = halo::parse_parallel(root);
   root.accept("scene");
   root.finish();
   if (opt.steps) c.steps = *opt.steps;
@@ -653,7 +653,7 @@ double periodic_settling_reference(const ParticlesCase& c) {
   if (!(chi <= 0.75) || !(W > 0)) return 0;
   const double mu = c.coupling.fluid_density * (c.setup.tau - 0.5) / 3.0;
   const double phi = c.solid_fraction;
-  return W / ((1 - phi) * (1 - phi) * 3 * M_PI * mu * c.diameter * cases::sangani_acrivos_K(chi));
+  return W / ((1 - phi) * (1 - phi) * 3 * M_PI * mu * c.diameter * imb::sangani_acrivos_K(chi));
 }
 
 // The last sample's slip along -g (along y without gravity).
@@ -725,7 +725,7 @@ std::string particles_summary(const ParticlesCase& c, const cases::ParticleSerie
 // each with its hydrodynamic force) and the fields gathered to rank 0, which
 // writes them (pw, gw: null on the other ranks), the same files as one rank
 // writes. Collective.
-void write_gathered_output(long step, const ParticlesCase& c, DistributedFluid& fluid, dem::DemSystem& dem,
+void write_gathered_output(long step, const ParticlesCase& c, lbm::DistributedFluid& fluid, dem::DemSystem& dem,
                            imb::CoupledSolver& cs, io::ParticleWriter* pw, io::GridWriter* gw) {
   const halo::Comm& comm = fluid.comm();
   const dem::HostParticles all = dem.gather(0);
@@ -874,7 +874,7 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
   cases::prepare_output_on_writer(ck, writer, comm, opt.overwrite, c.outdir);
   // The fluid: the whole grid on one rank, this rank's piece (with its halo
   // exchange) on several.
-  DistributedFluid dfluid(c.setup, backend, c.parallel, comm);
+  lbm::DistributedFluid dfluid(c.setup, backend, c.parallel, comm);
   lbm::LbmSolver* fluid = &dfluid.local();
   if (ranks) ck.set_layout(cases::rank_layout(comm.size(), dfluid.decomposition().describe()));
   const auto& n = c.setup.domain.local;  // the whole grid (Grid::whole)

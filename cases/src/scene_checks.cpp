@@ -607,7 +607,7 @@ const KeyMap& key_map(const std::string& scene) {
       {"dem.lo", "domain.cells"},
       {"dem.hi", "domain.cells"},
   };
-  // run_fixed_sphere() (cases/fixed_sphere.cpp) names FixedSphereSpec fields.
+  // run_fixed_sphere() (imb/src/fixed_sphere.cpp) names FixedSphereSpec fields.
   static const KeyMap fixed_sphere = {
       {"fixed_sphere.dim", "geometry.dim"},
       {"fixed_sphere.chi", "geometry.chi"},

@@ -12,7 +12,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "cases/fixed_sphere.hpp"
+#include "imb/fixed_sphere.hpp"
 #include "cases/suspension.hpp"
 #include "core/output.hpp"
 #include "dem/system.hpp"
@@ -172,7 +172,7 @@ TEST(SuspensionUnits, DefaultCaseReportsItsReference) {
   // W / ((1 - phi)^2 3 pi mu d K(0.25)): W = (2 - 1) (4/3 pi 4^3) |g| (lattice), mu = 0.1, d = 8.
   const double g = 9.81 * 1e-5 * 1e-5 / 1e-4, W = 4.0 / 3.0 * M_PI * 64 * g, phi = M_PI / 6 * 0.25 * 0.25 * 0.25;
   const double K = W / (summary_number(js, "slip") * (1 - phi) * (1 - phi) * 3 * M_PI * 0.1 * 8);
-  EXPECT_NEAR(K, cases::sangani_acrivos_K(0.25), 1e-9 * K);
+  EXPECT_NEAR(K, imb::sangani_acrivos_K(0.25), 1e-9 * K);
   // ... which is Hasimoto's dilute limit 1 / (1 - 1.7601 c^1/3 + c - 1.5593 c^2), c = phi, to a percent.
   const double c = phi, hasimoto = 1 / (1 - 1.7601 * std::cbrt(c) + c - 1.5593 * c * c);
   EXPECT_NEAR(K, hasimoto, 0.01 * hasimoto);

@@ -9,7 +9,7 @@
 #include <cmath>
 #include <cstdio>
 
-#include "cases/fixed_sphere.hpp"
+#include "imb/fixed_sphere.hpp"
 #include "imb/drag_error.hpp"
 #include "imb/psm.hpp"
 
@@ -18,7 +18,7 @@ using namespace lbdem;
 namespace {
 
 double rule_error(double d, double tau) {
-  cases::FixedSphereSpec s;
+  imb::FixedSphereSpec s;
   s.dim = 3;
   s.diameter = d;
   s.chi = 0.5;
@@ -32,7 +32,7 @@ double rule_error(double d, double tau) {
   s.weight = imb::PsmWeight::NobleTorczynskiWall;
   s.offset = 0.5;
   s.tolerance = 1e-5;
-  const auto r = cases::run_fixed_sphere(s, Backend::Host);
+  const auto r = imb::run_fixed_sphere(s, Backend::Host);
   EXPECT_TRUE(r.converged) << "d/l " << d << " tau " << tau;
   std::printf("d/l %g tau %g Lambda %.3g: K = %.5f, error %+.3f%% (bar %.2f%%), %ld steps\n", d, tau, s.magic, r.K,
               100 * r.rel_error, 100 * imb::psm_drag_bar(d), r.steps);

@@ -8,7 +8,7 @@
 #include <cstdio>
 #include <string>
 
-#include "cases/fixed_sphere.hpp"
+#include "imb/fixed_sphere.hpp"
 #include "core/error.hpp"
 #include "imb/drag_error.hpp"
 
@@ -17,10 +17,10 @@ using namespace lbdem;
 namespace {
 
 // The dense point: Zick & Homsy's phi 0.343.
-const double kChi = cases::zick_homsy_chi(0.343);
+const double kChi = imb::zick_homsy_chi(0.343);
 
-cases::FixedSphereSpec dense_spec(long L, double tau) {
-  cases::FixedSphereSpec s;
+imb::FixedSphereSpec dense_spec(long L, double tau) {
+  imb::FixedSphereSpec s;
   s.dim = 3;
   s.diameter = kChi * double(L);
   s.chi = kChi;
@@ -37,9 +37,9 @@ cases::FixedSphereSpec dense_spec(long L, double tau) {
   return s;
 }
 
-std::string config_error(const cases::FixedSphereSpec& s) {
+std::string config_error(const imb::FixedSphereSpec& s) {
   try {
-    cases::run_fixed_sphere(s, Backend::Host);
+    imb::run_fixed_sphere(s, Backend::Host);
   } catch (const ConfigError& e) {
     return e.what();
   }
@@ -54,30 +54,30 @@ std::string config_error(const cases::FixedSphereSpec& s) {
 // 0.216).
 TEST(PsmDenseArray, SeriesMatchesTableBelowChi075) {
   int compared = 0;
-  for (const auto& p : cases::kZickHomsy) {
-    const double chi = cases::zick_homsy_chi(p.phi);
+  for (const auto& p : imb::kZickHomsy) {
+    const double chi = imb::zick_homsy_chi(p.phi);
     if (chi > 0.75) continue;
     ++compared;
-    EXPECT_NEAR(cases::sangani_acrivos_K(chi) / p.K, 1.0, 5e-4) << "phi " << p.phi << ", chi " << chi;
-    EXPECT_EQ(cases::sphere_array_K(chi), cases::sangani_acrivos_K(chi));
+    EXPECT_NEAR(imb::sangani_acrivos_K(chi) / p.K, 1.0, 5e-4) << "phi " << p.phi << ", chi " << chi;
+    EXPECT_EQ(imb::sphere_array_K(chi), imb::sangani_acrivos_K(chi));
   }
   EXPECT_EQ(compared, 4);
-  EXPECT_NEAR(cases::zick_homsy_chi(0.216), 0.74442, 1e-5);
+  EXPECT_NEAR(imb::zick_homsy_chi(0.216), 0.74442, 1e-5);
 }
 
 // Past chi 0.75 only the tabulated points are a reference (no interpolation).
 TEST(PsmDenseArray, ReferenceAtTabulatedPointsOnly) {
   EXPECT_NEAR(kChi, 0.868491, 1e-6);
   const char* name = nullptr;
-  EXPECT_EQ(cases::sphere_array_K(kChi, &name), 15.4);
+  EXPECT_EQ(imb::sphere_array_K(kChi, &name), 15.4);
   EXPECT_NE(std::string(name).find("Zick & Homsy"), std::string::npos);
-  EXPECT_EQ(cases::zick_homsy_K(0.8684), 15.4);  // within the tolerance
-  EXPECT_EQ(cases::zick_homsy_K(cases::zick_homsy_chi(0.45)), 28.1);
-  EXPECT_EQ(cases::zick_homsy_K(1.0), 42.1);
-  EXPECT_TRUE(std::isnan(cases::sphere_array_K(0.8)));
-  EXPECT_TRUE(std::isnan(cases::sphere_array_K(0.868)));  // 5e-4 off
-  EXPECT_TRUE(std::isnan(cases::sphere_array_K(0.9)));
-  cases::sphere_array_K(0.5, &name);
+  EXPECT_EQ(imb::zick_homsy_K(0.8684), 15.4);  // within the tolerance
+  EXPECT_EQ(imb::zick_homsy_K(imb::zick_homsy_chi(0.45)), 28.1);
+  EXPECT_EQ(imb::zick_homsy_K(1.0), 42.1);
+  EXPECT_TRUE(std::isnan(imb::sphere_array_K(0.8)));
+  EXPECT_TRUE(std::isnan(imb::sphere_array_K(0.868)));  // 5e-4 off
+  EXPECT_TRUE(std::isnan(imb::sphere_array_K(0.9)));
+  imb::sphere_array_K(0.5, &name);
   EXPECT_NE(std::string(name).find("Sangani & Acrivos"), std::string::npos);
 }
 
@@ -106,16 +106,16 @@ TEST(PsmDenseArray, DriverRefusesOtherDenseChi) {
 // stays L-periodic (chi 0.5, d/l 4, tau 0.6; the dense array needs two where
 // the sphere leaves the cell map too little room).
 TEST(PsmDenseArray, TwoPeriodsGiveTheSameDrag) {
-  cases::FixedSphereSpec s;
+  imb::FixedSphereSpec s;
   s.diameter = 4;
   s.chi = 0.5;
   s.tau = 0.6;
   s.magic = imb::psm_magic_auto(4, 0.6);
   s.weight = imb::PsmWeight::NobleTorczynskiWall;
   s.periods = 1;
-  const auto one = cases::run_fixed_sphere(s, Backend::Host);
+  const auto one = imb::run_fixed_sphere(s, Backend::Host);
   s.periods = 2;
-  const auto two = cases::run_fixed_sphere(s, Backend::Host);
+  const auto two = imb::run_fixed_sphere(s, Backend::Host);
   EXPECT_EQ(one.cells * 8, two.cells);
   EXPECT_EQ(one.steps, two.steps);
   EXPECT_NEAR(two.K / one.K, 1.0, 1e-9);
@@ -129,7 +129,7 @@ TEST(PsmDenseArray, TwoPeriodsGiveTheSameDrag) {
 // error interpolated linearly in d/l).
 TEST(PsmDenseArray, RuleWithinBarAtDl1042Tau052) {
   const auto s = dense_spec(12, 0.52);
-  const auto r = cases::run_fixed_sphere(s, Backend::Host);
+  const auto r = imb::run_fixed_sphere(s, Backend::Host);
   EXPECT_TRUE(r.converged);
   EXPECT_EQ(r.K_ref, 15.4);
   std::printf("dense d/l %.3f tau 0.52: K = %.4f, error %+.3f%%, %ld steps\n", s.diameter, r.K, 100 * r.rel_error,
@@ -145,7 +145,7 @@ TEST(PsmDenseArray, RuleWithinBarAtDl1042Tau052) {
 // measured error stays within 0.3 points of it.
 TEST(PsmDenseArray, RegressionGuardDl434Tau06) {
   const auto s = dense_spec(5, 0.6);
-  const auto r = cases::run_fixed_sphere(s, Backend::Host);
+  const auto r = imb::run_fixed_sphere(s, Backend::Host);
   EXPECT_TRUE(r.converged);
   EXPECT_EQ(r.K_ref, 15.4);
   EXPECT_EQ(r.cells, 10 * 10 * 10);  // two periods per axis

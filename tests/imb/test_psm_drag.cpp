@@ -1,6 +1,6 @@
 // PSM drag on a fixed sphere in a simple cubic array (and a disk in a square
 // array) against Sangani & Acrivos (1982), through the `fixed_sphere` scene
-// driver (cases::run_fixed_sphere). References: ../shared/REFERENCES.md,
+// driver (imb::run_fixed_sphere). References: ../shared/REFERENCES.md,
 // "Flow past a fixed sphere"; the first paper (papers/lbm-imb-dem-mole85-
 // xiong.md) Table 1 for the errors to beat.
 //
@@ -24,15 +24,15 @@
 #include <cstdio>
 #include <string>
 
-#include "cases/fixed_sphere.hpp"
+#include "imb/fixed_sphere.hpp"
 #include "imb/fraction_table.hpp"
 
 using namespace lbdem;
 
 namespace {
 
-cases::FixedSphereSpec accurate_spec(double diameter) {
-  cases::FixedSphereSpec s;
+imb::FixedSphereSpec accurate_spec(double diameter) {
+  imb::FixedSphereSpec s;
   s.dim = 3;
   s.diameter = diameter;
   s.chi = 0.5;
@@ -45,13 +45,13 @@ cases::FixedSphereSpec accurate_spec(double diameter) {
   s.variant = imb::PsmVariant::NEBB;
   s.weight = imb::PsmWeight::NobleTorczynski;
   s.offset = 0.5;  // centre on a cell centre (L/2 is a cell corner)
-  s.start = cases::FixedSphereSpec::Start::Estimate;
+  s.start = imb::FixedSphereSpec::Start::Estimate;
   s.tolerance = 1e-4;
   return s;
 }
 
-cases::FixedSphereResult run(const cases::FixedSphereSpec& s, const char* label) {
-  const auto r = cases::run_fixed_sphere(s, Backend::Host);
+imb::FixedSphereResult run(const imb::FixedSphereSpec& s, const char* label) {
+  const auto r = imb::run_fixed_sphere(s, Backend::Host);
   std::printf("%s d/l=%g chi=%g: K = %.5f (ref %.5f), error %+.3f%%, Re_p %.3f, %ld steps, %.1f s%s\n", label,
               s.diameter, s.chi, r.K, r.K_ref, 100 * r.rel_error, r.re_p, r.steps, r.seconds,
               r.converged ? "" : " (NOT converged)");
@@ -63,8 +63,8 @@ cases::FixedSphereResult run(const cases::FixedSphereSpec& s, const char* label)
 // (a) Sangani & Acrivos (1982) Eq. 60, 31-term series: K(0.5) = 2.8420 as
 // tabulated in REFERENCES.md (4 digits given, so 5e-4).
 TEST(PsmDrag, SanganiAcrivosSeries) {
-  EXPECT_NEAR(cases::sangani_acrivos_K(0.5), 2.8420, 5e-4);
-  EXPECT_DOUBLE_EQ(cases::sangani_acrivos_K(0.0), 1.0);  // Stokes drag of an isolated sphere
+  EXPECT_NEAR(imb::sangani_acrivos_K(0.5), 2.8420, 5e-4);
+  EXPECT_DOUBLE_EQ(imb::sangani_acrivos_K(0.0), 1.0);  // Stokes drag of an isolated sphere
 }
 
 // (b) + (c) one sweep, d/l = 4, 6, 8, 10 (8^3 ... 20^3 cells).
@@ -189,7 +189,7 @@ TEST(PsmDrag, DiskInSquareArray2D) {
       ASSERT_TRUE(r.converged);
       const double L = std::round(dl[i] / 0.3);  // the driver's period
       ASSERT_EQ(std::lround(L) % 2, 1);
-      EXPECT_NEAR(r.K_ref, cases::sangani_acrivos_cylinders(M_PI * 0.25 * dl[i] * dl[i] / (L * L)), 1e-12);
+      EXPECT_NEAR(r.K_ref, imb::sangani_acrivos_cylinders(M_PI * 0.25 * dl[i] * dl[i] / (L * L)), 1e-12);
       e[pos] = r.rel_error;
     }
     worst[i] = std::max(std::abs(e[0]), std::abs(e[1]));

@@ -12,7 +12,7 @@
 #include <cstdio>
 
 #include "../../bench/imb/psm_plane_wall.hpp"
-#include "cases/fixed_sphere.hpp"
+#include "imb/fixed_sphere.hpp"
 #include "imb/drag_error.hpp"
 #include "imb/fraction_table.hpp"
 #include "psm_scene.hpp"
@@ -21,8 +21,8 @@ using namespace lbdem;
 
 namespace {
 
-cases::FixedSphereSpec rule_spec(double d, double tau) {
-  cases::FixedSphereSpec s;
+imb::FixedSphereSpec rule_spec(double d, double tau) {
+  imb::FixedSphereSpec s;
   s.dim = 3;
   s.diameter = d;
   s.chi = 0.5;
@@ -40,7 +40,7 @@ cases::FixedSphereSpec rule_spec(double d, double tau) {
 }
 
 double measured_error(double d, double tau) {
-  const auto r = cases::run_fixed_sphere(rule_spec(d, tau), Backend::Host);
+  const auto r = imb::run_fixed_sphere(rule_spec(d, tau), Backend::Host);
   EXPECT_TRUE(r.converged);
   std::printf("d/l %g tau %g: K = %.5f, error %+.3f%%, %ld steps\n", d, tau, r.K, 100 * r.rel_error, r.steps);
   return r.rel_error;
@@ -147,9 +147,9 @@ INSTANTIATE_TEST_SUITE_P(Host, PsmDragRuleGrid,
 // at tau 0.8, Lambda auto 0.011: -6.85 % against -21.34 %).
 TEST(PsmWallRule, Dl4BetterThanClassic) {
   auto s = rule_spec(4, 0.8);
-  const double rule = cases::run_fixed_sphere(s, Backend::Host).rel_error;
+  const double rule = imb::run_fixed_sphere(s, Backend::Host).rel_error;
   s.weight = imb::PsmWeight::NobleTorczynski;
-  const double nt = cases::run_fixed_sphere(s, Backend::Host).rel_error;
+  const double nt = imb::run_fixed_sphere(s, Backend::Host).rel_error;
   std::printf("d/l 4, tau 0.8: rule %+.3f%%, classic NT %+.3f%%\n", 100 * rule, 100 * nt);
   EXPECT_LT(std::abs(rule), std::abs(nt));
 }

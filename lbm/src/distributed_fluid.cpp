@@ -1,60 +1,45 @@
-#include "cases/parallel.hpp"
+#include "lbm/distributed_fluid.hpp"
 
 #include <algorithm>
 #include <cstring>
 
 #include "core/error.hpp"
 
-namespace lbdem {
-
-ParallelOptions parse_parallel(const Config& root) {
-  ParallelOptions po;
-  const auto sec = root.optional_section("parallel");
-  if (!sec) return po;
-  if (sec->has("decomposition")) {
-    const auto d = sec->integers("decomposition", 3, 3, 1, 1 << 20);
-    for (int a = 0; a < 3; ++a) po.decomposition[static_cast<std::size_t>(a)] = static_cast<int>(d[static_cast<std::size_t>(a)]);
-  }
-  if (sec->has("transport"))
-    po.transport = halo::parse_transport(sec->choice("transport", {"auto", "host_mpi", "mpi", "device_mpi", "cuda_aware_mpi", "nccl"}),
-                                         sec->full_key("transport"));
-  sec->finish();
-  return po;
-}
+namespace lbdem::lbm {
 
 namespace {
-halo::Decomposition choose(const lbm::LbmSetup& whole, const ParallelOptions& po, int ranks) {
+halo::Decomposition choose(const LbmSetup& whole, const halo::ParallelOptions& po, int ranks) {
   return halo::decompose(whole.domain, ranks, po.decomposition, "parallel.decomposition");
 }
 }  // namespace
 
-std::size_t distributed_fluid_memory(const lbm::LbmSetup& whole, const ParallelOptions& po, int ranks) {
-  if (ranks <= 1) return lbm::lbm_memory_estimate(whole);
+std::size_t distributed_fluid_memory(const LbmSetup& whole, const halo::ParallelOptions& po, int ranks) {
+  if (ranks <= 1) return lbm_memory_estimate(whole);
   const halo::Decomposition dec = choose(whole, po, ranks);
   std::size_t most = 0;
   for (int r = 0; r < ranks; ++r) {
-    lbm::LbmSetup s = whole;
+    LbmSetup s = whole;
     s.domain = dec.piece(whole.domain, r);
-    most = std::max(most, lbm::lbm_memory_estimate(s));
+    most = std::max(most, lbm_memory_estimate(s));
   }
   return most;
 }
 
-DistributedFluid::DistributedFluid(const lbm::LbmSetup& whole, Backend backend, const ParallelOptions& po,
+DistributedFluid::DistributedFluid(const LbmSetup& whole, Backend backend, const halo::ParallelOptions& po,
                                    const halo::Comm& comm)
     : comm_(comm), whole_(whole) {
   if (!comm.distributed()) {
     dec_.global = whole.domain.global;
     dec_.periodic = whole.domain.periodic;
-    solver_ = lbm::make_lbm_solver(whole, backend);
+    solver_ = make_lbm_solver(whole, backend);
     return;
   }
   dec_ = choose(whole, po, comm.size());
-  lbm::LbmSetup s = whole;
+  LbmSetup s = whole;
   s.domain = dec_.piece(whole.domain, comm.rank());
-  solver_ = lbm::make_lbm_solver(s, backend);
+  solver_ = make_lbm_solver(s, backend);
   transport_ = halo::make_transport(po.transport, comm, backend);
-  halo_ = std::make_unique<lbm::FluidHalo>(*solver_, dec_, comm.rank(), *transport_);
+  halo_ = std::make_unique<FluidHalo>(*solver_, dec_, comm.rank(), *transport_);
 }
 
 void DistributedFluid::initialize(const std::vector<std::uint8_t>& flags, const std::vector<double>& rho,
@@ -65,7 +50,7 @@ void DistributedFluid::initialize(const std::vector<std::uint8_t>& flags, const 
   }
   std::vector<std::uint8_t> pf;
   std::vector<double> pr, pu;
-  lbm::piece_fields(whole_.domain, solver_->setup().domain, flags, rho, u, pf, pr, pu);
+  piece_fields(whole_.domain, solver_->setup().domain, flags, rho, u, pf, pr, pu);
   solver_->initialize(pf, pr, pu);
   halo_->fill();
 }
@@ -75,8 +60,8 @@ void DistributedFluid::step(long n) {
   else solver_->step(n);
 }
 
-lbm::LbmDiagnostics DistributedFluid::diagnostics() {
-  lbm::LbmDiagnostics d = solver_->diagnostics();
+LbmDiagnostics DistributedFluid::diagnostics() {
+  LbmDiagnostics d = solver_->diagnostics();
   if (!halo_) return d;
   const Grid& p = solver_->setup().domain;
   auto to_global = [&](std::array<long, 3>& c) {
@@ -93,7 +78,7 @@ lbm::LbmDiagnostics DistributedFluid::diagnostics() {
   std::vector<double> sums{d.mass - static_cast<double>(d.fluid_cells), d.momentum[0], d.momentum[1], d.momentum[2]};
   comm_.sum(sums);
   const long cells = comm_.sum(d.fluid_cells);
-  lbm::LbmDiagnostics g;
+  LbmDiagnostics g;
   g.fluid_cells = cells;
   g.mass = static_cast<double>(cells) + sums[0];
   g.momentum = {sums[1], sums[2], sums[3]};
@@ -190,4 +175,4 @@ std::string DistributedFluid::describe() const {
   return dec_.describe() + " ranks, halo by " + halo::to_string(transport_->kind());
 }
 
-}  // namespace lbdem
+}  // namespace lbdem::lbm

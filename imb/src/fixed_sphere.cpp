@@ -1,4 +1,4 @@
-#include "cases/fixed_sphere.hpp"
+#include "imb/fixed_sphere.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -14,7 +14,7 @@
 #include "core/signals.hpp"
 #include "imb/psm_coupling.hpp"
 
-namespace lbdem::cases {
+namespace lbdem::imb {
 
 double sangani_acrivos_K(double chi) {
   static const double q[31] = {1.000000,  1.418649,  2.012564,   2.331523,  2.564809,  2.584787,  2.873609, 3.340163,
@@ -294,4 +294,4 @@ FixedSphereResult run_fixed_sphere(const FixedSphereSpec& c, Backend b) {
   return r;
 }
 
-}  // namespace lbdem::cases
+}  // namespace lbdem::imb

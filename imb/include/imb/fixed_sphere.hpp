@@ -5,7 +5,7 @@
 // scene, the tests and the speed-vs-error benchmark.
 #include <string>
 
-#include "cases/parallel.hpp"
+#include "lbm/distributed_fluid.hpp"
 #include "core/exec.hpp"
 #include "imb/fraction_table.hpp"
 #include "imb/psm.hpp"
@@ -13,7 +13,7 @@
 #include "imb/solid_fraction.hpp"
 #include "lbm/solver.hpp"
 
-namespace lbdem::cases {
+namespace lbdem::imb {
 
 // Sangani & Acrivos (1982, Int. J. Multiphase Flow 8, 193), Eq. 60: the drag
 // coefficient K = F / (6 pi mu a U) of a simple cubic array, chi = d/L <= 0.75.
@@ -84,7 +84,7 @@ struct FixedSphereSpec {
   // Ranks: null (or one rank) runs the whole grid; several cut it (`parallel`
   // section: decomposition, transport) and every rank returns the same result.
   const halo::Comm* comm = nullptr;
-  ParallelOptions parallel;
+  halo::ParallelOptions parallel;
 };
 
 struct FixedSphereResult {
@@ -108,4 +108,4 @@ struct FixedSphereResult {
 
 FixedSphereResult run_fixed_sphere(const FixedSphereSpec& spec, Backend backend);
 
-}  // namespace lbdem::cases
+}  // namespace lbdem::imb

@@ -1,41 +1,32 @@
 #pragma once
-// What a scene needs to run on several ranks: the `parallel` section of a
-// case file, and a fluid solver spread over the ranks with its halo exchange,
-// global diagnostics and whole-grid output on rank 0. On one rank it is the
-// plain solver (no ghost layers, no exchange, the same bits as before).
+// A fluid solver spread over the ranks with its halo exchange, global
+// diagnostics and whole-grid output on rank 0. On one rank it is the plain
+// solver (no ghost layers, no exchange, the same bits as before). The
+// `parallel` section of a case file is read by halo/parallel_options.hpp.
 #include <array>
 #include <memory>
 #include <string>
 #include <vector>
 
-#include "core/config.hpp"
 #include "halo/comm.hpp"
 #include "halo/decomposition.hpp"
+#include "halo/parallel_options.hpp"
 #include "halo/transport.hpp"
 #include "lbm/halo_exchange.hpp"
 #include "lbm/solver.hpp"
 
-namespace lbdem {
-
-// parallel:
-//   decomposition: [2, 1, 2]   # ranks per axis (their product = the rank count); default: chosen
-//   transport: auto            # auto | host_mpi | device_mpi | nccl
-struct ParallelOptions {
-  std::array<int, 3> decomposition{0, 0, 0};
-  halo::TransportKind transport = halo::TransportKind::Auto;
-};
-ParallelOptions parse_parallel(const Config& root);
+namespace lbdem::lbm {
 
 class DistributedFluid {
  public:
   // `whole` describes the whole grid (Grid::whole). Refuses (ConfigError) a
   // rank count or decomposition that cannot work, before allocating.
-  DistributedFluid(const lbm::LbmSetup& whole, Backend backend, const ParallelOptions& po, const halo::Comm& comm);
+  DistributedFluid(const LbmSetup& whole, Backend backend, const halo::ParallelOptions& po, const halo::Comm& comm);
   // Whole-grid fields (the same on every rank); each rank keeps its piece.
   void initialize(const std::vector<std::uint8_t>& flags, const std::vector<double>& rho, const std::vector<double>& u);
   void step(long n);
   // Sums and extremes over all ranks; cells in whole-grid coordinates.
-  lbm::LbmDiagnostics diagnostics();
+  LbmDiagnostics diagnostics();
   // Whole-grid fields on rank 0 (empty on the others).
   void macroscopic(std::vector<double>& rho, std::vector<double>& u);
   // A field of `comps` values per cell given by each rank for its owned cells
@@ -45,24 +36,24 @@ class DistributedFluid {
   std::vector<double> gather_owned(const std::vector<double>& mine, int comps, const std::vector<double>& fill = {});
   void synchronize() { solver_->synchronize(); }
   std::size_t memory_bytes() const;  // all ranks
-  lbm::LbmSolver& local() { return *solver_; }
+  LbmSolver& local() { return *solver_; }
   const halo::Decomposition& decomposition() const { return dec_; }
   const halo::Comm& comm() const { return comm_; }
   bool distributed() const { return comm_.distributed(); }
-  const lbm::FluidHalo* halo() const { return halo_.get(); }
-  lbm::FluidHalo* halo() { return halo_.get(); }
+  const FluidHalo* halo() const { return halo_.get(); }
+  FluidHalo* halo() { return halo_.get(); }
   std::string describe() const;  // "2 x 1 x 1 ranks, host_mpi" / "1 rank"
 
  private:
   const halo::Comm& comm_;
-  lbm::LbmSetup whole_;
+  LbmSetup whole_;
   halo::Decomposition dec_;
-  std::unique_ptr<lbm::LbmSolver> solver_;
+  std::unique_ptr<LbmSolver> solver_;
   std::unique_ptr<halo::Transport> transport_;
-  std::unique_ptr<lbm::FluidHalo> halo_;
+  std::unique_ptr<FluidHalo> halo_;
 };
 
 // Per-rank memory the fluid of `whole` needs on `ranks` ranks (the largest piece).
-std::size_t distributed_fluid_memory(const lbm::LbmSetup& whole, const ParallelOptions& po, int ranks);
+std::size_t distributed_fluid_memory(const LbmSetup& whole, const halo::ParallelOptions& po, int ranks);
 
-}  // namespace lbdem
+}  // namespace lbdem::lbm
