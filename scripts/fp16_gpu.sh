@@ -2,9 +2,10 @@
 # 16-bit population storage (precision fp16s / fp16c) on a GPU machine: speed beside error, against fp32 and
 # fp64 in the same run. Everything goes to $OUT (default ./out/fp16): logs, JSON, and summary.md.
 #
-#   scripts/fp16_gpu.sh [STEP...]        (default: build speed errors drag suspension summary)
-#     build       configure build-fp16/ (CUDA, sm_90, Release) and build the targets below; the wall time of the
-#                 kernel objects per precision goes to build_times.txt (ninja's log)
+#   scripts/fp16_gpu.sh [-B DIR] [STEP...]    (default: build speed errors drag suspension summary)
+#     -B DIR      the build folder (default $LBDEM_BUILD, else build-gpu/; scripts/lib.sh)
+#     build       configure the `cuda` preset (sm_90, Release) into it if new and build the targets below; the
+#                 compile time of the kernel objects per precision goes to build_times.txt (ninja's log)
 #     speed       lbdem_bench_lbm: D3Q19 256^3 fp16s / fp16c / fp32 (A-A and two-lattice) with the device copy
 #                 bandwidth measured in the same run; Taylor-Green error of each run beside its speed
 #     errors      the 16-bit storage tests on both backends (tests/lbm/test_fp16_storage.cpp: Taylor-Green 2D/3D,
@@ -18,25 +19,19 @@
 #     summary     summary.md from the JSON above
 #   Env: LIMIT_DRAG (s, default 420) bounds the drag step; SUSP_STEPS (default 4000).
 set -uo pipefail
-here="$(cd "$(dirname "$0")/.." && pwd)"
-export OUT="${OUT:-$here/out}/fp16"
-mkdir -p "$OUT"
-build="$here/build-fp16"
-commit="$(git -C "$here" rev-parse --short HEAD 2>/dev/null || echo unknown)"
-export OMP_WAIT_POLICY=passive
-{ echo "commit $commit"; nvidia-smi --query-gpu=name,memory.total --format=csv 2>&1; nproc; } > "$OUT/env.txt"
+source "$(dirname "$0")/lib.sh"
+[ "${1:-}" = -B ] && { LBDEM_BUILD="${2:?-B needs a build folder}"; shift 2; }
+export OUT="${OUT:-$LBDEM_ROOT/out}/fp16"
+lbdem_env
+here="$LBDEM_ROOT"
+build="$(realpath -m "$LBDEM_BUILD")"
 
 step_build() {
-  local t0=$SECONDS
-  cmake -S "$here" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release -DLBDEM_ENABLE_CUDA=ON \
-    -DCMAKE_CUDA_ARCHITECTURES=90 > "$OUT/configure.log" 2>&1 || { echo "configure failed"; return 1; }
-  ninja -C "$build" -j "$(nproc)" lbdem lbdem_bench_lbm lbdem_bench_psm lbm_tests imb_tests core_tests \
-    > "$OUT/build.log" 2>&1
+  lbdem_build "$build" lbdem lbdem_bench_lbm lbdem_bench_psm lbm_tests imb_tests core_tests
   local rc=$?
-  echo "build exit $rc in $((SECONDS - t0)) s"
-  # Per-object compile times (ms) of the kernel translation units, from ninja's log.
-  awk -F'\t' '!/^#/ && $4 ~ /(solver_d|psm_).*\.cu\.o$/ {printf "%8d ms  %s\n", $2 - $1, $4}' "$build/.ninja_log" \
-    | sort -k3 > "$OUT/build_times.txt"
+  # Compile time (ms) of each kernel translation unit, the last entry per object in ninja's log.
+  awk -F'\t' '!/^#/ && $4 ~ /(solver_d|psm_).*\.cu\.o$/ {t[$4] = $2 - $1} END {for (o in t) printf "%8d ms  %s\n", t[o], o}' \
+    "$build/.ninja_log" | sort -k3 > "$OUT/build_times.txt"
   awk '{ms = $1; if ($3 ~ /f16/) a += ms; else b += ms} END {printf "kernel TUs: 16-bit %.0f s, fp32/fp64 %.0f s (CPU time, one core each)\n", a / 1000, b / 1000}' \
     "$OUT/build_times.txt" | tee -a "$OUT/build_times.txt"
   return $rc
@@ -93,12 +88,12 @@ step_suspension() {
 }
 
 step_summary() {
-  python3 - "$OUT" "$commit" <<'EOF'
+  python3 - "$OUT" "$LBDEM_COMMIT" <<'EOF'
 import json, csv, glob, os, sys
 out, commit = sys.argv[1], sys.argv[2]
 L = [f"# 16-bit population storage: speed and error (commit {commit})", ""]
-env = open(os.path.join(out, "env.txt")).read().strip().splitlines()
-L += ["Device: " + " / ".join(env[1:3]) + f"; lbdem_bench_lbm device: {json.load(open(os.path.join(out, 'lbm_fp16.json'))).get('device', '?') if os.path.exists(os.path.join(out, 'lbm_fp16.json')) else '?'}", ""]
+env = open(os.path.join(out, "env.txt")).read().strip().splitlines()  # commit, date, nvidia-smi CSV, cores
+L += ["Device: " + " / ".join(env[2:4]) + f"; lbdem_bench_lbm device: {json.load(open(os.path.join(out, 'lbm_fp16.json'))).get('device', '?') if os.path.exists(os.path.join(out, 'lbm_fp16.json')) else '?'}", ""]
 try:
     j = json.load(open(os.path.join(out, "lbm_fp16.json")))
     cb = ", ".join(f"{k} {v:.0f} GB/s" for k, v in j.get("copy_bandwidth_GBs", {}).items())

@@ -1,16 +1,20 @@
 #!/usr/bin/env bash
 # Runs lbdem on a GPU machine: logs, JSON and a summary go to $OUT (default ./out).
-#   scripts/gpu_run.sh [STEP...]              (default: build test bench)
-#     build                 configure and build the `cuda` preset (sm_90, Release) in build-gpu/
+#   scripts/gpu_run.sh [-B DIR] [STEP...]     (default: build test bench)
+#     -B DIR                the build folder (default $LBDEM_BUILD, else build-gpu/): the other GPU scripts take
+#                           the same, so one build serves them all
+#     build                 configure the `cuda` preset (sm_90, Release) into that folder and build everything
 #     test                  every test of that build (ctest; both backends run inside the same tests)
 #     bench                 the benchmarks of that build; JSON as $OUT/<bench>.json
 #     bench-baseline DIR    builds only the benchmark targets of another source tree DIR (e.g. an older
-#                           commit from `git archive`) in DIR/build-bench and runs the same benchmarks;
+#                           commit from `git archive`; its own `cuda` preset, tests off) in DIR/build-bench and
+#                           runs the same benchmarks;
 #                           JSON as $OUT/baseline_<bench>.json (commit: $BASELINE_COMMIT, else "baseline")
 #     scaling [quick]       fluid-only scaling over MPI ranks (scripts/scaling_gpu.sh): $OUT/scaling.jsonl
 #     profile               Nsight Compute per-kernel time and DRAM bytes of 3 coupled suspension steps
 #     sanitize              compute-sanitizer over the CUDA tests and every shipped scene
-#                           (scripts/gpu_sanitize.sh; logs and summary.txt in $OUT/sanitize; SANITIZE_TOOLS
+#                           (scripts/gpu_sanitize.sh, which uses build-gpu/ whatever -B says; logs and
+#                           summary.txt in $OUT/sanitize; SANITIZE_TOOLS
 #                           picks the tools, TESTS / FILTER / SCENES / SCENE_STEPS pass through)
 #     pack                  everything in $OUT into $OUT/out.tgz (for a runner that returns few files)
 #   BENCHES selects benchmarks (default: lbm dem imb psm-susp psm-sweep); SUSP_FRACTIONS the psm-susp fractions
@@ -19,15 +23,13 @@
 #   LBDEM_COMMIT names the commit in every JSON (default: git rev-parse here). Set it from the caller when the
 #   tree on the GPU machine is a copy whose .git may be stale (it reported an older commit in past runs).
 set -uo pipefail
-here="$(cd "$(dirname "$0")/.." && pwd)"
-export OUT="${OUT:-$here/out}"
-mkdir -p "$OUT"
-build="$here/build-gpu"
-export LBDEM_COMMIT="${LBDEM_COMMIT:-$(git -C "$here" rev-parse --short HEAD 2>/dev/null || echo unknown)}"
-# Test processes use few cores each: 8 processes x 2 OpenMP threads fill 16 cores without spinning.
-export OMP_WAIT_POLICY=passive
-{ echo "commit $LBDEM_COMMIT"; nvidia-smi --query-gpu=name,memory.total,clocks.sm,clocks.mem --format=csv; nproc; } \
-  > "$OUT/env.txt" 2>&1
+source "$(dirname "$0")/lib.sh"
+[ "${1:-}" = -B ] && { LBDEM_BUILD="${2:?-B needs a build folder}"; shift 2; }
+lbdem_env
+here="$LBDEM_ROOT"
+build="$(realpath -m "$LBDEM_BUILD")"
+# Test processes use few cores each: 8 processes x 2 OpenMP threads fill 16 cores without spinning (lbdem_env
+# sets passive OpenMP waits).
 
 # run_benches BUILD PREFIX: every benchmark in BENCHES from build tree BUILD, JSON as $OUT/PREFIX<name>.json.
 # The arguments are those of the numbers in bench/results (bench/results/CURRENT.md).
@@ -64,20 +66,16 @@ run_benches() {
 while [ $# -gt 0 ]; do
   s="$1"; shift
   case "$s" in
-    build)
-      (cd "$here" && cmake --preset cuda && cmake --build --preset cuda -j"$(nproc)") > "$OUT/build.log" 2>&1
-      echo "build exit $?"; tail -3 "$OUT/build.log" ;;
+    build) lbdem_build "$build" ;;
     test)
-      (cd "$here" && OMP_NUM_THREADS=2 timeout 540 ctest --preset cuda-all -j8 --timeout 300) > "$OUT/ctest.log" 2>&1
+      OMP_NUM_THREADS=2 timeout 540 ctest --test-dir "$build" --output-on-failure -j8 --timeout 300 \
+        > "$OUT/ctest.log" 2>&1
       echo "ctest exit $?"; tail -15 "$OUT/ctest.log" ;;
     bench) run_benches "$build" "" ;;
     bench-baseline)
       dir="$(cd "${1:?bench-baseline needs a source tree}" && pwd)"; shift
-      cmake -S "$dir" -B "$dir/build-bench" -G Ninja -DCMAKE_BUILD_TYPE=Release -DLBDEM_ENABLE_CUDA=ON \
-        -DCMAKE_CUDA_ARCHITECTURES=90 -DLBDEM_BUILD_TESTS=OFF > "$OUT/baseline_build.log" 2>&1 &&
-      cmake --build "$dir/build-bench" -j"$(nproc)" --target lbdem_bench_lbm lbdem_bench_dem lbdem_bench_imb \
-        lbdem_bench_psm >> "$OUT/baseline_build.log" 2>&1
-      echo "baseline build exit $?"; tail -3 "$OUT/baseline_build.log"
+      LBDEM_SRC="$dir" LBDEM_CMAKE_ARGS="-DLBDEM_BUILD_TESTS=OFF" LBDEM_BUILD_LOG="$OUT/baseline_build.log" \
+        lbdem_build "$dir/build-bench" lbdem_bench_lbm lbdem_bench_dem lbdem_bench_imb lbdem_bench_psm
       LBDEM_COMMIT="${BASELINE_COMMIT:-baseline}" run_benches "$dir/build-bench" baseline_ ;;
     scaling)
       q=""; [ "${1:-}" = quick ] && { q=quick; shift; }

@@ -4,7 +4,8 @@
 # <= 100 B/cell in fp32 and <= 175 B/cell in fp64, and output must not need
 # device memory the run did not reserve at start).
 #   scripts/memory_gpu.sh BUILD OUT_DIR [N] [steps]
-#     BUILD    a CUDA build folder (holds cases/lbdem)
+#     BUILD    a CUDA build folder: lbdem is built there (scripts/lib.sh lbdem_build; configured with the
+#              `cuda` preset if new), so the folder of scripts/gpu_run.sh -B serves
 #     OUT_DIR  results: memory_gpu.jsonl (one line per precision), the case
 #              files, the logs and the runs' summary.json
 #     N        cells per axis of the cube (default 256)
@@ -20,18 +21,19 @@
 # 20 ms. Each JSON line: the used memory before the run (MiB), the peak during
 # it, the peak minus the idle use per cell, the estimate's total per cell, the
 # bytes the fluid and the coupling hold (summary.json memory_bytes) and the
-# coupled MLUPS.
+# coupled MLUPS, with device, date and commit.
 set -uo pipefail
+source "$(dirname "$0")/lib.sh"
 build="${1:?build dir}"
 out="${2:?output dir}"
 n="${3:-256}"
 steps="${4:-400}"
-lbdem="$build/cases/lbdem"
-[ -x "$lbdem" ] || { echo "memory_gpu: $lbdem not found (build the lbdem target with CUDA)"; exit 1; }
-nvidia-smi -L >/dev/null 2>&1 || { echo "memory_gpu: no GPU"; exit 1; }
+lbdem_env
+[ "$(gpu_count)" -ge 1 ] || { echo "memory_gpu: no GPU"; exit 1; }
 mkdir -p "$out"
+LBDEM_BUILD_LOG="$out/build.log" lbdem_build "$build" lbdem || exit 1
+lbdem="$build/cases/lbdem"
 : > "$out/memory_gpu.jsonl"
-used_mib() { nvidia-smi --query-gpu=memory.used --format=csv,noheader,nounits -i 0 | head -1 | tr -d ' '; }
 for prec in ${PRECS:-fp32 fp64}; do
   case_file="$out/suspension_${n}_${prec}.yaml"
   if [ -n "${CASE:-}" ]; then
@@ -61,23 +63,20 @@ EOF
   fi
   "$lbdem" check "$case_file" > "$out/check_$prec.log" 2>&1
   est=$(awk '$1 == "total" {print $2}' "$out/check_$prec.log")
-  idle=$(used_mib)
+  idle=$(nvidia-smi --query-gpu=memory.used --format=csv,noheader,nounits -i 0 | head -1 | tr -d ' ')
   rm -rf "$out/run_$prec"
-  ( while :; do used_mib; sleep 0.02; done ) > "$out/samples_$prec.txt" 2>/dev/null &
-  sampler=$!
-  "$lbdem" run "$case_file" --backend cuda --overwrite > "$out/run_$prec.log" 2>&1
+  gpu_peak_mib "$out/samples_$prec.txt" "$lbdem" run "$case_file" --backend cuda --overwrite > "$out/run_$prec.log" 2>&1
   rc=$?
-  kill "$sampler" 2>/dev/null
-  wait "$sampler" 2>/dev/null
   peak=$(sort -n "$out/samples_$prec.txt" | tail -1)
   summary="$out/run_$prec/summary.json"
   mlups=$(python3 -c "import json,sys; print(json.load(open(sys.argv[1]))['coupled_mlups'])" "$summary" 2>/dev/null || echo null)
   held=$(python3 -c "import json,sys; print(json.dumps(json.load(open(sys.argv[1]))['memory_bytes']))" "$summary" 2>/dev/null || echo null)
   cp "$summary" "$out/summary_$prec.json" 2>/dev/null
   cells=$(grep -oE "[0-9.e+]+ cells" "$out/check_$prec.log" | head -1 | cut -d' ' -f1)
-  python3 - "$prec" "$n" "$idle" "$peak" "${est:-null}" "$mlups" "$held" "$rc" "${CASE:-}" "$cells" >> "$out/memory_gpu.jsonl" <<'PY'
-import json, sys
-prec, n, idle, peak, est, mlups, held, rc, case, cells_text = sys.argv[1:]
+  python3 - "$prec" "$n" "$idle" "$peak" "${est:-null}" "$mlups" "$held" "$rc" "${CASE:-}" "$cells" "$LBDEM_DEVICE" \
+    "$LBDEM_COMMIT" >> "$out/memory_gpu.jsonl" <<'PY'
+import datetime, json, sys
+prec, n, idle, peak, est, mlups, held, rc, case, cells_text, device, commit = sys.argv[1:]
 cells = float(cells_text) if case and cells_text else int(n) ** 3
 num = lambda s: None if s in ("", "null") else float(s)
 idle, peak = num(idle), num(peak)
@@ -88,6 +87,7 @@ print(json.dumps({
     "estimate_bytes_per_cell": num(est),
     "held_bytes": json.loads(held) if held not in ("", "null") else None,
     "coupled_mlups": num(mlups),
+    "device": device, "date": datetime.date.today().isoformat(), "commit": commit,
 }))
 PY
 done

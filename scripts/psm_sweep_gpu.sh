@@ -2,9 +2,10 @@
 # Fixed-sphere PSM drag sweep on the GPU: the first paper's Table 1 test against Sangani & Acrivos
 # (1982), chi = d/L = 0.5, in parts sized for one device call (10 min) each.
 #
-#   scripts/psm_sweep_gpu.sh BIN OUTDIR PART...      PART: small | large | scan | lambda | merge | plot
+#   scripts/psm_sweep_gpu.sh BIN|BUILD OUTDIR PART...      PART: small | large | scan | lambda | merge | plot
 #
-#   BIN     the CUDA build's lbdem_bench_psm
+#   BIN     the CUDA build's lbdem_bench_psm; or BUILD, a build folder where it is built first
+#           (scripts/lib.sh lbdem_build; the `cuda` preset if new)
 #   OUTDIR  receives psm_sweep_<part>_<k>.{json,md,log}; each JSON is rewritten after every run,
 #           so a part cut off by its time limit keeps the rows it finished
 #   env     PSM_SWEEP_LIMIT (s per part, default 470), PSM_SWEEP_BACKEND (default cuda)
@@ -16,7 +17,8 @@
 # scan    drag against the solid operator, Lambda and tau at d/l 4-30 (exact fp64 TRT).
 # lambda  the resolution-dependent Lambda: d/l 50 at 3e-2, 2e-2 at d/l 16-30.
 # merge   every OUTDIR/psm_sweep_*.json into OUTDIR/psm_fixed_sphere_sweep.json (rows with their source).
-# plot    scripts/plot_psm_sweep.py on every OUTDIR/psm_sweep_*.json (needs python3-matplotlib).
+# plot    scripts/plot_psm_sweep.py on every OUTDIR/psm_sweep_*.json into OUTDIR/psm_sweep.png
+#         (needs python3-matplotlib).
 #
 # Accurate setting (bench/imb/NOTES.md, "Fixed-sphere drag"): tau = 0.52, TRT Lambda = 1e-4,
 # Noble-Torczynski B, NEBB, sphere centre on a cell centre (offset 0.5), Re_p = 0.2, fluid started
@@ -24,13 +26,18 @@
 # The per-run caps below follow the steps to steady state (~9 T, T = 0.094 L^2 / nu) and the time per
 # step at each grid size (bench/imb/NOTES.md).
 set -uo pipefail
-if [ $# -lt 3 ]; then sed -n 2,25p "$0"; exit 2; fi
+if [ $# -lt 3 ]; then sed -n "2,/^set -uo/p" "$0" | grep "^#"; exit 2; fi
+source "$(dirname "$0")/lib.sh"
 bin="$1"
 out="$2"
 shift 2
 parts=("$@")
-here="$(cd "$(dirname "$0")/.." && pwd)"
+here="$LBDEM_ROOT"
 mkdir -p "$out"
+if [ -d "$bin" ]; then
+  LBDEM_BUILD_LOG="$out/build.log" lbdem_build "$bin" lbdem_bench_psm || exit 2
+  bin="$bin/bench/imb/lbdem_bench_psm"
+fi
 [ -x "$bin" ] || { echo "psm_sweep_gpu: $bin is not an executable"; exit 2; }
 
 TAU=0.52
@@ -107,7 +114,7 @@ for p in "${parts[@]}"; do
         --collisions trt
       ;;
     merge)
-      /usr/bin/python3 - "$out" <<'PY' && echo "merge: $out/psm_fixed_sphere_sweep.json" || echo "merge: failed"
+      python3 - "$out" <<'PY' && echo "merge: $out/psm_fixed_sphere_sweep.json" || echo "merge: failed"
 import glob, json, os, sys
 out = sys.argv[1]
 head, rows = None, []
@@ -121,8 +128,9 @@ PY
     plot)
       shopt -s nullglob
       files=("$out"/psm_sweep_*.json)
+      py="$(plot_python)"
       if [ ${#files[@]} -gt 0 ]; then
-        /usr/bin/python3 "$here/scripts/plot_psm_sweep.py" "$out/psm_sweep.png" "${files[@]}" &&
+        "${py:-python3}" "$here/scripts/plot_psm_sweep.py" "$out/psm_sweep.png" "${files[@]}" &&
           echo "plot: $out/psm_sweep.png" || echo "plot: failed (python3-matplotlib missing?)"
       fi
       ;;

@@ -4,32 +4,38 @@
 # JOB_SECONDS (it finishes the step, writes its output and a checkpoint, exits 5); the next job continues
 # from that checkpoint, until the planned steps are done or MAX_JOBS have run.
 #
-#   scripts/suspension_chain.sh CASE STEPS JOB_SECONDS MAX_JOBS [RUN_DIR]
+#   scripts/suspension_chain.sh [-B DIR] CASE STEPS JOB_SECONDS MAX_JOBS [RUN_DIR]
+#     -B DIR       the build folder (default $LBDEM_BUILD, else build-gpu/); lbdem is built there first
+#                  (scripts/lib.sh lbdem_build: the `cuda` preset if new)
 #     CASE         a case file (e.g. cases/suspension/suspension_3d_small.yaml)
 #     STEPS        the planned steps of the whole chain (--steps)
 #     JOB_SECONDS  wall-time limit of one job
 #     MAX_JOBS     jobs at most
 #     RUN_DIR      the run folder (default $OUT/chain/<case name>)
-#   BACKEND (default cuda), LBDEM (default build-gpu/cases/lbdem), LBDEM_COMMIT (named in chain.jsonl).
+#   BACKEND (default cuda), LBDEM (an lbdem to use as it is, instead of building one), LBDEM_COMMIT (named in
+#   chain.jsonl).
 # Writes RUN_DIR/../<name>_chain.jsonl (one line per job: exit code, first and last step, wall seconds,
-# coupled MLUPS, mean slip against Wen-Yu, output share) and <name>_job<k>.log; then the pictures
+# coupled MLUPS, mean slip against Wen-Yu, output share, device, date, commit) and <name>_job<k>.log; then the pictures
 # (scripts/plot_suspension.py) when matplotlib and h5py are there.
 set -uo pipefail
-here="$(cd "$(dirname "$0")/.." && pwd)"
-[ $# -ge 4 ] || { sed -n 2,17p "$0"; exit 2; }
+source "$(dirname "$0")/lib.sh"
+[ "${1:-}" = -B ] && { LBDEM_BUILD="${2:?-B needs a build folder}"; shift 2; }
+[ $# -ge 4 ] || { sed -n "2,/^set -uo/p" "$0" | grep "^#"; exit 2; }
 case_file="$1" steps="$2" job_s="$3" max_jobs="$4"
 name="$(basename "$case_file" .yaml)"
-OUT="${OUT:-$here/out}"
+lbdem_env
+here="$LBDEM_ROOT"
 run_dir="${5:-$OUT/chain/$name}"
 log_dir="$(dirname "$run_dir")"
 mkdir -p "$log_dir"
-lbdem="${LBDEM:-$here/build-gpu/cases/lbdem}"
+if [ -n "${LBDEM:-}" ]; then
+  lbdem="$LBDEM"
+else
+  LBDEM_BUILD_LOG="$log_dir/build.log" lbdem_build "$LBDEM_BUILD" lbdem || exit 1
+  lbdem="$LBDEM_BUILD/cases/lbdem"
+fi
 backend="${BACKEND:-cuda}"
-commit="${LBDEM_COMMIT:-$(git -C "$here" rev-parse --short HEAD 2>/dev/null || echo unknown)}"
-py=""
-for p in python3 /opt/torch/.venv/bin/python3 /usr/bin/python3; do
-  if "$p" -c 'import matplotlib, h5py, numpy' 2>/dev/null; then py="$p"; break; fi
-done
+py="$(plot_python)"
 jsonl="$log_dir/${name}_chain.jsonl"
 for ((k = 1; k <= max_jobs; ++k)); do
   if [ $k -eq 1 ]; then
@@ -41,10 +47,11 @@ for ((k = 1; k <= max_jobs; ++k)); do
   timeout --preserve-status -s TERM -k 120 "$job_s" "$lbdem" "${args[@]}" > "$log_dir/${name}_job$k.log" 2>&1
   rc=$?
   t1=$(date +%s.%N)
-  "${py:-python3}" - "$run_dir/summary.json" "$k" "$rc" "$t0" "$t1" "$commit" >> "$jsonl" <<'PY'
-import json, sys
-path, k, rc, t0, t1, commit = sys.argv[1:]
-row = {"job": int(k), "exit": int(rc), "wall_s": round(float(t1) - float(t0), 1), "commit": commit}
+  "${py:-python3}" - "$run_dir/summary.json" "$k" "$rc" "$t0" "$t1" "$LBDEM_DEVICE" "$LBDEM_COMMIT" >> "$jsonl" <<'PY'
+import datetime, json, sys
+path, k, rc, t0, t1, device, commit = sys.argv[1:]
+row = {"job": int(k), "exit": int(rc), "wall_s": round(float(t1) - float(t0), 1), "device": device,
+       "date": datetime.date.today().isoformat(), "commit": commit}
 try:
     s = json.load(open(path))
     st, o = s.get("statistics", {}), s.get("output", {})

@@ -8,10 +8,11 @@
 #   <case>/snapshots.png, series.png   scripts/plot_suspension.py (when matplotlib and h5py are there)
 #   check_<case>.log        `lbdem check` of each case (memory estimate per component once it prints one)
 #   suspension.jsonl        one line per run: case, steps, seconds, coupled MLUPS, mean slip, Wen-Yu slip,
-#                           statistics share, device, commit
+#                           statistics share, device, date, commit
 #
-#   scripts/suspension_gpu.sh [build] [CASE:STEPS ...]
-#     build        configure and build the `cuda` preset in build-gpu/ first
+#   scripts/suspension_gpu.sh [-B DIR] [build] [CASE:STEPS ...]
+#     -B DIR       the build folder (default $LBDEM_BUILD, else build-gpu/); lbdem is built there first
+#                  (scripts/lib.sh lbdem_build: the `cuda` preset if new); `build` is accepted, not needed
 #     CASE:STEPS   cases/suspension/<CASE>.yaml for STEPS steps (default: suspension_3d_small:200000
 #                  suspension_2d_small:100000 suspension_3d_half:20000). The full sizes
 #                  (suspension_3d:200, suspension_2d:200) are for speed and memory only: a run ends by
@@ -19,25 +20,17 @@
 #   PRECISION=fp64 runs them in fp64 (a copy of the case with fluid.precision replaced).
 #   One 10-minute device call holds about one 3d_small job of 200,000 steps; pass fewer cases per call.
 set -uo pipefail
-here="$(cd "$(dirname "$0")/.." && pwd)"
-OUT="${OUT:-$here/out}/suspension"
-mkdir -p "$OUT"
-build="$here/build-gpu"
-commit="${LBDEM_COMMIT:-$(git -C "$here" rev-parse --short HEAD 2>/dev/null || echo unknown)}"
-device="$(nvidia-smi --query-gpu=name --format=csv,noheader 2>/dev/null | head -1)"
-if [ "${1:-}" = build ]; then
-  shift
-  (cd "$here" && cmake --preset cuda && cmake --build --preset cuda --target lbdem) > "$OUT/build.log" 2>&1 ||
-    { echo "build failed: $OUT/build.log"; exit 1; }
-fi
-lbdem="$build/cases/lbdem"
-[ -x "$lbdem" ] || { echo "no $lbdem: run with 'build' first"; exit 1; }
+source "$(dirname "$0")/lib.sh"
+[ "${1:-}" = -B ] && { LBDEM_BUILD="${2:?-B needs a build folder}"; shift 2; }
+[ "${1:-}" = build ] && shift
+export OUT="${OUT:-$LBDEM_ROOT/out}/suspension"
+lbdem_env
+here="$LBDEM_ROOT"
+lbdem_build "$LBDEM_BUILD" lbdem || { echo "build failed: $OUT/build.log"; exit 1; }
+lbdem="$LBDEM_BUILD/cases/lbdem"
 runs=("$@")
 [ ${#runs[@]} -gt 0 ] || runs=(suspension_3d_small:200000 suspension_2d_small:100000 suspension_3d_half:20000)
-py=""
-for p in python3 /usr/bin/python3; do
-  if "$p" -c 'import matplotlib, h5py, numpy' 2>/dev/null; then py="$p"; break; fi
-done
+py="$(plot_python)"
 for r in "${runs[@]}"; do
   name="${r%%:*}" steps="${r##*:}"
   case_file="$here/cases/suspension/$name.yaml"
@@ -52,11 +45,13 @@ for r in "${runs[@]}"; do
   [ -n "$py" ] && [ -f "$OUT/$name/series.csv" ] && "$py" "$here/scripts/plot_suspension.py" "$OUT/$name" \
     >> "$OUT/$name.log" 2>&1
   if [ -f "$OUT/$name/summary.json" ]; then
-    "${py:-python3}" - "$OUT/$name/summary.json" "$name" "$rc" "$device" "$commit" >> "$OUT/suspension.jsonl" <<'PY'
-import json, sys
+    "${py:-python3}" - "$OUT/$name/summary.json" "$name" "$rc" "$LBDEM_DEVICE" "$LBDEM_COMMIT" \
+      >> "$OUT/suspension.jsonl" <<'PY'
+import datetime, json, sys
 s = json.load(open(sys.argv[1]))
 st = s.get("statistics", {})
 print(json.dumps({"case": sys.argv[2], "exit": int(sys.argv[3]), "device": sys.argv[4], "commit": sys.argv[5],
+                  "date": datetime.date.today().isoformat(),
                   "steps": s["steps"], "seconds": s["seconds"], "coupled_mlups": s["coupled_mlups"],
                   "particles": s["particles"], "cells": s["lattice"]["cells"],
                   "statistics_fraction": st.get("fraction_of_run"), "mean_slip": st.get("mean_slip"),
@@ -65,7 +60,7 @@ print(json.dumps({"case": sys.argv[2], "exit": int(sys.argv[3]), "device": sys.a
                   "simulated_seconds": s["steps"] * s["conversion"]["dt_s"]}))
 PY
   else
-    echo "{\"case\": \"$name\", \"exit\": $rc, \"device\": \"$device\", \"commit\": \"$commit\"}" >> "$OUT/suspension.jsonl"
+    json_line "$OUT/suspension.jsonl" case="$name" exit="$rc"
   fi
 done
 echo "results in $OUT (suspension.jsonl)"
