@@ -1,7 +1,10 @@
 #!/usr/bin/env python3
 """Plot the PSM fixed-sphere sweep (lbdem_bench_psm sweep --out ...).
 
-usage: scripts/plot_psm_sweep.py OUT.png SWEEP.json [SWEEP.json ...]
+usage: scripts/plot_psm_sweep.py OUT.png SWEEP.json[:SET] [SWEEP.json[:SET] ...]
+
+SWEEP.json:SET plots the rows of the named set of a results file ("sets" in
+bench/results/psm_fixed_sphere_sweep_h200.json) instead of its own rows.
 
 Left: |drag error| against d/l for every configuration, with the first paper's
 Table 1 errors (Re_p = 0.2, against Fluent) and the bar (half of them).
@@ -41,7 +44,9 @@ def main():
     out, files = sys.argv[1], sys.argv[2:]
     rows = []
     for f in files:
-        rows += json.load(open(f))["rows"]
+        path, _, name = f.partition(":")
+        j = json.load(open(path))
+        rows += (j["sets"][name] if name else j)["rows"]
     rows = [r for r in rows if r.get("error") is not None]
     for r in rows:
         for k, default in EXTRA:

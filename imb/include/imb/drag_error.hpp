@@ -108,7 +108,7 @@ namespace detail {
 // nodes). Host, d/l 4-10 (bench/results/drag_map_host.*): the rule as
 // committed (t of psm_wall_weight_t, Lambda of psm_magic_auto), tau 0.505 to
 // 1.0. tau 0.52 from d/l 16: the fixed-sphere study
-// (bench/results/psm_drag_by_resolution_h200.json, classic NT weighting, whose
+// (bench/results/psm_fixed_sphere_sweep_h200.json, set by_resolution; classic NT weighting, whose
 // t is within 6 % of the rule's at 0.52). d/l 16-50 at tau other than 0.52
 // await the device part of scripts/drag_map.sh. Simple cubic arrays at chi 0.5;
 // the dense array (chi 0.8685) is not mapped here (drag_map_host.md: the rule
