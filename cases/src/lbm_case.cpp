@@ -18,6 +18,7 @@
 #include "core/progress.hpp"
 #include "core/signals.hpp"
 #include "core/units.hpp"
+#include "halo/stop_poll.hpp"
 #include "lbm/solver.hpp"
 #include "lbm/storage_checks.hpp"
 
@@ -476,27 +477,26 @@ int run_parsed(LbmCase& c, const RunOptions& opt) {
     write_fields(0);
     phases.add("output", secs(t));
   }
-  // One step per solver->step() call (the same steps as one longer call): a
-  // stop signal (core/signals.hpp) ends the run after the step in progress.
-  // On several ranks they agree on stopping every kStopPoll steps (a signal
+  // A stop signal (core/signals.hpp) ends the run after the step in
+  // progress on one rank; several ranks agree on stopping every
+  // poll.stride() steps, a stride adapted to a check every ~0.25 s (a signal
   // may reach them at different steps; they must stop at the same one).
-  constexpr long kStopPoll = 64;
+  // Shorter solver->step() calls give the same steps as one longer call.
   bool stop = false;
-  auto poll_stop = [&] { return comm.distributed() ? comm.any(stop_requested()) : stop_requested(); };
+  halo::StopPoll poll(comm);
   while (step < c.steps && !stop) {
     long next = std::min(c.steps, (step / c.diag_interval + 1) * c.diag_interval);
     if (c.out_interval > 0) next = std::min(next, (step / c.out_interval + 1) * c.out_interval);
-    if (comm.distributed()) next = std::min(next, step + kStopPoll);
     auto t = clk::now();
-    if (comm.distributed()) {
-      solver->step(next - step);
-      step = next;
-    } else {
-      for (; step < next && !stop_requested(); ++step) solver->step(1);
+    while (step < next && !stop) {
+      const long n = std::min(next - step, poll.until_check());
+      solver->step(n);
+      step += n;
+      if (comm.distributed()) solver->synchronize();  // (the poll times the steps done)
+      stop = poll.after_steps(n);
     }
     solver->synchronize();
     phases.add("lbm", secs(t));
-    stop = poll_stop();
     if (step % c.diag_interval == 0 || step == c.steps || stop) {
       t = clk::now();
       const auto d = solver->diagnostics();

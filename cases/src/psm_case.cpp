@@ -37,6 +37,7 @@
 #include "lbm/distributed_fluid.hpp"
 #include "halo/comm.hpp"
 #include "halo/decomposition.hpp"
+#include "halo/stop_poll.hpp"
 #include "cases/particle_output.hpp"
 #include "cases/suspension.hpp"
 #include "core/units.hpp"
@@ -1024,20 +1025,16 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
   const auto t0 = clk::now();
   // One coupled step per advance() call (the same steps as one longer call):
   // a stop signal (core/signals.hpp) ends the run after the step in progress.
-  // On several ranks they agree on stopping every kStopPoll steps (a signal
-  // may reach them at different steps; they must stop at the same one).
-  constexpr long kStopPoll = 64;
-  bool stop = false;
-  auto stopping = [&] { return ranks ? stop : stop_requested(); };
+  // On several ranks they agree on stopping every poll.stride() steps,
+  // adapted to a check every ~0.25 s (halo/stop_poll.hpp).
+  halo::StopPoll poll(comm, 0.25, [&] { fluid->synchronize(); });
+  auto stopping = [&] { return poll.stopping(); };
   while (step < c.steps && !stopping()) {
     long next = std::min(c.steps, (step / c.series_interval + 1) * c.series_interval);
     if (c.output_interval > 0) next = std::min(next, (step / c.output_interval + 1) * c.output_interval);
-    if (ranks) {
-      next = std::min(next, step + kStopPoll);
-      for (; step < next; ++step) cs.advance(1);
-      stop = comm.any(stop_requested());
-    } else {
-      for (; step < next && !stop_requested(); ++step) cs.advance(1);
+    for (; step < next && !stopping(); ++step) {
+      cs.advance(1);
+      poll.after_steps(1);
     }
     if (step % c.series_interval == 0 || step == c.steps || stopping()) series_row(step);
     if (c.output_interval > 0 && step % c.output_interval == 0) write_output(step);

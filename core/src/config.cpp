@@ -5,7 +5,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
+#include <unordered_map>
 #include <cstdio>
 #include <limits>
 #include <map>
@@ -40,11 +42,26 @@ std::string join(const std::vector<std::string>& v) {
 }  // namespace
 
 Config Config::load_file(const std::string& path) {
-  std::ifstream in(path);
+  // Only a regular file of bounded size is read: a device (/dev/zero), a FIFO
+  // or a huge file would otherwise be read to the end before any check.
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::file_status st = fs::status(path, ec);
+  if (ec || !fs::exists(st))
+    throw ConfigError(path + ": cannot open the case file (does it exist and is it readable?)");
+  if (!fs::is_regular_file(st))
+    throw ConfigError(path + ": the case file is not a regular file (it is a " +
+                      (fs::is_directory(st) ? "folder" : fs::is_character_file(st) ? "character device"
+                       : fs::is_block_file(st) ? "block device" : fs::is_fifo(st) ? "pipe" : "special file") +
+                      "); give a YAML case file");
+  std::ifstream in(path, std::ios::binary);
   if (!in) throw ConfigError(path + ": cannot open the case file (does it exist and is it readable?)");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return from_string(ss.str(), path);
+  // Read at most one byte past the limit (the size may change while reading).
+  std::string text(kMaxFileBytes + 1, '\0');
+  in.read(text.data(), static_cast<std::streamsize>(text.size()));
+  text.resize(static_cast<std::size_t>(in.gcount()));
+  if (in.bad()) throw ConfigError(path + ": cannot read the case file");
+  return from_string(text, path);
 }
 
 std::string printable(const std::string& s, std::size_t max_chars) {
@@ -140,23 +157,71 @@ void check_tree(const YAML::Node& n, const std::string& src, const std::string& 
 // Counts the documents of a YAML stream, at most two (yaml-cpp 0.7's
 // LoadAll() loops without end, allocating, on some malformed streams such as
 // one starting with ','; this loop is bounded), and where the second starts.
+//
+// It also counts the nodes (scalars, nulls, lists, sections; keys included)
+// each document expands to, an alias counting as every node of its anchor's
+// value, and refuses a document past Config::kMaxNodes as soon as the count
+// passes it. yaml-cpp shares an aliased node instead of copying it, so
+// nested aliases ("a: &a [x, x], b: &b [*a, *a], ...") make a tree that is
+// small in memory but exponential to walk; every later walk (the checks
+// below, the key lookups, an error message's echo of a value) is bounded by
+// this count. The count is linear in the file: each anchor's expanded size is
+// kept when its node ends.
 class DocumentCounter : public YAML::EventHandler {
  public:
+  explicit DocumentCounter(std::string source) : source_(std::move(source)) {}
   YAML::Mark second;
   void OnDocumentStart(const YAML::Mark& m) override {
     if (++docs_ == 2) second = m;
+    nodes_ = 0;
+    anchors_.clear();
+    open_.clear();
   }
   void OnDocumentEnd() override {}
-  void OnNull(const YAML::Mark&, YAML::anchor_t) override {}
-  void OnAlias(const YAML::Mark&, YAML::anchor_t) override {}
-  void OnScalar(const YAML::Mark&, const std::string&, YAML::anchor_t, const std::string&) override {}
-  void OnSequenceStart(const YAML::Mark&, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {}
-  void OnSequenceEnd() override {}
-  void OnMapStart(const YAML::Mark&, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {}
-  void OnMapEnd() override {}
+  void OnNull(const YAML::Mark& m, YAML::anchor_t a) override { leaf(m, a); }
+  void OnAlias(const YAML::Mark& m, YAML::anchor_t a) override {
+    const auto it = anchors_.find(a);
+    add(m, it == anchors_.end() ? 1 : it->second);  // (an alias inside its own anchor: yaml-cpp refuses it)
+  }
+  void OnScalar(const YAML::Mark& m, const std::string&, YAML::anchor_t a, const std::string&) override { leaf(m, a); }
+  void OnSequenceStart(const YAML::Mark& m, const std::string&, YAML::anchor_t a, YAML::EmitterStyle::value) override {
+    open(m, a);
+  }
+  void OnSequenceEnd() override { close(); }
+  void OnMapStart(const YAML::Mark& m, const std::string&, YAML::anchor_t a, YAML::EmitterStyle::value) override {
+    open(m, a);
+  }
+  void OnMapEnd() override { close(); }
 
  private:
+  void add(const YAML::Mark& m, std::size_t n) {
+    nodes_ += std::min(n, Config::kMaxNodes + 1);
+    if (nodes_ > Config::kMaxNodes)
+      throw ConfigError(source_ + line_of(m) + ": the document expands to more than " +
+                        std::to_string(Config::kMaxNodes) +
+                        " values, keys and sections (aliases '*name' count as a copy of their anchor's value); a "
+                        "case file holds settings, not data: list large particle sets in a file (particles.init: "
+                        "csv or hdf5)");
+  }
+  void leaf(const YAML::Mark& m, YAML::anchor_t a) {
+    add(m, 1);
+    if (a != YAML::NullAnchor) anchors_[a] = 1;
+  }
+  void open(const YAML::Mark& m, YAML::anchor_t a) {
+    open_.push_back({a, nodes_});
+    add(m, 1);
+  }
+  void close() {
+    if (open_.empty()) return;
+    const auto [a, start] = open_.back();
+    open_.pop_back();
+    if (a != YAML::NullAnchor) anchors_[a] = nodes_ - start;
+  }
+  std::string source_;
   int docs_ = 0;
+  std::size_t nodes_ = 0;
+  std::unordered_map<YAML::anchor_t, std::size_t> anchors_;  // anchor -> nodes its value expands to
+  std::vector<std::pair<YAML::anchor_t, std::size_t>> open_;  // open lists/sections: anchor, count at start
 };
 
 // yaml-cpp's exception as one line: file, line (and column where short enough
@@ -170,14 +235,20 @@ class DocumentCounter : public YAML::EventHandler {
 }  // namespace
 
 Config Config::from_string(const std::string& yaml, const std::string& source_name) {
+  if (yaml.size() > kMaxFileBytes)
+    throw ConfigError(source_name + ": the case file is larger than " + std::to_string(kMaxFileBytes >> 20) +
+                      " MiB, the limit of a case file (it holds settings, not data: list large particle sets in a "
+                      "file, particles.init: csv or hdf5)");
   YAML::Node n;
   int docs = 0;
-  DocumentCounter counter;
+  DocumentCounter counter(source_name);
   try {
-    n = YAML::Load(yaml);
+    // The event pass first: it refuses a document that expands past
+    // kMaxNodes before anything walks the tree.
     std::istringstream is(yaml);
     YAML::Parser parser(is);
     while (docs < 2 && parser.HandleNextDocument(counter)) ++docs;
+    n = YAML::Load(yaml);
   } catch (const YAML::DeepRecursion& e) {
     throw ConfigError(source_name + ":" + std::to_string(e.mark.line + 1) +
                       ": brackets or indentation nest more than " + std::to_string(e.depth()) +

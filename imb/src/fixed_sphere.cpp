@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -12,6 +13,7 @@
 #include "core/buffer.hpp"
 #include "core/error.hpp"
 #include "core/signals.hpp"
+#include "halo/stop_poll.hpp"
 #include "imb/psm_coupling.hpp"
 
 namespace lbdem::imb {
@@ -202,12 +204,14 @@ FixedSphereResult run_fixed_sphere(const FixedSphereSpec& c, Backend b) {
     if (halo) coupling.step(p, opt, out, *halo);
     else coupling.step(p, opt, out);
   };
-  // A stop signal may reach the ranks at different steps: they agree at the
-  // end of each interval (one rank: after the step in progress).
-  auto stop_now = [&](bool at_interval_end) {
-    if (!cut) return stop_requested();
-    return at_interval_end && c.comm->any(stop_requested());
-  };
+  // A stop signal ends the run after the step in progress (one rank); a
+  // signal may reach the ranks at different steps, so several ranks agree
+  // every poll.stride() steps, a stride adapted to a check every ~0.25 s
+  // (halo/stop_poll.hpp).
+  std::optional<halo::StopPoll> poll;
+  if (cut) poll.emplace(*c.comm, 0.25, [&] { solver->synchronize(); });
+  auto stop_after_step = [&] { return poll ? poll->after_steps(1) : stop_requested(); };
+  bool stop = false;
 
   // Steady state: the drag approaches its limit like A e^{-t/T}; with the
   // change D over an interval and the ratio r of successive changes, the
@@ -222,13 +226,17 @@ FixedSphereResult run_fixed_sphere(const FixedSphereSpec& c, Backend b) {
     // step of an interval gathers them (a null force skips the gather). A stop
     // signal (core/signals.hpp) ends the loop after the step in progress.
     long done = 0;
-    for (; done + 1 < check && !stop_now(false); ++done) psm_step(imb::ForceOut{});
-    if (stop_now(done + 1 >= check)) {
+    for (; done + 1 < check && !stop; ++done) {
+      psm_step(imb::ForceOut{});
+      stop = stop_after_step();
+    }
+    if (stop) {
       step += done;
       interrupted = true;
       break;
     }
     psm_step(imb::ForceOut::six(f6.data()));
+    stop = stop_after_step();
     step += check;
     const auto f = f6.to_vector();
     F = f[0];

@@ -5,6 +5,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -309,6 +310,132 @@ TEST_P(StopOnSignal, FinishesStepWritesSummaryAndExits5) {
 
 INSTANTIATE_TEST_SUITE_P(Scenes, StopOnSignal, ::testing::ValuesIn(kSignalCases),
                          [](const auto& info) { return std::string(info.param.name); });
+
+// ------------------------------------------- a stop whatever the intervals
+// Series, output and diagnostics intervals far beyond the run's length: the
+// time loops look for the signal inside their step loop (dem: every chunk of
+// a fixed, case-derived length; the others: every step on one rank, every
+// poll stride, ~0.25 s, on several), so a run stops within seconds of one
+// SIGTERM. On 2 ranks the signal goes to rank 1 only: both agree to stop.
+struct HugeIntervalCase {
+  const char* name;
+  const char* yaml;
+  int ranks;
+};
+const char* kDemHuge = R"(scene: dem
+domain: {lo: [0, 0, 0], hi: [0.01, 0.01, 0.01], periodic: [1, 1, 1]}
+physics: {}
+material: {stiffness: 1000, restitution: 0.9}
+particles: {init: random, density: 2500, radius: [0.5e-3], solid_fraction: 0.3, velocity_rms: 0.05}
+time: {steps_per_collision: 50, steps: 1000000000}
+output: {directory: unused, interval: 0, series_interval: 1000000000}
+)";
+const char* kLbmHuge = R"(scene: periodic_box
+lattice: D2Q9
+collision: {model: bgk, tau: 0.8}
+fluid: {density: 1.0, kinematic_viscosity: 1.0e-5}
+domain: {cells: [64, 64], spacing: 1.0e-3}
+periodic_box: {initial_velocity: [0.001, 0, 0]}
+time: {steps: 1000000000}
+output: {interval: 0}
+diagnostics: {interval: 1000000000}
+)";
+const char* kParticlesHuge = R"(scene: particles
+units: lattice
+domain: {cells: [16, 16, 16], periodic: [1, 1, 1]}
+fluid: {tau: 0.8}
+physics: {gravity: [0, -1.0e-6, 0]}
+particles: {init: list, diameter: 6, density_ratio: 2, list: [{position: [8, 8, 8]}]}
+dem: {stiffness: 5000, restitution: 0.5, substeps: 5}
+time: {steps: 1000000000}
+output: {directory: unused, interval: 0, series_interval: 1000000000}
+)";
+const char* kFixedSphereHuge = R"(scene: fixed_sphere
+units: lattice
+geometry: {dim: 3, diameter: 4, chi: 0.25}
+fluid: {tau: 0.52}
+steady: {tolerance: 1.0e-14, max_steps: 1000000000}
+output: {directory: unused}
+)";
+const HugeIntervalCase kHugeIntervalCases[] = {
+    {"dem", kDemHuge, 1},       {"dem", kDemHuge, 2},       {"lbm", kLbmHuge, 1},
+    {"lbm", kLbmHuge, 2},       {"particles", kParticlesHuge, 1}, {"fixed_sphere", kFixedSphereHuge, 1},
+};
+
+// The pids of the `lbdem` processes (not the launcher) whose command line names `file`.
+std::vector<pid_t> lbdem_pids_of(const std::string& file) {
+  std::vector<pid_t> v;
+  const fs::path exe = fs::canonical(LBDEM_EXE);
+  for (const auto& e : fs::directory_iterator("/proc")) {
+    const std::string n = e.path().filename().string();
+    if (n.find_first_not_of("0123456789") != std::string::npos) continue;
+    std::error_code ec;
+    if (fs::read_symlink(e.path() / "exe", ec) != exe || ec) continue;
+    std::string cmd = slurp(e.path() / "cmdline");
+    std::replace(cmd.begin(), cmd.end(), '\0', ' ');
+    if (cmd.find(file) != std::string::npos) v.push_back(static_cast<pid_t>(std::stol(n)));
+  }
+  std::sort(v.begin(), v.end());
+  return v;
+}
+
+class StopWithHugeIntervals : public RunControl, public ::testing::WithParamInterface<HugeIntervalCase> {};
+
+TEST_P(StopWithHugeIntervals, StopsWithinSecondsOfOneSignal) {
+  const HugeIntervalCase& hc = GetParam();
+  if (hc.ranks > 1 && std::string(LBDEM_MPIEXEC).empty()) GTEST_SKIP() << "built without an MPI launcher";
+  const std::string c = write_case(hc.yaml);
+  const fs::path out = dir_ / "out", log = dir_ / "log.txt";
+  const std::string cmd = test::ranks_command(hc.ranks, "run " + c + " --backend cpu --quiet --output " + out.string()) +
+                          " > " + log.string() + " 2>&1";
+  const pid_t pid = fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    execl("/bin/sh", "sh", "-c", cmd.c_str(), static_cast<char*>(nullptr));
+    _exit(127);
+  }
+  using clk = std::chrono::steady_clock;
+  auto since = [](clk::time_point t) { return std::chrono::duration<double>(clk::now() - t).count(); };
+  const auto t0 = clk::now();
+  int st = 0;
+  bool exited = false;
+  // The time loop runs once the output folder is prepared (its manifest) and every rank is up.
+  std::vector<pid_t> ranks;
+  while (waitpid(pid, &st, WNOHANG) != pid && since(t0) < 120) {
+    ranks = lbdem_pids_of(c);
+    if (fs::exists(out / io::kManifestName) && static_cast<int>(ranks.size()) == hc.ranks) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  ASSERT_EQ(static_cast<int>(ranks.size()), hc.ranks) << slurp(log);
+  ASSERT_TRUE(fs::exists(out / io::kManifestName)) << slurp(log);
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));  // into the loop
+  // One signal, to the last rank only (on one rank: the process itself).
+  ASSERT_EQ(kill(ranks.back(), SIGTERM), 0);
+  const auto t_signal = clk::now();
+  while (!exited && since(t_signal) < 60) {
+    if (waitpid(pid, &st, WNOHANG) == pid) exited = true;
+    else std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  const double took = since(t_signal);
+  if (!exited) {
+    for (pid_t r : lbdem_pids_of(c)) kill(r, SIGKILL);
+    waitpid(pid, &st, 0);
+    FAIL() << "lbdem did not stop within 60 s of SIGTERM: " << slurp(log);
+  }
+  ASSERT_TRUE(WIFEXITED(st)) << slurp(log);
+  EXPECT_EQ(WEXITSTATUS(st), kExitInterrupted) << slurp(log);
+  // The requirement is 2 s; the bound leaves room for a loaded machine (and
+  // for the launcher's own exit on 2 ranks).
+  EXPECT_LT(took, 8.0) << "stopped " << took << " s after the signal: " << slurp(log);
+  const std::string js = slurp(out / "summary.json");
+  EXPECT_NE(js.find("\"interrupted\": true"), std::string::npos) << js << slurp(log);
+  EXPECT_TRUE(lbdem_pids_of(c).empty()) << "a rank is still running";
+}
+
+INSTANTIATE_TEST_SUITE_P(Scenes, StopWithHugeIntervals, ::testing::ValuesIn(kHugeIntervalCases),
+                         [](const auto& info) {
+                           return std::string(info.param.name) + "_" + std::to_string(info.param.ranks) + "rank";
+                         });
 
 // --------------------------------------------------------------- disk full
 TEST_F(RunControl, DiskFullIsOneLineExit4AndNoTemporary) {

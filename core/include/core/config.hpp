@@ -73,6 +73,13 @@ class Config {
   // "file:line" of `key` in this section (of the section itself when the key is absent).
   std::string where(const std::string& key) const;
   static constexpr std::size_t kMaxValueChars = 60;
+  // Limits on a case file, so that any input is read and refused in well
+  // under a second: its size (the shipped cases are a few kB; an explicit
+  // particle list of ~50,000 spheres fits, larger sets belong in a csv or
+  // hdf5 file) and the nodes (values, keys, lists, sections) its document
+  // expands to with every alias counted as a copy of its anchor's value.
+  static constexpr std::size_t kMaxFileBytes = std::size_t{4} << 20;
+  static constexpr std::size_t kMaxNodes = 1'000'000;
 
   // Every key path any Config of this file has asked for so far (sections,
   // list entries as path[i]), whether present or defaulted: the keys a scene
