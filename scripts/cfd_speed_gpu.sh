@@ -53,7 +53,7 @@ for name in muller_u06 muller_u09 link_spout; do
   [ -f "$s" ] || { tail_log "$out/$name.log" 8; continue; }
   get() { grep -o "\"$1\": [^,}]*" "$s" | head -1 | sed 's/^[^:]*: //; s/"//g'; }
   gs="$(get gas_steps)"
-  per() { awk -v a="$1" -v b="$gs" 'BEGIN { printf "%.3g", b > 0 ? a / b : 0 }'; }
+  per() { awk -v a="$1" -v b="$gs" 'BEGIN { printf "%.3g", (b > 0 ? a / b : 0) }'; }
   json_line "$out/speed.jsonl" run="$name" gas_steps="$gs" simulated_s="$(get time_s)" \
     s_per_simulated_s="$(get seconds_per_simulated_second)" particle_steps_per_s="$(get particle_steps_per_second)" \
     dem_substeps="$(get dem_substeps)" dem_rebuilds_per_gas_step="$(per "$(get dem_rebuilds)")" \
