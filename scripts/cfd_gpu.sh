@@ -27,11 +27,13 @@
 #        overrides the case's gas.pressure_solver.type, e.g. to compare), GRAPHS (false: the multigrid's kernels
 #        launched one by one, without CUDA graphs and the one-block coarse levels), GAS_DT (overrides the case's
 #        gas.dt, e.g. after a watchdog stop: summary.json's "diverged" says why), BENCH_ARGS (extra arguments
-#        of lbdem_bench_cfd), LBDEM_COMMIT (the commit named in the JSON when .git is stale).
+#        of lbdem_bench_cfd), LBDEM_COMMIT (the commit named in the JSON when .git is stale), RESUME (1: a
+#        scene goes on from the checkpoint its previous call wrote at the time limit, instead of starting over:
+#        `RESUME=1 scripts/cfd_gpu.sh link` in successive calls runs Link's 20 s).
 # Typical: call 1 `build test` (or `build` then `test`), call 2 `speed` (then choose the ends), call 3
 # `muller06`, call 4 `muller09`, call 5 `link`, call 6 `bench plot`.
 set -uo pipefail
-if [ $# -eq 0 ]; then sed -n 2,32p "$0"; exit 2; fi
+if [ $# -eq 0 ]; then sed -n 2,34p "$0"; exit 2; fi
 here="$(cd "$(dirname "$0")/.." && pwd)"
 export OUT="${OUT:-$here/out}"
 out="$OUT/cfd"
@@ -54,8 +56,12 @@ scene() {
     -e "${GAS_DT:+s/^  dt: [0-9.e+-]*/  dt: $GAS_DT/}" \
     -e "${SOLVER:+s/^  pressure_solver: {type: [a-z]*/  pressure_solver: {type: $SOLVER/}" \
     -e "$graphs_expr" "$here/cases/$case" > "$tmp"
-  timeout -s TERM -k 60 "$limit" "$lbdem" run "$tmp" --backend cuda --output "$out/$name" --overwrite \
-    > "$out/$name.log" 2>&1
+  local mode=(--overwrite)
+  [ "${RESUME:-0}" = 1 ] || : > "$out/$name.log"
+  # RESUME=1: go on from the checkpoint the last call's SIGTERM left (a chain of calls: Link's 20 s).
+  [ "${RESUME:-0}" = 1 ] && [ -f "$out/$name/checkpoint.lbdem" ] && mode=(--restart "$out/$name")
+  timeout -s TERM -k 60 "$limit" "$lbdem" run "$tmp" --backend cuda --output "$out/$name" "${mode[@]}" \
+    >> "$out/$name.log" 2>&1
   rc=$?
   echo "scene $name exit $rc (0: done, 5: stopped at the time limit, with its output)"
   tail -2 "$out/$name.log"
@@ -112,6 +118,6 @@ for part in "$@"; do
       for d in muller_u06 muller_u09 link_spout; do
         [ -d "$out/$d" ] && python3 "$here/scripts/plot_cfd.py" run "$out/$d" --validation "$here/cfd/validation"
       done ;;
-    *) echo "unknown part '$part'"; sed -n 2,32p "$0"; exit 2 ;;
+    *) echo "unknown part '$part'"; sed -n 2,34p "$0"; exit 2 ;;
   esac
 done

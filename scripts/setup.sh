@@ -5,7 +5,8 @@
 # also has the GPU backend.
 # clang is for the fuzz build (scripts/fuzz.sh, tests/fuzz), which CI runs briefly.
 # python3-matplotlib, -h5py and -numpy draw the pictures of a run (scripts/plot_*.py, e.g. the default
-# case's snapshots.png and series.png); where they cannot be installed the set-up says so and still succeeds.
+# case's snapshots.png and series.png, bench/cfd/compare_mueller.py); where they cannot be installed the set-up
+# says so and still succeeds (the comparison's test is then skipped).
 set -euo pipefail
 pkgs=(build-essential cmake ninja-build pkg-config
       libopenmpi-dev openmpi-bin libhdf5-dev libeigen3-dev libyaml-cpp-dev

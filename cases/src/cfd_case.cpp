@@ -27,6 +27,7 @@
 //   statistics  start [s], interval (gas steps), profiles [{quantity: void_fraction |
 //               particle_velocity_z, height [m]}]: time averages along x at a height
 //   diagnostics check_interval (gas steps), max_courant
+//   checkpoint  interval (gas steps), minutes, on_signal (core/checkpoint.hpp)
 //
 // The time series (series.csv) holds the bed's pressure drop (gas pressure at
 // the inlet face, extrapolated from the two lowest cell layers, less that of
@@ -41,6 +42,16 @@
 // number over the whole field and non-finite values of velocity, pressure and
 // gas fraction (device reductions, a few scalars to the host) stop the run
 // with a diagnosis naming the keys to change.
+//
+// Checkpoint and restart (core/checkpoint.hpp; `lbdem run CASE --restart
+// RUN_DIR`): sections "run" (the statistics accumulators: sums of the
+// pressure drop, its ratio and the bed height, the sample count, the largest
+// Courant number and mass imbalance seen, each profile's per-cell sums and
+// counts), "gas" (cfd::GasSolver::save_state) and "dem"
+// (dem::DemSystem::save_state). The step count sets the time; the series
+// keeps its rows up to the checkpoint. A chained run ends bit for bit where
+// a straight run ends. A stop signal is polled after every gas step (a few
+// ms), so the scene stops and writes its checkpoint at once.
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -62,6 +73,7 @@
 #include "dem/init.hpp"
 #include "dem/system.hpp"
 #include "halo/comm.hpp"
+#include "checkpoint_case.hpp"
 #include "scene_checks.hpp"
 
 namespace lbdem {
@@ -103,6 +115,7 @@ struct CfdCase {
   std::vector<Profile> profiles;
   long check_interval = 100;
   double max_courant = 0.5;
+  ckpt::Policy checkpoint;
 };
 
 // A message of the gas solver's own validation in the case file's key names.
@@ -468,6 +481,7 @@ CfdCase read_case(const Config& root, const RunOptions& opt) {
                                   "largest |u| gas.dt / gas.cell_size anywhere (upwind convection is monotone up to 1/2)");
     dg->finish();
   }
+  c.checkpoint = ckpt::read_policy(root);
   root.accept("scene");
   root.finish();
   if (opt.output) c.outdir = *opt.output;
@@ -502,7 +516,21 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
   CfdCase c = read_case(root, opt);
   if (opt.validate_only) return 0;
   const Backend backend = resolve_backend(opt.backend);
-  io::prepare_output_dir(c.outdir, opt.overwrite);
+  // A restart checks its checkpoint against this case before any output is touched.
+  const cfd::GasGridView& g0 = c.grid;
+  ckpt::Run ck = cases::open_run(
+      c.outdir, c.checkpoint,
+      ckpt::Identity{}
+          .add("scene", "fluidized_bed")
+          .add("particles", std::to_string(c.particles.size()))
+          .add("gas_grid", std::to_string(g0.n[0]) + "x" + std::to_string(g0.n[1]) + "x" + std::to_string(g0.n[2]))
+          .add("gas_cell_size", num(g0.h))
+          .add("gas_dt", num(c.gas.dt))
+          .add("dem_substeps", std::to_string(c.substeps))
+          .add("friction", c.dem.friction ? "on" : "off")
+          .add("force_path", dem::to_string(c.dem.path)),
+      opt.restart, comm);
+  cases::prepare_output_on_writer(ck, true, comm, opt.overwrite, c.outdir);
   const Exec ex(backend);
   dem::DemSystem dem(ex, c.dem, c.particles);
   cfd::GasSolver gas(ex, c.grid, c.gas);
@@ -546,7 +574,7 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
                                 "max_courant", "cg_iterations"};
   for (std::int64_t id : c.track)
     for (const char* q : {"x", "y", "z", "vx", "vy", "vz"}) cols.push_back(std::string(q) + "_" + std::to_string(id));
-  io::TimeSeries series(c.outdir + "/series.csv", cols);
+  io::TimeSeries series = cases::open_series(ck, c.outdir + "/series.csv", cols, c.series_interval);
 
   double t = 0;
   auto measure_bed = [&](const dem::HostParticles& hp, const cfd::GasMeasures& m, double p_second) {
@@ -581,7 +609,11 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
     for (double v : row) s += v;
     return s / static_cast<double>(layer);
   };
-  double max_courant_seen = 0, max_imbalance = 0;
+  // Largest Courant number and mass imbalance seen: at the regular series and
+  // check steps (what a checkpoint carries, the same in a chained run as in a
+  // straight one), and at a run's last step off those grids (a stop).
+  double max_courant_seen = 0, max_imbalance = 0, last_courant = 0, last_imbalance = 0;
+  auto regular = [&](long s, long interval) { return s % interval == 0; };
   auto series_row = [&](long step) {
     ex.synchronize();
     const cfd::GasMeasures m = monitor.measure(gas);
@@ -589,8 +621,13 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
     const dem::HostParticles hp = dem.gather();
     const BedState b = measure_bed(hp, m, p2);
     const double imb = (m.inflow - m.outflow - m.storage) / std::max({m.inflow, m.outflow, 1e-300});
-    max_courant_seen = std::max(max_courant_seen, m.max_courant);
-    if (step > 0) max_imbalance = std::max(max_imbalance, std::fabs(imb));
+    if (regular(step, c.series_interval)) {
+      max_courant_seen = std::max(max_courant_seen, m.max_courant);
+      if (step > 0) max_imbalance = std::max(max_imbalance, std::fabs(imb));
+    } else {
+      last_courant = std::max(last_courant, m.max_courant);
+      last_imbalance = std::max(last_imbalance, std::fabs(imb));
+    }
     std::vector<double> row{static_cast<double>(step), t, b.dp, b.ratio, b.height, b.mean_vz, b.mean_speed,
                             b.max_speed, c.gas.rho * m.inflow, c.gas.rho * m.outflow, c.gas.rho * m.storage, imb,
                             m.max_courant, static_cast<double>(gas.last_solve().iterations)};
@@ -677,7 +714,8 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
       spdlog::warn("gas pressure solve did not converge{} ({} iterations, residual {:.3g}): raise "
                    "gas.pressure_solver.max_iterations or gas.pressure_solver.tolerance",
                    at, cg.iterations, cg.residual);
-    max_courant_seen = std::max(max_courant_seen, m.max_courant);
+    if (regular(step, c.check_interval)) max_courant_seen = std::max(max_courant_seen, m.max_courant);
+    else last_courant = std::max(last_courant, m.max_courant);
     const dem::HostParticles hp = dem.download();
     for (Index i = 0; i < hp.size(); ++i) {
       const Vec3d& v = hp.v[static_cast<std::size_t>(i)];
@@ -689,12 +727,51 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
     }
   };
 
-  write_fields(0);
-  series_row(0);
-  Progress prog("fluidized_bed", c.steps, 5.0, quiet);
+  // The run values of a checkpoint: the statistics accumulators (see the file comment).
+  auto run_values = [&]() {
+    cases::RunValues v{avg_dp, avg_ratio, avg_height, static_cast<double>(samples), max_courant_seen, max_imbalance};
+    for (const Profile& pr : c.profiles) {
+      v.insert(v.end(), pr.sum.begin(), pr.sum.end());
+      v.insert(v.end(), pr.count.begin(), pr.count.end());
+    }
+    return v;
+  };
+  long step = 0, first_step = 0;
+  if (ck.restarting()) {  // the state of the checkpoint's step; its series and snapshots are kept
+    const cases::RunValues v = cases::load_bed(ck.reader(), gas, dem);
+    const std::size_t want = run_values().size();
+    if (v.size() != want)
+      throw ConfigError("--restart: the checkpoint holds " + std::to_string(v.size()) +
+                        " statistics values where this case has " + std::to_string(want) +
+                        " (statistics.profiles differ)");
+    avg_dp = v[0];
+    avg_ratio = v[1];
+    avg_height = v[2];
+    samples = static_cast<long>(v[3]);
+    max_courant_seen = v[4];
+    max_imbalance = v[5];
+    std::size_t at = 6;
+    for (Profile& pr : c.profiles) {
+      for (double& x : pr.sum) x = v[at++];
+      for (double& x : pr.count) x = v[at++];
+    }
+    step = first_step = ck.restart_step();
+    loop.restore_steps(step);
+    t = step * c.gas.dt;
+    gas_writer.resume(step);
+    particle_writer.resume(step);
+  } else {
+    write_fields(0);
+    series_row(0);
+  }
+  auto checkpoint = [&](bool stopping, bool finished = false) {
+    if (!cases::checkpoint_due(ck, comm, step, stopping, finished)) return;
+    const cases::RunValues v = run_values();
+    ck.write(step, t, [&](ckpt::Writer& w) { cases::save_bed(w, gas, dem, v); });
+  };
+  Progress prog("fluidized_bed", c.steps - first_step, 5.0, quiet);
   // The end-of-run files (also when the watchdog stops the run: what was
   // averaged up to there is kept, and the diagnosis is in summary.json).
-  long step = 0;
   auto write_results = [&](bool interrupted, const std::string& diverged) {
     ex.synchronize();
     const double seconds = prog.elapsed();
@@ -714,20 +791,30 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
       io::write_text_atomically(c.outdir + "/profiles.csv", csv.str());
     }
     const double ns = std::max<long>(samples, 1);
+    // The DEM's neighbour-list rebuilds and rebuild-decision reads (each a
+    // host wait when the device was not there yet): the launches and host
+    // synchronisations of the sub-steps besides their two kernels (cfd/NOTES.md).
+    const dem::DemStats st = dem.stats();
     std::ostringstream js;
     js << "{\n  \"scene\": \"fluidized_bed\",\n  \"particles\": " << np << ",\n  \"gas_cells\": " << g.cells()
        << ",\n  \"gas_steps\": " << step << ",\n  \"gas_steps_planned\": " << c.steps
+       << ",\n  \"restarted_from_step\": " << first_step
        << ",\n  \"dem_substeps\": " << c.substeps << ",\n  \"gas_dt\": " << num(c.gas.dt)
        << ",\n  \"time_s\": " << num(t) << ",\n  \"seconds\": " << num(seconds)
-       << ",\n  \"seconds_per_simulated_second\": " << num(t > 0 ? seconds / t : 0.0)
-       << ",\n  \"particle_steps_per_second\": " << num(seconds > 0 ? double(np) * c.substeps * step / seconds : 0.0)
+       << ",\n  \"seconds_per_simulated_second\": "
+       << num(step > first_step ? seconds / ((step - first_step) * c.gas.dt) : 0.0)
+       << ",\n  \"particle_steps_per_second\": "
+       << num(seconds > 0 ? double(np) * c.substeps * double(step - first_step) / seconds : 0.0)
        << ",\n  \"backend\": \"" << to_string(backend) << "\",\n  \"drag\": \"" << cfd::to_string(c.gas.drag)
        << "\",\n  \"void_fraction\": \"" << cfd::to_string(c.gas.deposition)
        << "\",\n  \"weight_per_area_pa\": " << num(weight_per_area) << ",\n  \"statistics_samples\": " << samples
        << ",\n  \"mean_pressure_drop_pa\": " << (samples ? num(avg_dp / ns) : "null")
        << ",\n  \"mean_pressure_drop_over_weight\": " << (samples ? num(avg_ratio / ns) : "null")
        << ",\n  \"mean_bed_height_m\": " << (samples ? num(avg_height / ns) : "null")
-       << ",\n  \"max_courant\": " << num(max_courant_seen) << ",\n  \"max_mass_imbalance\": " << num(max_imbalance)
+       << ",\n  \"max_courant\": " << num(std::max(max_courant_seen, last_courant))
+       << ",\n  \"max_mass_imbalance\": " << num(std::max(max_imbalance, last_imbalance))
+       << ",\n  \"dem_steps\": " << st.steps << ",\n  \"dem_rebuilds\": " << st.rebuilds
+       << ",\n  \"dem_report_reads\": " << st.status_reads << ",\n  \"dem_report_waits\": " << st.status_waits
        << ",\n  \"interrupted\": " << (interrupted ? "true" : "false") << ",\n  \"diverged\": "
        << (diverged.empty() ? std::string("null") : "\"" + quoted + "\"") << "\n}\n";
     io::write_text_atomically(c.outdir + "/summary.json", js.str());
@@ -752,12 +839,14 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
     if (c.stats_interval > 0 && step % c.stats_interval == 0 && t >= c.stats_start - 1e-12) sample();
     if (step % c.series_interval == 0 || last) series_row(step);
     if ((c.output_interval > 0 && step % c.output_interval == 0) || last) write_fields(step);
+    checkpoint(stop);
     if (prog.due()) {
       ex.synchronize();
-      prog.report(step, t, static_cast<double>(np) * c.substeps, "particle-steps/s");
+      prog.report(step - first_step, t, static_cast<double>(np) * c.substeps, "particle-steps/s");
     }
   }
   const bool interrupted = step < c.steps;
+  checkpoint(false, !interrupted);
   const double seconds = write_results(interrupted, "");
   if (interrupted) {
     spdlog::warn("stopped by {} at gas step {} of {} (t = {:.6g} s); output up to that step is in {}",
@@ -767,7 +856,8 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
   if (!quiet)
     spdlog::info("done: {} gas steps in {} ({:.4g} s per simulated second); results: {}/gas.xdmf, "
                  "{}/particles.xdmf (ParaView), {}/series.csv, {}/summary.json",
-                 step, format_duration(seconds), t > 0 ? seconds / t : 0.0, c.outdir, c.outdir, c.outdir, c.outdir);
+                 step, format_duration(seconds), step > first_step ? seconds / ((step - first_step) * c.gas.dt) : 0.0,
+                 c.outdir, c.outdir, c.outdir, c.outdir);
   return 0;
 }
 

@@ -8,6 +8,7 @@
 #include <optional>
 #include <span>
 
+#include "cfd/gas_solver.hpp"
 #include "core/error.hpp"
 #include "dem/system.hpp"
 #include "imb/coupled.hpp"
@@ -89,6 +90,24 @@ void save_dem(ckpt::Writer& w, const dem::DemSystem& dem, const RunValues& value
 
 RunValues load_dem(ckpt::Reader& r, dem::DemSystem& dem) {
   RunValues v = load_run(r);
+  r.section("dem");
+  dem.load_state(r);
+  r.finish();
+  return v;
+}
+
+void save_bed(ckpt::Writer& w, const cfd::GasSolver& gas, const dem::DemSystem& dem, const RunValues& values) {
+  save_run(w, values);
+  w.section("gas");
+  gas.save_state(w);
+  w.section("dem");
+  dem.save_state(w);
+}
+
+RunValues load_bed(ckpt::Reader& r, cfd::GasSolver& gas, dem::DemSystem& dem) {
+  RunValues v = load_run(r);
+  r.section("gas");
+  gas.load_state(r);
   r.section("dem");
   dem.load_state(r);
   r.finish();

@@ -20,6 +20,9 @@ class DemSystem;
 namespace lbdem::imb {
 class CoupledSolver;
 }
+namespace lbdem::cfd {
+class GasSolver;
+}
 
 namespace lbdem::cases {
 
@@ -41,6 +44,9 @@ RunValues load_fluid(ckpt::Reader& r, lbm::LbmSolver& fluid);
 // Sections of the dem scene: run, dem.
 void save_dem(ckpt::Writer& w, const dem::DemSystem& dem, const RunValues& values);
 RunValues load_dem(ckpt::Reader& r, dem::DemSystem& dem);
+// Sections of the fluidized_bed scene (one rank): run, gas, dem.
+void save_bed(ckpt::Writer& w, const cfd::GasSolver& gas, const dem::DemSystem& dem, const RunValues& values);
+RunValues load_bed(ckpt::Reader& r, cfd::GasSolver& gas, dem::DemSystem& dem);
 
 // A CSV time series at `path` with these columns: a fresh run starts it; a
 // restart keeps its rows up to the checkpoint (ckpt::Run::kept_rows, read

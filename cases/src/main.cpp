@@ -152,9 +152,10 @@ int main(int argc, char** argv) {
       if (opt.output->empty()) opt.output = ".";
       const std::string scene = cfg.text("scene");
       const auto fluid = lbm_scene_names();
-      if (scene != "particles" && scene != "dem" && std::find(fluid.begin(), fluid.end(), scene) == fluid.end())
+      if (scene != "particles" && scene != "dem" && scene != "fluidized_bed" &&
+          std::find(fluid.begin(), fluid.end(), scene) == fluid.end())
         throw ConfigError("--restart: scene '" + scene + "' does not write checkpoints; scenes that do: particles, "
-                          "dem and the fluid scenes");
+                          "dem, fluidized_bed and the fluid scenes");
     }
     if (*check) {
       // Parse and check everything (keys, ranges, units, memory), then stop

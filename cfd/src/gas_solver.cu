@@ -6,6 +6,8 @@
 #include <cmath>
 #include <sstream>
 
+#include "core/checkpoint.hpp"
+
 namespace lbdem::cfd {
 namespace {
 
@@ -483,6 +485,7 @@ GasSolver::GasSolver(const Exec& ex, const GasGridView& g, const GasParams& p)
     uc_[a] = Buffer<double>(b, nc);
     gradp_[a] = Buffer<double>(b, nc);
     BV_[a] = Buffer<double>(b, nc);
+    BV_[a].fill_zero();
     uc_[a].fill_zero();
     gradp_[a].fill_zero();
   }
@@ -493,6 +496,7 @@ GasSolver::GasSolver(const Exec& ex, const GasGridView& g, const GasParams& p)
   pres_ = Buffer<double>(b, nc);
   pres_.fill_zero();
   B_ = Buffer<double>(b, nc);
+  B_.fill_zero();
   acc_ = Buffer<unsigned long long>(b, 4 * nc);
   rhs_ = Buffer<double>(b, nc);
 }
@@ -610,5 +614,53 @@ void GasSolver::step(const dem::ParticleView& p) {
 }
 
 CgReport GasSolver::last_solve() const { return ps_.last_report(); }
+
+namespace {
+constexpr std::uint32_t kGasStateTag = 0x47415331;  // "GAS1": the layout of save_state
+}
+
+void GasSolver::save_state(ckpt::Sink& out) const {
+  ex_.synchronize();
+  out.put<std::uint32_t>(kGasStateTag);
+  for (int a = 0; a < 3; ++a) out.put<std::int32_t>(g_.n[a]);
+  out.put<double>(g_.h);
+  out.put<std::uint8_t>(initialised_ ? 1 : 0);
+  for (int a = 0; a < 3; ++a) {
+    out.put_buffer(u_[a]);
+    out.put_buffer(uh_[a]);
+    out.put_buffer(af_[a]);
+  }
+  out.put_buffer(eps_);
+  out.put_buffer(eps_old_);
+  out.put_buffer(pres_);
+  out.put_buffer(B_);
+  for (int a = 0; a < 3; ++a) {
+    out.put_buffer(uc_[a]);
+    out.put_buffer(gradp_[a]);
+    out.put_buffer(BV_[a]);
+  }
+}
+
+void GasSolver::load_state(ckpt::Source& in) {
+  in.expect<std::uint32_t>(kGasStateTag, "the gas state's layout tag");
+  for (int a = 0; a < 3; ++a) in.expect<std::int32_t>(g_.n[a], "the gas grid's cell count");
+  in.expect<double>(g_.h, "the gas cell size");
+  const auto init = in.get<std::uint8_t>();
+  for (int a = 0; a < 3; ++a) {
+    in.get_buffer(u_[a]);
+    in.get_buffer(uh_[a]);
+    in.get_buffer(af_[a]);
+  }
+  in.get_buffer(eps_);
+  in.get_buffer(eps_old_);
+  in.get_buffer(pres_);
+  in.get_buffer(B_);
+  for (int a = 0; a < 3; ++a) {
+    in.get_buffer(uc_[a]);
+    in.get_buffer(gradp_[a]);
+    in.get_buffer(BV_[a]);
+  }
+  initialised_ = init != 0;
+}
 
 }  // namespace lbdem::cfd

@@ -40,6 +40,11 @@
 #include "core/vec.hpp"
 #include "dem/particle_view.hpp"
 
+namespace lbdem::ckpt {
+class Sink;
+class Source;
+}
+
 namespace lbdem::cfd {
 
 enum class FaceKind { Periodic, NoSlipWall, FreeSlipWall, Inlet, Outlet };
@@ -134,6 +139,15 @@ class GasSolver {
   // the phases' wall times to *t (the waits cost time of their own: for a
   // split, not for the whole step's speed); nullptr stops it.
   void time_phases(StepTimes* t) { times_ = t; }
+
+  // Checkpoint (core/checkpoint.hpp): every field a later step reads (face
+  // velocities, gas fraction, pressure as the solve's initial guess, cell
+  // velocities, which the drag reads before the step recomputes them) and
+  // the fields the last step left (predictor, coefficients, drag fields,
+  // pressure gradient), bit for bit. load_state() checks the grid and the
+  // face counts against this solver's and leaves it initialised.
+  void save_state(ckpt::Sink& out) const;
+  void load_state(ckpt::Source& in);
 
  private:
 
