@@ -11,6 +11,7 @@
 # "particles_per_rank" go to one JSON line each; a table is printed at the end.
 #   scripts/suspension_scaling_gpu.sh BUILD_DIR
 # BUILD_DIR: a build folder (configured from the `cuda` preset and built here if missing: lbdem_build).
+# BUILD_ONLY=1: build and stop (a first call on a fresh machine; the runs then go in a second call).
 # Environment: STEPS (200), BUDGET (seconds of runs before the remaining ones are skipped, 500), WORK (run
 # folders, removed after each run; default /tmp/lbdem_suspension_scaling), OUT (results; default ./out).
 # Writes $OUT/suspension_scaling/{scaling.jsonl, table.txt, <run>.log, <run>.summary.json}; never field files.
@@ -22,6 +23,7 @@ source "$(dirname "$0")/lib.sh"
 lbdem_env
 build="${1:?usage: scripts/suspension_scaling_gpu.sh BUILD_DIR}"
 lbdem_build "$build" lbdem lbdem_bench_scaling || exit 1
+[ -n "${BUILD_ONLY:-}" ] && exit 0
 out="$OUT/suspension_scaling"
 mkdir -p "$out"
 jsonl="$out/scaling.jsonl"
