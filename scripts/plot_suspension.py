@@ -74,12 +74,55 @@ def read_series(run):
 
 
 def step_files(run, prefix):
-    out = {}
+    """step -> the files of that step: the whole file (a run on one rank, or
+    joined by `lbdem join`), else the per-rank pieces (<prefix>_<step>_r<rank>.h5)."""
+    whole, pieces = {}, {}
     for p in glob.glob(os.path.join(run, prefix + "_*.h5")):
-        m = re.search(r"_(\d+)\.h5$", p)
-        if m:
-            out[int(m.group(1))] = p
+        m = re.search(r"_(\d{8,})(?:_r(\d+))?\.h5$", os.path.basename(p))
+        if not m:
+            continue
+        s = int(m.group(1))
+        if m.group(2) is None:
+            whole[s] = [p]
+        else:
+            pieces.setdefault(s, []).append(p)
+    out = {s: sorted(v) for s, v in pieces.items()}
+    out.update(whole)
     return out
+
+
+def read_slice(files, a):
+    """Component a of the velocity in the middle z layer of the whole grid, (ny, nx),
+    read from the pieces that hold that layer only (no whole field in memory), its
+    z index, the grid's nz and the time."""
+    with h5py.File(files[0], "r") as f:
+        t = float(f.attrs.get("time", 0.0))
+        g = f.attrs.get("global_cells")
+        if g is None:  # a file of an older lbdem: the whole grid
+            u = f["velocity"]
+            nz = u.shape[0]
+            k = nz // 2
+            return np.asarray(u[k, :, :, a]), k, nz, t
+    gx, gy, gz = (int(v) for v in g)
+    k = gz // 2
+    sl = np.zeros((gy, gx))
+    for p in files:
+        with h5py.File(p, "r") as f:
+            ox, oy, oz = (int(v) for v in f.attrs["piece_offset"])
+            u = f["velocity"]
+            if oz <= k < oz + u.shape[0]:
+                sl[oy:oy + u.shape[1], ox:ox + u.shape[2]] = u[k - oz, :, :, a]
+    return sl, k, gz, t
+
+
+def read_particles(files):
+    xs, vs, rs = [], [], []
+    for p in files:
+        with h5py.File(p, "r") as f:
+            xs.append(np.asarray(f["positions"]).reshape(-1, 3))
+            vs.append(np.asarray(f["velocity"]).reshape(-1, 3))
+            rs.append(np.asarray(f["radius"]).reshape(-1))
+    return np.concatenate(xs), np.concatenate(vs), np.concatenate(rs)
 
 
 def plot_snapshots(run, out, summary, steps, comp):
@@ -100,23 +143,13 @@ def plot_snapshots(run, out, summary, steps, comp):
     panels = []
     vmax = 0.0
     for s in common:
-        with h5py.File(fields[s], "r") as f:
-            u = np.asarray(f["velocity"])  # (nz, ny, nx, 3), lattice units
-            t = float(f.attrs.get("time", s))
-        with h5py.File(parts[s], "r") as f:
-            x = np.asarray(f["positions"])
-            v = np.asarray(f["velocity"])
-            r = np.asarray(f["radius"])
-        nz = u.shape[0]
+        sl, k, nz, t = read_slice(fields[s], a)
+        x, v, r = read_particles(parts[s])
         if nz > 1:  # 3D: the middle z slice and the particles within a diameter of it
-            k = nz // 2
-            sl = u[k, :, :, a]
             keep = np.abs(x[:, 2] - (k + 0.5)) < 2 * r
             x, v, r = x[keep], v[keep], r[keep]
             # The disk a sphere cuts from the slice plane.
             r = np.sqrt(np.maximum(r ** 2 - (x[:, 2] - (k + 0.5)) ** 2, 0.0))
-        else:
-            sl = u[0, :, :, a]
         panels.append((s, t, sl * V, x * L, v[:, a] * V, r * L))
         vmax = max(vmax, float(np.max(np.abs(sl))) * V, float(np.max(np.abs(v[:, a])) if len(v) else 0.0) * V)
     vmax = vmax if vmax > 0 else 1.0

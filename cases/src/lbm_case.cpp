@@ -406,54 +406,49 @@ int run_parsed(LbmCase& c, const RunOptions& opt) {
   if (!opt.quiet && comm.distributed()) spdlog::info("parallel: {} ({})", fluid.describe(), comm.describe());
   if (comm.distributed()) ck.set_layout(cases::rank_layout(comm.size(), fluid.decomposition().describe()));
 
-  // Rank 0 writes everything: the files do not depend on the rank count.
-  std::optional<io::GridWriter> writer;
+  // Fields in pieces (core/piece_output.hpp): each rank writes its owned box
+  // to its own file, slab by slab through the solver's output staging; rank 0
+  // writes the index (a spatial collection of the pieces) and the series.
   std::optional<io::TimeSeries> series;
+  lbm::LbmSolver& ls = fluid.local();
+  io::PieceGridWriter writer(c.outdir, "fields", s.domain, fluid.piece_boxes(), comm.rank(), ls.setup().domain.owned());
+  writer.set_float32(s.precision != lbm::Precision::FP64);
   if (root) {
-    writer.emplace(c.outdir, "fields", s.domain);
     series.emplace(cases::open_series(ck, c.outdir + "/diagnostics.csv",
                                       {"step", "time_s", "mass_rel_change", "momentum_x", "momentum_y", "momentum_z",
                                        "max_speed_m_s", "max_mach"},
                                       c.diag_interval));
   }
-  std::vector<double> rho, u, flagd(c.flags.begin(), c.flags.end()), p;
+  std::vector<double> rho, u;
+  const std::vector<io::SlabField> field_list{{"density", 1, "kg/m^3"},
+                                               {"velocity", 3, "m/s"},
+                                               {"pressure", 1, "Pa (deviation from the reference)"},
+                                               {"boundary", 1, "0 fluid, k boundary entry"}};
   auto write_fields = [&](long step) {
-    if (!fluid.distributed()) {
-      // One rank: slab by slab through the solver's output staging (no
-      // whole-grid field on the device or the host).
-      lbm::LbmSolver& ls = fluid.local();
-      const GridView g = s.domain.view();
-      writer->write_slabs(
-          step, step * U.dt,
-          {{"density", 1, "kg/m^3"}, {"velocity", 3, "m/s"}, {"pressure", 1, "Pa (deviation from the reference)"},
-           {"boundary", 1, "0 fluid, k boundary entry"}},
-          ls.output_slab_cells(), [&](const CellBox& b, const std::vector<double*>& out) {
-            ls.macroscopic_box(b, out[0], out[1]);
-            Index t = 0;
-            for (int z = b.lo[2]; z < b.lo[2] + b.ext[2]; ++z)
-              for (int y = b.lo[1]; y < b.lo[1] + b.ext[1]; ++y)
-                for (int x = b.lo[0]; x < b.lo[0] + b.ext[0]; ++x, ++t) {
-                  const std::uint8_t f = c.flags[static_cast<std::size_t>(g.index(x, y, z))];
-                  out[2][t] = f ? 0.0 : U.to_si_pressure(out[0][t] - 1.0);
-                  out[0][t] *= U.rho;
-                  out[3][t] = f;
-                }
-            for (Index i = 0; i < 3 * t; ++i) out[1][i] = U.to_si_velocity(out[1][i]);
-          });
-      return;
-    }
-    solver->macroscopic(rho, u);
-    if (!root) return;
-    p.resize(rho.size());
-    for (std::size_t i = 0; i < rho.size(); ++i) {
-      p[i] = c.flags[i] ? 0.0 : U.to_si_pressure(rho[i] - 1.0);
-      rho[i] *= U.rho;
-    }
-    for (auto& v : u) v = U.to_si_velocity(v);
-    writer->write(step, step * U.dt,
-                 {{"density", 1, rho.data(), "kg/m^3"}, {"velocity", 3, u.data(), "m/s"},
-                  {"pressure", 1, p.data(), "Pa (deviation from the reference)"},
-                  {"boundary", 1, flagd.data(), "0 fluid, k boundary entry"}});
+    if (root) writer.record(step);  // every piece named before any rank creates one
+    if (comm.distributed()) comm.barrier();
+    const Grid& piece = ls.setup().domain;
+    const CellBox own = piece.owned();
+    const GridView g = s.domain.view();  // the whole grid: the case's flags
+    writer.write_piece(step, step * U.dt, field_list, ls.output_slab_cells(),
+                       [&](const CellBox& b, const std::vector<double*>& out) {
+                         ls.macroscopic_box(b, out[0], out[1]);
+                         Index t = 0;
+                         for (int z = b.lo[2]; z < b.lo[2] + b.ext[2]; ++z)
+                           for (int y = b.lo[1]; y < b.lo[1] + b.ext[1]; ++y)
+                             for (int x = b.lo[0]; x < b.lo[0] + b.ext[0]; ++x, ++t) {
+                               const auto gi = g.index(static_cast<int>(x - own.lo[0] + piece.offset[0]),
+                                                       static_cast<int>(y - own.lo[1] + piece.offset[1]),
+                                                       static_cast<int>(z - own.lo[2] + piece.offset[2]));
+                               const std::uint8_t f = c.flags[static_cast<std::size_t>(gi)];
+                               out[2][t] = f ? 0.0 : U.to_si_pressure(out[0][t] - 1.0);
+                               out[0][t] *= U.rho;
+                               out[3][t] = f;
+                             }
+                         for (Index i = 0; i < 3 * t; ++i) out[1][i] = U.to_si_velocity(out[1][i]);
+                       });
+    if (comm.distributed()) comm.barrier();  // every piece on disk before the index names it
+    if (root) writer.index(step, step * U.dt, field_list);
   };
 
   PhaseTimer phases;
@@ -464,7 +459,7 @@ int run_parsed(LbmCase& c, const RunOptions& opt) {
   if (ck.restarting()) {  // the state of the checkpoint's step; its series and fields are kept
     d0.mass = cases::load_fluid(ck, comm, fluid.local(), s.domain, c.flags).at(0);
     step = ck.restart_step();
-    if (writer) writer->resume(step);
+    if (root) writer.resume(step);
   }
   const long step0 = step;
   auto checkpoint = [&](bool stopping, bool finished = false) {

@@ -5,6 +5,8 @@
 //                              (SIZE: check the memory against a machine with
 //                              that much free memory, device and host, e.g. 80GiB)
 //   lbdem info                 build, backends, devices
+//   lbdem join RUN_DIR [--step N | --all]   join a run's snapshot pieces into
+//                              whole files (core/piece_output.hpp); default: the last step
 // Exit codes: 0 ok, 2 invalid input, 3 diverged, 4 resources (memory, disk full),
 // 5 stopped by SIGINT/SIGTERM (final output written, summary.json says
 // "interrupted": true; a second signal a second or more later ends the process
@@ -24,6 +26,7 @@
 #include "core/buffer.hpp"
 #include "core/checkpoint.hpp"
 #include "core/exec.hpp"
+#include "core/piece_output.hpp"
 #include "core/signals.hpp"
 #include "halo/comm.hpp"
 #include "halo/device.hpp"
@@ -108,6 +111,14 @@ int main(int argc, char** argv) {
 
   auto* info = app.add_subcommand("info", "build, backends and devices");
 
+  auto* join = app.add_subcommand("join", "join a run's per-rank snapshot pieces into whole-grid files");
+  std::string join_dir;
+  long join_step = -1;
+  bool join_all = false;
+  join->add_option("run_dir", join_dir, "the run's output folder")->required();
+  auto* join_step_opt = join->add_option("--step", join_step, "the step to join (default: the last one)");
+  join->add_flag("--all", join_all, "join every step")->excludes(join_step_opt);
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -134,6 +145,37 @@ int main(int argc, char** argv) {
       std::printf("scenes:");
       for (auto& s : all_scene_names()) std::printf(" %s", s.c_str());
       std::printf("\n");
+      return 0;
+    }
+    if (*join) {
+      if (!halo::Comm::world().root()) return 0;  // under mpirun: one process joins
+      // Fields and particles; each step one piece in memory at a time. A step
+      // written uncut (one rank) is whole already and only indexed.
+      std::size_t joined = 0;
+      for (const char* prefix : {"fields", "particles"}) {
+        const std::vector<long> have = io::piece_steps(join_dir, prefix);
+        std::vector<long> todo;
+        if (join_all) {
+          todo = have;
+        } else if (join_step_opt->count() > 0) {
+          char t[32];
+          std::snprintf(t, sizeof t, "%08ld", join_step);
+          if (std::find(have.begin(), have.end(), join_step) != have.end() ||
+              std::filesystem::exists(join_dir + "/" + prefix + "_" + t + ".h5"))
+            todo = {join_step};
+        } else if (!have.empty()) {
+          todo = {have.back()};
+        }
+        for (long st : todo) {
+          std::printf("%s\n", io::join_step(join_dir, prefix, st).c_str());
+          ++joined;
+        }
+      }
+      if (joined == 0 && join_step_opt->count() > 0)
+        throw ConfigError("join: --step " + std::to_string(join_step) + ": no snapshot of that step in '" + join_dir +
+                          "' (its .lbdem_manifest names none)");
+      if (joined == 0)
+        std::printf("%s: no snapshot pieces to join (a run on one rank writes whole files)\n", join_dir.c_str());
       return 0;
     }
     // An empty --output "" (an unset shell variable, say) is a mistake, not a

@@ -47,6 +47,7 @@
 #include "core/async_writer.hpp"
 #include "core/error.hpp"
 #include "core/output.hpp"
+#include "core/phase_clock.hpp"
 #include "core/progress.hpp"
 #include "core/signals.hpp"
 #include "core/memory_use.hpp"
@@ -555,9 +556,10 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
   c.outdir = o.text("directory");
   c.output_interval = o.integer_in("interval", 0, 0, std::numeric_limits<long>::max());
   c.series_interval = o.integer_in("series_interval", 100, 1, std::numeric_limits<long>::max());
-  // Fields on disk: float64, float32, or the populations' precision (fluid.precision).
-  const std::string fp = o.choice("field_precision", "fp64", {"fp64", "fp32", "storage"});
-  c.fields_fp32 = fp == "fp32" || (fp == "storage" && s.precision == lbm::Precision::FP32);
+  // Fields on disk: float64, float32, or (the default) the populations'
+  // precision: float64 for fp64 runs, float32 for fp32 and the 16-bit storages.
+  const std::string fp = o.choice("field_precision", "storage", {"fp64", "fp32", "storage"});
+  c.fields_fp32 = fp == "fp32" || (fp == "storage" && s.precision != lbm::Precision::FP64);
   // Snapshots copied to host memory (40 B per cell) and written by a host
   // thread while the run goes on; off: written slab by slab, no host copy of the grid.
   c.async_output = o.boolean("background", false);
@@ -722,62 +724,72 @@ std::string particles_summary(const ParticlesCase& c, const cases::ParticleSerie
   return js.str();
 }
 
-// A snapshot of a run on several ranks: the particles (in global-id order,
-// each with its hydrodynamic force) and the fields gathered to rank 0, which
-// writes them (pw, gw: null on the other ranks), the same files as one rank
-// writes. Collective.
-void write_gathered_output(long step, const ParticlesCase& c, lbm::DistributedFluid& fluid, dem::DemSystem& dem,
-                           imb::CoupledSolver& cs, io::ParticleWriter* pw, io::GridWriter* gw) {
-  const halo::Comm& comm = fluid.comm();
-  const dem::HostParticles all = dem.gather(0);
-  struct IdForce {
-    std::int64_t id;
-    double f[3];
+// summary.json "timing": per phase of the coupled step the total seconds of
+// each rank, as the max and the mean over the ranks (imb::CoupledSolver
+// phase clock; exposed_communication: host time waiting in the fluid halo's
+// transport, part of fluid_psm), the set-up phases alike, the snapshot
+// output's share, and the particles per rank at the worst series row.
+// Collective.
+std::string timing_json(imb::CoupledSolver& cs, lbm::DistributedFluid& dfluid, const halo::Comm& comm,
+                        const std::array<double, 4>& setup, double loop_secs, double output_secs, long snapshots,
+                        double ppr_max, double ppr_mean, long ppr_step) {
+  PhaseClock& clock = cs.phase_clock();
+  clock.collect();
+  std::vector<double> t = clock.totals();
+  std::vector<std::string> names = clock.names();
+  const lbm::FluidHalo* h = dfluid.halo();
+  t.push_back(h ? h->times().start + h->times().finish : 0.0);
+  names.push_back("exposed_communication");
+  for (double v : setup) t.push_back(v);
+  for (const char* n : {"packing", "particle_distribution", "fluid_initial_state", "first_map"}) names.push_back(n);
+  t.push_back(output_secs);
+  names.push_back("output");
+  // This rank's phases together and its loop time (the phases lie inside the loop).
+  double phase_sum = 0;
+  for (double v : clock.totals()) phase_sum += v;
+  t.push_back(phase_sum);
+  names.push_back("phase_sum");
+  t.push_back(loop_secs);
+  names.push_back("loop");
+  std::vector<double> mx = t, mean = t;
+  if (comm.distributed()) {
+    for (double& v : mx) v = comm.max(v);
+    comm.sum(mean);
+    for (double& v : mean) v /= comm.size();
+  }
+  const std::size_t nphase = clock.names().size() + 1;
+  std::ostringstream o;
+  o.precision(6);
+  auto pair = [&](std::size_t i) {
+    std::ostringstream p;
+    p.precision(6);
+    p << "{\"max\": " << mx[i] << ", \"mean\": " << mean[i] << "}";
+    return p.str();
   };
-  std::vector<IdForce> mine;
-  {
-    const dem::HostParticles own = dem.download();
-    const std::vector<double> hf = cs.hydro_force_host();
-    for (std::size_t i = 0; i < own.id.size(); ++i) mine.push_back({own.id[i], {hf[3 * i], hf[3 * i + 1], hf[3 * i + 2]}});
+  o << ",\n  \"timing\": {\"phases\": {";
+  for (std::size_t i = 0; i < nphase; ++i) o << (i ? ", " : "") << "\"" << names[i] << "\": " << pair(i);
+  o << "}, \"setup\": {";
+  double setup_max = 0;
+  for (std::size_t i = nphase; i < nphase + 4; ++i) {
+    o << (i > nphase ? ", " : "") << "\"" << names[i] << "\": " << pair(i);
+    setup_max += mx[i];
   }
-  const auto forces = comm.gather(std::as_bytes(std::span<const IdForce>(mine)), 0);
-  // Solid fraction of the owned cells (owned box x-fastest), slab by slab
-  // through the coupling's output staging.
-  lbm::LbmSolver& ls = fluid.local();
-  const CellBox o = ls.setup().domain.owned();
-  std::vector<double> eps(static_cast<std::size_t>(o.size())), tmp;
-  for (const CellBox& b : slabs_of(o, ls.output_slab_cells())) {
-    tmp.resize(static_cast<std::size_t>(b.size()));
-    cs.solid_fraction_box(b, tmp.data());
-    std::size_t t = 0;
-    for (int z = b.lo[2]; z < b.lo[2] + b.ext[2]; ++z)
-      for (int y = b.lo[1]; y < b.lo[1] + b.ext[1]; ++y)
-        for (int x = b.lo[0]; x < b.lo[0] + b.ext[0]; ++x, ++t)
-          eps[static_cast<std::size_t>((x - o.lo[0]) + o.ext[0] * ((y - o.lo[1]) + static_cast<Index>(o.ext[1]) * (z - o.lo[2])))] = tmp[t];
-  }
-  const std::vector<double> eps_all = fluid.gather_owned(eps, 1);
-  std::vector<double> rho, u;
-  fluid.macroscopic(rho, u);
-  if (!comm.root()) return;
-  std::unordered_map<std::int64_t, std::array<double, 3>> by_id;
-  for (const auto& bytes : forces) {
-    const std::size_t m = bytes.size() / sizeof(IdForce);
-    for (std::size_t k = 0; k < m; ++k) {
-      IdForce r;
-      std::memcpy(&r, bytes.data() + k * sizeof(IdForce), sizeof r);
-      by_id[r.id] = {r.f[0], r.f[1], r.f[2]};
-    }
-  }
-  std::vector<double> hf(3 * all.id.size());
-  for (std::size_t i = 0; i < all.id.size(); ++i) {
-    const auto& f = by_id.at(all.id[i]);
-    for (std::size_t a = 0; a < 3; ++a) hf[3 * i + a] = f[a];
-  }
-  const double t = double(step) * c.units.dt;
-  cases::write_particle_snapshot(*pw, step, t, all, {{"hydrodynamic_force", 3, hf.data()}});
-  gw->write(step, t,
-            {{"density", 1, rho.data(), "lattice"}, {"velocity", 3, u.data(), "lattice (cells per step)"},
-             {"solid_fraction", 1, eps_all.data(), "1"}});
+  o << "}, \"setup_seconds\": " << setup_max << ", \"loop_seconds\": " << mx[nphase + 6]
+    << ", \"phase_sum_seconds\": " << mx[nphase + 5]
+    << ", \"output_seconds\": " << pair(nphase + 4) << ", \"snapshots\": " << snapshots
+    << ", \"output_fraction_of_run\": " << mx[nphase + 4] / std::max(mx[nphase + 6], 1e-12)
+    << ", \"steps_timed\": " << clock.steps()
+    << ", \"note\": \"seconds per rank summed over the run, max and mean over the ranks; phases of the coupled step: "
+       "fluid_psm (fluid + PSM step, halo exchange included), force_reduction (ghost forces to their owners), dem "
+       "(the DEM sub-steps, migration and ghost rebuilds included), ghost_sync (ghost velocities), map (particles to "
+       "cells); exposed_communication is the part of fluid_psm waiting for the halo; on the device the phases are "
+       "sampled every 16th step with events; setup_seconds sums the set-up phases' maxima; output_fraction_of_run: "
+       "the snapshots' wall time over loop_seconds (which includes those inside the loop); loop_seconds and "
+       "phase_sum_seconds (the phases of a rank together): max over the ranks\"}";
+  o << ",\n  \"particles_per_rank\": {\"max\": " << ppr_max << ", \"mean\": " << ppr_mean
+    << ", \"imbalance\": " << (ppr_mean > 0 ? ppr_max / ppr_mean : 0.0) << ", \"step\": " << ppr_step
+    << ", \"note\": \"owned particles per rank at the series row with the largest max / mean\"}";
+  return o.str();
 }
 
 // The components of every rank's memory use (a rank without particles may
@@ -839,7 +851,13 @@ dem::DemDomain particles_domain(const Config& root, const ParticlesCase& c, cons
 }
 
 int run_particles_case(const Config& root, const RunOptions& opt) {
-  ParticlesCase c = parse_particles(root, opt);
+  // Set-up phases (summary.json "timing"), host wall time; each one ends
+  // with the device idle, so its work is counted in it.
+  using sclk = std::chrono::steady_clock;
+  auto since = [](sclk::time_point t) { return std::chrono::duration<double>(sclk::now() - t).count(); };
+  auto t_setup = sclk::now();
+  ParticlesCase c = parse_particles(root, opt);  // the case, with the packing of init: random
+  const double packing_secs = since(t_setup);
   const halo::Comm& comm = halo::Comm::world();
   const bool ranks = comm.distributed();
   const bool writer = comm.root();  // rank 0 writes every file
@@ -875,6 +893,7 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
   cases::prepare_output_on_writer(ck, writer, comm, opt.overwrite, c.outdir);
   // The fluid: the whole grid on one rank, this rank's piece (with its halo
   // exchange) on several.
+  t_setup = sclk::now();
   lbm::DistributedFluid dfluid(c.setup, backend, c.parallel, comm);
   lbm::LbmSolver* fluid = &dfluid.local();
   if (ranks) ck.set_layout(cases::rank_layout(comm.size(), dfluid.decomposition().describe()));
@@ -882,24 +901,32 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
   const auto N = static_cast<std::size_t>(n[0] * n[1] * n[2]);
   // Closed axes carry one layer of half-way bounce-back wall cells on each side
   // (the walls sit at 1 and cells + 1; parse_particles put the DEM walls there).
-  std::vector<std::uint8_t> flags(N, 0);
-  for (long z = 0; z < n[2]; ++z)
-    for (long y = 0; y < n[1]; ++y)
-      for (long x = 0; x < n[0]; ++x) {
-        const long q[3] = {x, y, z};
-        bool wall = false;
-        for (int a = 0; a < 3; ++a)
-          if (!c.setup.domain.periodic[static_cast<std::size_t>(a)] && (q[a] == 0 || q[a] == n[a] - 1)) wall = true;
-        if (wall) flags[static_cast<std::size_t>(x + n[0] * (y + n[1] * z))] = 1;
-      }
-  dfluid.initialize(flags, std::vector<double>(N, 1.0), std::vector<double>(3 * N, 0.0));
+  // Each rank sets up its own piece only (no whole-grid field).
+  auto wall_flag = [&](long x, long y, long z) -> std::uint8_t {
+    const long q[3] = {x, y, z};
+    for (int a = 0; a < 3; ++a)
+      if (!c.setup.domain.periodic[static_cast<std::size_t>(a)] && (q[a] == 0 || q[a] == n[a] - 1)) return 1;
+    return 0;
+  };
+  dfluid.initialize_uniform(wall_flag, 1.0);
+  // A restart does not compare whole-grid flags (none is built): the walls
+  // follow from domain.periodic, which the checkpoint's identity holds.
+  const std::vector<std::uint8_t> flags;
+  fluid->synchronize();
+  const double fluid_init_secs = since(t_setup);
+  t_setup = sclk::now();
   dem::DemSystem dem(Exec(backend), c.dem, c.particles, domain);
+  fluid->synchronize();
+  const double distribution_secs = since(t_setup);
+  t_setup = sclk::now();
   std::unique_ptr<imb::FractionTable> table;  // outlives cs, which reads it every step
   if (c.coupling.psm.map.method == imb::FractionMethod::Table) {
     table = std::make_unique<imb::FractionTable>(imb::build_fraction_table(c.setup.lattice == lbm::LatticeKind::D2Q9 ? 2 : 3));
     c.coupling.psm.map.table = table.get();
   }
   imb::CoupledSolver cs(*fluid, dem, c.coupling, {dfluid.halo(), &comm});
+  fluid->synchronize();
+  const double first_map_secs = since(t_setup);
   if (!quiet && ranks) spdlog::info("parallel: {} ({})", dfluid.describe(), comm.describe());
   if (!quiet)
     spdlog::info("scene particles: {} particles (d = {} cells, rho_s/rho_f = {}), grid {}x{}x{}, tau = {}, {} DEM "
@@ -907,17 +934,20 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
                  c.particles.size(), 2 * c.particles.r[0], c.density_ratio, n[0], n[1], n[2], c.setup.tau,
                  c.coupling.dem_substeps, to_string(backend), c.balance ? "on" : "off",
                  imb::to_string(c.coupling.psm.map.method), imb::to_string(cs.coupling().pipeline()), c.outdir);
-  std::optional<io::ParticleWriter> pwo;
-  std::optional<io::GridWriter> gwo;
-  if (writer) {
-    pwo.emplace(c.outdir, "particles");
-    gwo.emplace(c.outdir, "fields", c.setup.domain);
-    gwo->set_float32(c.fields_fp32);
-  }
-  // Background output (output.background): the writer thread owns every HDF5
-  // call from here on; declared after the writers, so it finishes its jobs
-  // before they go. On several ranks the snapshots are gathered to rank 0 and
-  // written there in the loop.
+  // Snapshots in pieces (core/piece_output.hpp): every rank writes its owned
+  // box of each field and the particles it owns to its own files; rank 0
+  // writes the XDMF index, a spatial collection of the pieces per step. No
+  // field or particle list is gathered; only the particle counts reach rank 0.
+  std::optional<io::PieceParticleWriter> pwo;
+  std::optional<io::PieceGridWriter> gwo;
+  pwo.emplace(c.outdir, "particles", comm.rank(), comm.size());
+  gwo.emplace(c.outdir, "fields", c.setup.domain, dfluid.piece_boxes(), comm.rank(), fluid->setup().domain.owned());
+  gwo->set_float32(c.fields_fp32);
+  const std::vector<io::SlabField> field_list{
+      {"density", 1, "lattice"}, {"velocity", 3, "lattice (cells per step)"}, {"solid_fraction", 1, "1"}};
+  // Background output (output.background, one rank): the writer thread owns
+  // every HDF5 call from here on; declared after the writers, so it finishes
+  // its jobs before they go.
   std::optional<io::BackgroundWriter> bg;
   if (c.async_output && !ranks) bg.emplace();
   struct Snapshot {
@@ -932,12 +962,14 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
   double output_secs = 0, checkpoint_secs = 0;
   long snapshots = 0;
   auto write_output_now = [&](long step) {
-    if (ranks) {
-      write_gathered_output(step, c, dfluid, dem, cs, writer ? &*pwo : nullptr, writer ? &*gwo : nullptr);
-      return;
+    const double t = double(step) * c.units.dt;
+    if (writer) {  // every piece named in the manifest before any rank creates one
+      gwo->record(step);
+      pwo->record(step);
     }
-    io::ParticleWriter& pw = *pwo;
-    io::GridWriter& gw = *gwo;
+    if (ranks) comm.barrier();
+    io::PieceParticleWriter& pw = *pwo;
+    io::PieceGridWriter& gw = *gwo;
     if (bg) {
       // The previous snapshot is written by now (one host copy of the grid at
       // a time); this one is copied out slab by slab and handed to the thread.
@@ -956,23 +988,45 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
         fluid->macroscopic_box(b, snap->rho.data() + c0, snap->u.data() + 3 * c0);
         cs.solid_fraction_box(b, snap->eps.data() + c0);
       }
-      bg->submit([snap, &pw, &gw, dt = c.units.dt] {
-        const double t = double(snap->step) * dt;
-        cases::write_particle_snapshot(pw, snap->step, t, snap->particles, {{"hydrodynamic_force", 3, snap->force.data()}});
-        gw.write(snap->step, t,
-                 {{"density", 1, snap->rho.data(), "lattice"}, {"velocity", 3, snap->u.data(), "lattice (cells per step)"},
-                  {"solid_fraction", 1, snap->eps.data(), "1"}});
+      bg->submit([snap, &pw, &gw, &field_list, t, g, slab = fluid->output_slab_cells()] {
+        const auto names = cases::write_particle_piece(pw, snap->step, t, snap->particles,
+                                                       {{"hydrodynamic_force", 3, snap->force.data()}});
+        // The same slabs as above: each contiguous in the host copy.
+        gw.write_piece(snap->step, t, field_list, slab, [&](const CellBox& b, const std::vector<double*>& out) {
+          const auto c0 = static_cast<std::size_t>(g.index(b.lo[0], b.lo[1], b.lo[2]));
+          const auto m = static_cast<std::size_t>(b.size());
+          std::copy_n(snap->rho.data() + c0, m, out[0]);
+          std::copy_n(snap->u.data() + 3 * c0, 3 * m, out[1]);
+          std::copy_n(snap->eps.data() + c0, m, out[2]);
+        });
+        gw.index(snap->step, t, field_list);
+        pw.index(snap->step, t, {static_cast<long>(snap->particles.size())}, names);
       });
       return;
     }
     const auto hf = cs.hydro_force_host();
-    cases::write_particle_snapshot(pw, step, double(step) * c.units.dt, dem.download(), {{"hydrodynamic_force", 3, hf.data()}});
-    gw.write_slabs(step, double(step) * c.units.dt,
-                   {{"density", 1, "lattice"}, {"velocity", 3, "lattice (cells per step)"}, {"solid_fraction", 1, "1"}},
-                   fluid->output_slab_cells(), [&](const CellBox& b, const std::vector<double*>& out) {
-                     fluid->macroscopic_box(b, out[0], out[1]);
-                     cs.solid_fraction_box(b, out[2]);
-                   });
+    const dem::HostParticles own = dem.download();
+    const auto names = cases::write_particle_piece(pw, step, t, own, {{"hydrodynamic_force", 3, hf.data()}});
+    gw.write_piece(step, t, field_list, fluid->output_slab_cells(), [&](const CellBox& b, const std::vector<double*>& out) {
+      fluid->macroscopic_box(b, out[0], out[1]);
+      cs.solid_fraction_box(b, out[2]);
+    });
+    // The counts reach rank 0 after every rank wrote its pieces: the index never names an unfinished file.
+    std::vector<long> counts{static_cast<long>(own.size())};
+    if (ranks) {
+      const long mine = counts[0];
+      const auto all = comm.gather(std::as_bytes(std::span<const long>(&mine, 1)), 0);
+      counts.clear();
+      for (const auto& bytes : all) {
+        long v = 0;
+        std::memcpy(&v, bytes.data(), sizeof v);
+        counts.push_back(v);
+      }
+    }
+    if (writer) {
+      gw.index(step, t, field_list);
+      pw.index(step, t, counts, names);
+    }
   };
   auto write_output = [&](long step) {
     const auto w0 = std::chrono::steady_clock::now();
@@ -992,8 +1046,10 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
     series.restore(cases::load_coupled(ck, comm, *fluid, c.setup.domain, flags, dem, cs,
                                        dfluid.decomposition().describe()));
     step = ck.restart_step();
-    if (pwo) pwo->resume(step);
-    if (gwo) gwo->resume(step);
+    if (writer) {
+      pwo->resume(step);
+      gwo->resume(step);
+    }
   }
   const long step0 = step;
   auto checkpoint = [&](bool stopping, bool finished = false) {
@@ -1002,7 +1058,21 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
     cases::save_coupled(ck, comm, step, double(step) * c.units.dt, *fluid, dem, cs, series.state());
     checkpoint_secs += std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
   };
+  // Particles per rank at the series rows: the row with the largest max / mean.
+  double ppr_max = 0, ppr_mean = 0;
+  long ppr_step = 0;
   auto series_row = [&](long step) {
+    cs.phase_clock().collect();  // the device samples so far (the row synchronises anyway)
+    {
+      const long mine = static_cast<long>(dem.size());
+      const long mx = ranks ? comm.max(mine) : mine;
+      const double mean = ranks ? double(comm.sum(mine)) / comm.size() : double(mine);
+      if (mean > 0 && (ppr_mean == 0 || mx / mean > ppr_max / ppr_mean)) {
+        ppr_max = double(mx);
+        ppr_mean = mean;
+        ppr_step = step;
+      }
+    }
     const auto d = series.append(step);
     const double ma = d.max_speed * std::sqrt(3.0);
     if (!d.finite)
@@ -1074,6 +1144,14 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
       held = MemoryUse{};
       for (std::size_t k = 0; k < names.size(); ++k) held.add(names[k], static_cast<std::size_t>(bytes[k]));
     }
+    // The largest host buffer a rank's snapshot output held (values) and the
+    // largest piece (cells): output never holds more than one slab of a piece.
+    long out_buffer = static_cast<long>(gwo->largest_buffer_values());
+    long piece_cells = static_cast<long>(fluid->setup().domain.cells());
+    if (ranks) {
+      out_buffer = comm.max(out_buffer);
+      piece_cells = comm.max(piece_cells);
+    }
     std::ostringstream mj;
     mj << ",\n  \"memory_bytes\": {";
     for (std::size_t i = 0; i < held.items.size(); ++i)
@@ -1081,12 +1159,15 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
     mj << "},\n  \"memory_bytes_per_cell\": " << double(held.total()) / double(N)
        << ",\n  \"dem_rebuilds\": " << dem.stats().rebuilds << ",\n  \"ranks\": " << comm.size()
        << ",\n  \"output\": {\"snapshots\": " << snapshots << ", \"seconds\": " << output_secs
-       << ", \"background\": " << (bg ? "true" : "false") << ", \"stepping_seconds\": " << secs
+       << ", \"background\": " << (bg ? "true" : "false") << ", \"largest_host_buffer_values\": " << out_buffer
+       << ", \"largest_piece_cells\": " << piece_cells << ", \"stepping_seconds\": " << secs
        << ", \"fraction_of_stepping\": " << output_secs / std::max(secs, 1e-12)
        << ", \"checkpoints\": " << ck.checkpoints_written() << ", \"checkpoint_seconds\": " << checkpoint_secs
        << ", \"note\": \"wall time in snapshot output (device copies and, unless background, the HDF5 writes) and "
           "in checkpoint writes; stepping_seconds includes the snapshots and checkpoints taken inside the loop\"}";
     if (ranks) mj << ",\n  \"decomposition\": \"" << dfluid.decomposition().describe() << "\"";
+    mj << timing_json(cs, dfluid, comm, {packing_secs, distribution_secs, fluid_init_secs, first_map_secs}, secs,
+                      output_secs, snapshots, ppr_max, ppr_mean, ppr_step);
     mj << "\n}\n";
     js = js.substr(0, js.rfind("\n}")) + mj.str();
   }

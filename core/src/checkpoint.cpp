@@ -68,8 +68,13 @@ void record_in_manifest(const fs::path& dir, const std::string& name) {
 }
 
 // "<prefix>_<8 digits>.h5" -> the step; -1 for any other name.
-long output_step(const std::string& name) {
-  if (name.size() < 12 || name.compare(name.size() - 3, 3, ".h5") != 0) return -1;
+long output_step(const std::string& full) {
+  if (full.size() < 12 || full.compare(full.size() - 3, 3, ".h5") != 0) return -1;
+  // A rank's piece (core/piece_output.hpp), "<prefix>_<step>_r<rank>.h5": the step before the rank.
+  std::string name = full;
+  if (const std::size_t r = name.rfind("_r"); r != std::string::npos && r + 2 < name.size() - 3 &&
+                                              name.find_first_not_of("0123456789", r + 2) == name.size() - 3)
+    name = name.substr(0, r) + ".h5";
   const std::size_t us = name.rfind('_');
   if (us == std::string::npos || name.size() - 3 - (us + 1) < 8) return -1;
   long v = 0;

@@ -751,4 +751,11 @@ void prepare_output_dir(const std::string& dir, bool overwrite) {
   }
 }
 
+void record_output_file(const std::string& dir, const std::string& name) {
+  if (!plain_name(name)) throw Error("output file name '" + name + "' is not a plain file name");
+  record_in_manifest(fs::path(dir), name);
+}
+
+void replace_file_atomically(const std::string& path, const std::string& text) { write_atomically(path, text); }
+
 }  // namespace lbdem::io

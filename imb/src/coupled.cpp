@@ -40,6 +40,7 @@ CoupledSolver::CoupledSolver(lbm::LbmSolver& fluid, dem::DemSystem& dem, const C
     throw ConfigError("coupling: the DEM system was created without external forcing (DemParams.external_forcing)");
   dim_ = fluid_.setup().lattice == lbm::LatticeKind::D2Q9 ? 2 : 3;
   psm_ = std::make_unique<PsmCoupling>(fluid_, p_.slots);
+  clock_ = std::make_unique<PhaseClock>(fluid_.backend(), std::vector<std::string>(std::begin(kPhaseNames), std::end(kPhaseNames)));
   p_.psm.map.keep_overflow = true;
   // A body force on the fluid here is the balancing mean pressure gradient
   // (balancing_body_force): the particles take it on their share of each cell.
@@ -75,7 +76,9 @@ void CoupledSolver::map() {
   // The ghosts take their owners' current velocities first (the solid
   // velocity of their cells here); a no-op on one rank.
   if (ranks_.halo) dem_.sync_ghosts();
+  clock_->mark(3);
   psm_->map(particle_view(), p_.psm, false);
+  clock_->mark(4);
 }
 
 // The fluid side of the coupled step (the step itself: dem/coupled_loop.hpp).
@@ -88,19 +91,27 @@ void CoupledSolver::fluid_step(const dem::ParticleView& v) {
   out.fstride = out.tstride = 4;
   if (p_.buoyancy)
     for (int a = 0; a < 3; ++a) out.per_volume[static_cast<std::size_t>(a)] = -p_.fluid_density * p_.gravity[static_cast<std::size_t>(a)];
+  clock_->begin_step();
   if (!ranks_.halo) {
     psm_->step(particle_view(), p_.psm, out);  // no particles: the plain LBM kernel
+    clock_->mark(0);
     return;
   }
   // This rank's share of every particle it holds (owned first, then ghosts,
   // which share the arrays behind them); the buoyancy on the owned only.
   out.per_volume_count = v.n;
   psm_->step(particle_view(), p_.psm, out, *ranks_.halo);
+  clock_->mark(0);
   dem_.return_ghost_coupling();
+  clock_->mark(1);
 }
 
 // 3. Remap the particles (possibly reordered by a neighbour-list rebuild) to cells.
-void CoupledSolver::particles_moved(const dem::ParticleView&) { map(); }
+void CoupledSolver::particles_moved(const dem::ParticleView&) {
+  clock_->mark(2);  // the DEM sub-steps since the fluid step
+  map();
+  clock_->end_step();
+}
 
 // 4. The slot-overflow check every overflow_check_every steps.
 void CoupledSolver::after_step(long steps_done) {

@@ -55,6 +55,52 @@ void DistributedFluid::initialize(const std::vector<std::uint8_t>& flags, const 
   halo_->fill();
 }
 
+void DistributedFluid::initialize_uniform(const std::function<std::uint8_t(long, long, long)>& flag, double rho) {
+  // The rules of piece_fields (lbm/halo_exchange.hpp) for this rank's storage
+  // cells: images on split axes (wrapped where periodic), a ghost whose image
+  // is fluid is kGhostFlag, one beyond a walled end kGhostFlag at rest.
+  const Grid& whole = whole_.domain;
+  const Grid& piece = solver_->setup().domain;
+  const GridView gp = piece.view();
+  const auto n = static_cast<std::size_t>(gp.n);
+  std::vector<std::uint8_t> pf(n, halo_ ? kGhostFlag : 0);
+  std::vector<double> pr(n, rho), pu(3 * n, 0.0);
+  for (int z = 0; z < gp.nz; ++z)
+    for (int y = 0; y < gp.ny; ++y)
+      for (int x = 0; x < gp.nx; ++x) {
+        const int pc[3] = {x, y, z};
+        long w[3];
+        bool inside = true, ghost = false;
+        for (int a = 0; a < 3; ++a) {
+          const auto ua = static_cast<std::size_t>(a);
+          w[a] = pc[a] + piece.offset[ua] - piece.ghost_on(a);
+          if (pc[a] < piece.ghost_on(a) || pc[a] >= piece.ghost_on(a) + piece.local[ua]) ghost = true;
+          if (w[a] < 0 || w[a] >= whole.global[ua]) {
+            if (!whole.periodic[ua]) inside = false;
+            w[a] = (w[a] % whole.global[ua] + whole.global[ua]) % whole.global[ua];
+          }
+        }
+        if (!inside) continue;  // kGhostFlag at rest (rho 1 as piece_fields leaves it)
+        const std::uint8_t f = flag(w[0], w[1], w[2]);
+        pf[static_cast<std::size_t>(gp.index(x, y, z))] = ghost && f == 0 ? kGhostFlag : f;
+      }
+  if (halo_) {
+    // piece_fields leaves cells beyond a walled end at density 1.
+    for (int z = 0; z < gp.nz; ++z)
+      for (int y = 0; y < gp.ny; ++y)
+        for (int x = 0; x < gp.nx; ++x) {
+          const int pc[3] = {x, y, z};
+          for (int a = 0; a < 3; ++a) {
+            const auto ua = static_cast<std::size_t>(a);
+            const long w = pc[a] + piece.offset[ua] - piece.ghost_on(a);
+            if ((w < 0 || w >= whole.global[ua]) && !whole.periodic[ua]) pr[static_cast<std::size_t>(gp.index(x, y, z))] = 1.0;
+          }
+        }
+  }
+  solver_->initialize(pf, pr, pu);
+  if (halo_) halo_->fill();
+}
+
 void DistributedFluid::step(long n) {
   if (halo_) halo_->step(n);
   else solver_->step(n);
@@ -161,6 +207,15 @@ std::vector<double> DistributedFluid::gather_owned(const std::vector<double>& mi
                                                             static_cast<int>(z + q.offset[2])));
           for (std::size_t c = 0; c < nc; ++c) out[nc * wi + c] = v[k++];
         }
+  }
+  return out;
+}
+
+std::vector<io::PieceBox> DistributedFluid::piece_boxes() const {
+  std::vector<io::PieceBox> out(static_cast<std::size_t>(comm_.size()));
+  for (int r = 0; r < comm_.size(); ++r) {
+    const Grid q = halo_ ? dec_.piece(whole_.domain, r) : whole_.domain;
+    out[static_cast<std::size_t>(r)] = {q.offset, q.local};
   }
   return out;
 }

@@ -86,11 +86,16 @@ Result run_case(const std::string& name, const std::string& precision, int ranks
   fs::remove_all(dir);
   const std::string file = dir + ".yaml";
   std::ofstream(file) << (text.empty() ? yaml(precision) : text) << "output: {directory: " << dir << ", interval: " << kSteps
-                      << ", series_interval: 20}\n"
+                      << ", series_interval: 20, field_precision: fp64}\n"
                       << (dims.empty() ? "" : "parallel: {decomposition: " + dims + "}\n");
   // One OpenMP thread per rank (one rank: without mpirun): the runs share two cores.
   const std::string args = "run " + file + " --backend " + backend + " --quiet";
-  return test::run_on_ranks(ranks, args);
+  const Result r = test::run_on_ranks(ranks, args);
+  // Several ranks write their pieces (core/piece_output.hpp): joined here
+  // into the whole files the comparisons read.
+  if (r.code != 0 || ranks == 1) return r;
+  const Result j = test::run("join " + dir + " --all");
+  return j.code == 0 ? r : Result{j.code, r.out + j.out};
 }
 
 std::string tag(long step) {

@@ -59,7 +59,11 @@ Result run_ranks(const Case& c, int ranks, const std::string& outdir) {
                       << (ranks > 1 && !c.decomposition.empty() ? "parallel: {decomposition: " + c.decomposition + "}\n" : "");
   const std::string args = "run " + file + " --backend " + c.backend + " --quiet --steps " + std::to_string(c.steps);
   if (ranks == 1) return run(args);
-  return test::run_on_ranks(ranks, args);
+  const Result r = test::run_on_ranks(ranks, args);
+  // Several ranks write pieces (core/piece_output.hpp): joined into whole files here.
+  if (r.code != 0 || !fields) return r;
+  const Result j = run("join " + outdir + " --all");
+  return j.code == 0 ? r : Result{j.code, r.out + j.out};
 }
 
 class MpiRuns : public ::testing::TestWithParam<Case> {};

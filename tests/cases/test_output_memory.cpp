@@ -86,8 +86,8 @@ TEST(ParticleOutput, CheckPrintsMemoryByComponent) {
 
 TEST(ParticleOutput, BackgroundWritesTheSameFiles) {
   Dir d("bg");
-  const std::string fg = write_case(d.path, "fg.yaml", "interval: 3, background: false");
-  const std::string bg = write_case(d.path, "bg.yaml", "interval: 3, background: true");
+  const std::string fg = write_case(d.path, "fg.yaml", "interval: 3, background: false, field_precision: fp64");
+  const std::string bg = write_case(d.path, "bg.yaml", "interval: 3, background: true, field_precision: fp64");
   const std::string f32 = write_case(d.path, "f32.yaml", "interval: 3, field_precision: storage");
   for (const std::string& c : {fg, bg, f32}) {
     const auto r = lbdem::test::run("run '" + c + "' --quiet");

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "core/output.hpp"
+#include "core/piece_output.hpp"
 #include "dem/particles.hpp"
 
 namespace lbdem::cases {
@@ -28,6 +29,24 @@ inline void write_particle_snapshot(io::ParticleWriter& w, long step, double tim
                                         {"mass", 1, h.mass.data()}};
   fields.insert(fields.end(), extra.begin(), extra.end());
   w.write(step, time, h.size(), pos.data(), fields);
+}
+
+// This rank's piece of a particle snapshot (core/piece_output.hpp): the same
+// datasets as write_particle_snapshot for the particles `h` the rank owns.
+// Returns the (name, components) of every field, for the index.
+inline std::vector<std::pair<std::string, int>> write_particle_piece(io::PieceParticleWriter& w, long step, double time,
+                                                                     const dem::HostParticles& h,
+                                                                     const std::vector<io::ParticleField>& extra = {}) {
+  const std::vector<double> pos = interleave(h.x), vel = interleave(h.v), omg = interleave(h.w);
+  const std::vector<double> id(h.id.begin(), h.id.end());
+  std::vector<io::ParticleField> fields{{"radius", 1, h.r.data()},  {"velocity", 3, vel.data()},
+                                        {"angular_velocity", 3, omg.data()}, {"id", 1, id.data()},
+                                        {"mass", 1, h.mass.data()}};
+  fields.insert(fields.end(), extra.begin(), extra.end());
+  w.write_piece(step, time, h.size(), pos.data(), fields);
+  std::vector<std::pair<std::string, int>> names;
+  for (const auto& f : fields) names.emplace_back(f.name, f.components);
+  return names;
 }
 
 }  // namespace lbdem::cases

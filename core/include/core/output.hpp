@@ -150,6 +150,13 @@ class TimeSeries {
 // rename, after naming the file in the folder's manifest (summary.json, ...).
 void write_text_atomically(const std::string& path, const std::string& text);
 
+// Names `name` (a plain file name) in the manifest of `dir`, before the file
+// is created (writers outside this file: core/piece_output.hpp).
+void record_output_file(const std::string& dir, const std::string& name);
+// Replaces `path` with `text` through a temporary and a rename, without
+// naming it in the manifest (the caller recorded it once).
+void replace_file_atomically(const std::string& path, const std::string& text);
+
 // The run manifest of an output folder: file name and the names it lists
 // (empty when there is none). Names are plain file names in that folder.
 inline constexpr const char* kManifestName = ".lbdem_manifest";

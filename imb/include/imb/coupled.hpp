@@ -51,6 +51,7 @@
 #include <memory>
 #include <vector>
 
+#include "core/phase_clock.hpp"
 #include "dem/coupled_loop.hpp"
 #include "dem/particles.hpp"
 #include "dem/system.hpp"
@@ -142,6 +143,14 @@ class CoupledSolver : private dem::FluidCoupling {
   void save_state(ckpt::Sink& out) const { out.put<std::int64_t>(loop_.steps()); }
   void load_state(ckpt::Source& in);
 
+  // Wall time of the phases of the coupled step on this rank
+  // (core/phase_clock.hpp; on the device sampled every 16th step): the
+  // phases kPhaseNames, in the order a step runs them. DEM includes the
+  // particle migration and ghost rebuilds at neighbour-list rebuilds; the
+  // exposed halo communication is part of fluid_psm (lbm::FluidHalo::times).
+  static constexpr const char* kPhaseNames[] = {"fluid_psm", "force_reduction", "dem", "ghost_sync", "map"};
+  PhaseClock& phase_clock() { return *clock_; }
+
  private:
   // The fluid side of the coupled loop (dem/coupled_loop.hpp).
   void fluid_step(const dem::ParticleView& v) override;
@@ -155,6 +164,7 @@ class CoupledSolver : private dem::FluidCoupling {
   CoupledRanks ranks_;
   std::unique_ptr<PsmCoupling> psm_;
   int dim_;
+  std::unique_ptr<PhaseClock> clock_;
   dem::CoupledLoop loop_;
 };
 

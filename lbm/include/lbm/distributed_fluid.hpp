@@ -4,10 +4,12 @@
 // solver (no ghost layers, no exchange, the same bits as before). The
 // `parallel` section of a case file is read by halo/parallel_options.hpp.
 #include <array>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
 
+#include "core/piece_output.hpp"
 #include "halo/comm.hpp"
 #include "halo/decomposition.hpp"
 #include "halo/parallel_options.hpp"
@@ -24,6 +26,11 @@ class DistributedFluid {
   DistributedFluid(const LbmSetup& whole, Backend backend, const halo::ParallelOptions& po, const halo::Comm& comm);
   // Whole-grid fields (the same on every rank); each rank keeps its piece.
   void initialize(const std::vector<std::uint8_t>& flags, const std::vector<double>& rho, const std::vector<double>& u);
+  // The same state built on each rank for its piece alone (no whole-grid
+  // field anywhere): flag(x, y, z) gives the flag of a whole-grid cell
+  // (global coordinates inside the grid), every cell at rest at density rho.
+  // Bit for bit the state initialize() makes from the whole-grid fields.
+  void initialize_uniform(const std::function<std::uint8_t(long, long, long)>& flag, double rho);
   void step(long n);
   // Sums and extremes over all ranks; cells in whole-grid coordinates.
   LbmDiagnostics diagnostics();
@@ -34,6 +41,10 @@ class DistributedFluid {
   // 0 (cells nobody owns: `fill` (one value per component), else 0; empty on
   // the other ranks). Collective.
   std::vector<double> gather_owned(const std::vector<double>& mine, int comps, const std::vector<double>& fill = {});
+  // Every rank's owned box in whole-grid cells (index = rank): the pieces of
+  // the snapshot output (core/piece_output.hpp), known on every rank without
+  // any exchange.
+  std::vector<io::PieceBox> piece_boxes() const;
   void synchronize() { solver_->synchronize(); }
   std::size_t memory_bytes() const;  // all ranks
   LbmSolver& local() { return *solver_; }
