@@ -9,6 +9,8 @@
 //   lbdem_bench_psm suspension [--out FILE.json] [--n 256 | --dims X,Y,Z] [--phi 0.128] [--d 10] [--steps 200]
 //                   [--substeps N (default: fewest accepted)] [--tau 0.6] [--precision fp32|fp64|fp16s|fp16c] [--fraction exact|table|linear]
 //                   [--pipeline auto|fused|mapped] [--backend host|cuda]
+//   lbdem_bench_psm drift [--dims 64,252,64] [--steps 100000] [--every 5000] [--tau 1.2386] [--d 10] [--phi 0.128]
+//                   [--precision fp64] [--fraction table|exact] [--backend host|cuda]
 //
 // sweep: fixed sphere in a simple cubic array (the first paper's Table 1
 // test) for every combination; per row the drag coefficient K against
@@ -39,6 +41,7 @@
 #include "imb/fraction_table.hpp"
 #include <algorithm>
 #include <chrono>
+#include <random>
 
 using namespace lbdem;
 
@@ -431,6 +434,118 @@ int suspension(int argc, char** argv) {
   return 0;
 }
 
+// Mean fluid density and superficial velocity of a weight-balanced periodic
+// suspension over a long run (imb/psm.hpp, "Why NEBB keeps only the odd part
+// of Eq. 2"): the shipped 3D suspension's physics (first paper Table 2: d/l
+// 10, solid fraction 0.128, density ratio 692.3, g = 4.704e-7, random speeds
+// 5e-3; tau 1.2386, Lambda auto, the wall-rule weighting, NEBB, table
+// fractions) in a given box. One JSON line per sample: step, the mean fluid
+// density sum (1 - eps) rho / sum (1 - eps), the mean density (conserved) and
+// the superficial velocity sum (1 - eps) u / cells along -g. The drift is the
+// change of the fluid density from the sample at step `every` on.
+int drift(int argc, char** argv) {
+  std::string backend = "auto", prec = "fp64", fraction = "table";
+  std::array<long, 3> dims{64, 252, 64};  // the eighth box (cases/suspension/suspension_3d_eighth.yaml)
+  long steps = 100000, every = 5000;
+  double phi = 0.128, d = 10, tau = 1.2386;
+  for (int i = 2; i < argc; ++i) {
+    const std::string k = argv[i];
+    auto next = [&] { return option_value(argc, argv, i); };
+    if (k == "--dims") {
+      const std::string v = next();
+      if (std::sscanf(v.c_str(), "%ld,%ld,%ld", &dims[0], &dims[1], &dims[2]) != 3 || dims[0] < 1 || dims[1] < 1 || dims[2] < 1)
+        throw ConfigError("--dims " + v + ": give three positive cell counts X,Y,Z");
+    } else if (k == "--steps") steps = std::stol(next());
+    else if (k == "--every") every = std::max(1L, std::stol(next()));
+    else if (k == "--phi") phi = std::stod(next());
+    else if (k == "--d") d = std::stod(next());
+    else if (k == "--tau") tau = std::stod(next());
+    else if (k == "--precision") prec = next();
+    else if (k == "--fraction") fraction = next();
+    else if (k == "--backend") backend = next();
+    else throw ConfigError("unknown option " + k);
+  }
+  const Backend b = resolve_backend(backend);
+  lbm::LbmSetup s;
+  s.lattice = lbm::LatticeKind::D3Q19;
+  s.precision = lbm::precision_from_string(prec);
+  s.collision = lbm::CollisionKind::TRT;
+  s.tau = tau;
+  s.magic = imb::psm_magic_auto(d, tau);
+  s.domain.global = s.domain.local = {dims[0], dims[1], dims[2]};
+  dem::RandomPackingSpec rs;
+  rs.hi = {double(dims[0]), double(dims[1]), double(dims[2])};
+  rs.solid_fraction = phi;
+  rs.r_min = rs.r_max = 0.5 * d;
+  rs.density = 692.3;
+  rs.seed = 1;
+  dem::HostParticles hp = dem::random_packing(rs);
+  std::mt19937_64 rng(1);
+  std::uniform_real_distribution<double> U(-1.0, 1.0);
+  for (auto& v : hp.v) {  // random directions, speed 5e-3 (the shipped case's random_speed)
+    Vec3d e{U(rng), U(rng), U(rng)};
+    const double n = std::sqrt(dot(e, e));
+    v = (5e-3 / std::max(n, 1e-12)) * e;
+  }
+  const std::array<double, 3> g{0, -4.704e-7, 0};
+  const auto N = static_cast<std::size_t>(dims[0] * dims[1] * dims[2]);
+  s.body_force = imb::balancing_body_force(hp, 3, g, 1.0, double(N));
+  auto fl = lbm::make_lbm_solver(s, b);
+  fl->initialize(std::vector<std::uint8_t>(N, 0), std::vector<double>(N, 1.0), std::vector<double>(3 * N, 0.0));
+  dem::DemParams dp;
+  dp.lo = {0, 0, 0};
+  dp.hi = {double(dims[0]), double(dims[1]), double(dims[2])};
+  dp.periodic = {true, true, true};
+  dp.material.stiffness = 17892;
+  dp.material.restitution = 0.9;
+  dp.gravity = {g[0], g[1], g[2]};
+  dp.external_forcing = true;
+  dp.friction = true;
+  dp.skin = 0.1 * d;
+  imb::CoupledParams cp;
+  cp.gravity = g;
+  cp.dem_substeps = 10;
+  dp.dt = 1.0 / cp.dem_substeps;
+  cp.psm.weight = imb::PsmWeight::NobleTorczynskiWall;
+  cp.psm.variant = imb::PsmVariant::NEBB;
+  cp.psm.map.method = fraction == "exact" ? imb::FractionMethod::Exact : imb::FractionMethod::Table;
+  imb::FractionTable table;
+  if (cp.psm.map.method == imb::FractionMethod::Table) {
+    table = imb::build_fraction_table(3);
+    cp.psm.map.table = &table;
+  }
+  cp.psm.map.max_radius = 0.5 * d;
+  imb::check_coupled_setup(s, dp, hp, cp);
+  dem::DemSystem dem(Exec(b), dp, hp);
+  imb::CoupledSolver cs(*fl, dem, cp);
+  std::printf("{\"mode\": \"drift\", \"device\": \"%s\", \"dims\": [%ld, %ld, %ld], \"particles\": %ld, \"d\": %g, "
+              "\"tau\": %.6g, \"magic\": %.6g, \"precision\": \"%s\", \"fraction\": \"%s\", \"pipeline\": \"%s\"}\n",
+              bench::device_name(b).c_str(), dims[0], dims[1], dims[2], static_cast<long>(hp.size()), d, tau, s.magic,
+              prec.c_str(), fraction.c_str(), imb::to_string(cs.coupling().pipeline()));
+  double first = 0;
+  const double t0 = wall();
+  for (long n = 0; n <= steps; n += every) {
+    if (n > 0) cs.advance(every);
+    std::vector<double> rho, u;
+    fl->macroscopic(rho, u);
+    const auto eps = cs.solid_fraction_host();
+    double fm = 0, fv = 0, m = 0, us = 0;
+    for (std::size_t c = 0; c < N; ++c) {
+      const double w = 1.0 - std::min(1.0, eps[c]);
+      fm += w * rho[c];
+      fv += w;
+      m += rho[c];
+      us += w * u[3 * c + 1];
+    }
+    if (n == every) first = fm / fv;  // after the start-up (the pressure field forms in the first steps)
+    std::printf("{\"step\": %ld, \"fluid_rho\": %.15f, \"drift\": %.3e, \"mean_rho\": %.15f, \"superficial_u\": %.6e, "
+                "\"seconds\": %.1f}\n",
+                n, fm / fv, n >= every ? fm / fv - first : 0.0, m / double(N), -us / double(N), wall() - t0);
+    std::fflush(stdout);
+  }
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -438,8 +553,9 @@ int main(int argc, char** argv) {
     const std::string mode = argc > 1 ? argv[1] : "sweep";
     if (mode == "sweep") return sweep(argc, argv);
     if (mode == "suspension") return suspension(argc, argv);
+    if (mode == "drift") return drift(argc, argv);
     if (mode == "wall") return plane_wall(argc, argv);
-    std::fprintf(stderr, "usage: lbdem_bench_psm sweep|suspension [options]\n");
+    std::fprintf(stderr, "usage: lbdem_bench_psm sweep|suspension|wall|drift [options]\n");
     return 2;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "error: %s\n", e.what());

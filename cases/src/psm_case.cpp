@@ -59,6 +59,7 @@
 #include "imb/coupled_checks.hpp"
 #include "imb/drag_error.hpp"
 #include "imb/fraction_table.hpp"
+#include "imb/psm_settings.hpp"
 #include "lbm/storage_checks.hpp"
 
 namespace lbdem {
@@ -172,6 +173,26 @@ imb::DragErrorQuery drag_query(double d, double tau, lbm::CollisionKind coll, do
   return q;
 }
 
+// Every resolved PSM setting, where the rule's parameters came from (the case
+// file or the rule) and the warnings for a combination the default rule does
+// not cover (imb/psm_settings.hpp), told at `lbdem check` and at the start of
+// a run (rank 0).
+imb::PsmSettings psm_settings(const Config& root, const imb::DragErrorQuery& q, const char* pipeline,
+                              lbm::Precision prec, bool tell) {
+  imb::PsmSettingsInput in;
+  in.q = q;
+  const Config f = root.section("fluid");
+  in.magic_from_file = f.has("magic") && f.text("magic") != "auto";
+  const auto ps = root.optional_section("psm");
+  in.weight_from_file = ps && ps->has("weight");
+  in.pipeline = pipeline;
+  in.precision = lbm::to_string(prec);
+  auto r = imb::resolve_psm_settings(in);
+  for (const auto& w : r.warnings)
+    if (tell) spdlog::warn("{}: {}", root.source(), w);
+  return r;
+}
+
 // ------------------------------------------------------------ fixed sphere
 int run_fixed_sphere_case(const Config& root, const RunOptions& opt) {
   require_lattice_units(root);
@@ -224,6 +245,10 @@ int run_fixed_sphere_case(const Config& root, const RunOptions& opt) {
   }
   if (s.dim == 3) report_expected_drag_error(drag_query(s.diameter, s.tau, s.collision, s.magic, po, s.precision),
                                              max_drag_error, opt);
+  const auto psm = psm_settings(root, drag_query(s.diameter, s.tau, s.collision, s.magic, po, s.precision),
+                                imb::to_string(s.pipeline == imb::PsmPipeline::Fused ? imb::PsmPipeline::Fused
+                                                                                     : imb::PsmPipeline::Mapped),
+                                s.precision, halo::Comm::world().root());
   const Backend backend = resolve_backend(opt.backend);
   const halo::Comm& comm = halo::Comm::world();
   s.comm = &comm;
@@ -253,7 +278,8 @@ int run_fixed_sphere_case(const Config& root, const RunOptions& opt) {
      << ",\n  \"K\": " << r.K << ",\n  \"K_reference\": " << r.K_ref << ",\n  \"relative_error\": " << r.rel_error
      << ",\n  \"re_p\": " << r.re_p << ",\n  \"steps\": " << r.steps << ",\n  \"converged\": "
      << (r.converged ? "true" : "false") << ",\n  \"seconds\": " << r.seconds << ",\n  \"mlups\": " << r.mlups
-     << ",\n  \"interrupted\": " << (r.interrupted ? "true" : "false") << ",\n  \"ranks\": " << comm.size() << "\n}\n";
+     << ",\n  \"interrupted\": " << (r.interrupted ? "true" : "false") << ",\n  \"ranks\": " << comm.size()
+     << ",\n  \"psm\": " << imb::psm_settings_json(psm) << "\n}\n";
   if (comm.root()) io::write_text_atomically(outdir + "/summary.json", js.str());
   if (r.interrupted) {
     spdlog::warn("stopped by {} at step {} before the drag converged; K so far in {}/summary.json", stop_signal_name(),
@@ -296,6 +322,7 @@ struct ParticlesCase {
   ckpt::Policy checkpoint;
   double max_drag_error = kMaxDragErrorBar;
   halo::ParallelOptions parallel;  // mpirun: how the grid (and with it the particles) is cut
+  imb::PsmSettings psm;            // every resolved PSM setting (summary.json "psm")
 };
 
 // The particle scene in SI units (units: physical): the keys whose meaning
@@ -720,6 +747,7 @@ std::string particles_summary(const ParticlesCase& c, const cases::ParticleSerie
        << ", \"relative_error\": " << (w - ref) / ref << ", \"re_p\": " << w * c.diameter / ((c.setup.tau - 0.5) / 3.0)
        << "}";
   }
+  js << ",\n  \"psm\": " << imb::psm_settings_json(c.psm);
   js << "\n}\n";
   return js.str();
 }
@@ -872,6 +900,9 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
     report_expected_drag_error(drag_query(2 * c.particles.r[0], c.setup.tau, c.setup.collision, c.setup.magic,
                                           c.coupling.psm, c.setup.precision),
                                c.max_drag_error, opt);
+  c.psm = psm_settings(root, drag_query(c.diameter, c.setup.tau, c.setup.collision, c.setup.magic,
+                                        c.coupling.psm, c.setup.precision),
+                       imb::to_string(imb::resolve_pipeline(c.coupling.psm, c.coupling.slots)), c.setup.precision, writer);
   const Backend backend = resolve_backend(opt.backend);
   const MemoryUse planned = cases::coupled_memory(c.setup, c.coupling, static_cast<double>(c.particles.size()), backend);
   const double cells = static_cast<double>(c.setup.domain.global_cells());

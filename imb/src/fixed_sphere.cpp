@@ -248,8 +248,23 @@ FixedSphereResult run_fixed_sphere(const FixedSphereSpec& c, Backend b) {
       const double r = std::min(delta / prev_delta, 0.999);
       const double remaining = delta * std::max(1.0, r / (1.0 - r));
       remaining_rel = remaining / std::abs(F);
-      if (!c.quiet)
+      if (!c.quiet) {
         std::fprintf(stderr, "  step %ld: F = %.9e, ratio %.4f, remaining ~ %.2e\n", step, F, r, remaining_rel);
+        {
+          std::vector<double> rr, uu;
+          solver->macroscopic(rr, uu);
+          const auto ee = coupling.slots().total_eps_host();
+          double fm = 0, fv = 0, sm = 0, sv = 0, pm = 0, pv = 0, tot = 0, us = 0, jx = 0;
+          for (std::size_t i = 0; i < Ns; ++i) {
+            if (!owned[i]) continue;
+            const double e = std::min(1.0, ee[i]);
+            fm += (1 - e) * rr[i]; fv += 1 - e; tot += rr[i]; us += (1 - e) * uu[3 * i]; jx += rr[i] * uu[3 * i];
+            if (e >= 1) { sm += rr[i]; sv += 1; } else if (e > 0) { pm += rr[i]; pv += 1; }
+          }
+          std::fprintf(stderr, "  diag %ld: fluid_rho %.9f solid_rho %.6f partial_rho %.6f mean_rho %.12f usup %.6e j %.6e\n",
+                       step, fm / fv, sv > 0 ? sm / sv : 0.0, pv > 0 ? pm / pv : 0.0, tot / N, us / N, jx / N);
+        }
+      }
       if (remaining < c.tolerance * std::abs(F)) {
         converged = true;
         break;
@@ -271,7 +286,7 @@ FixedSphereResult run_fixed_sphere(const FixedSphereSpec& c, Backend b) {
   std::vector<double> rho, u;
   solver->macroscopic(rho, u);
   const auto eps = coupling.slots().total_eps_host();
-  double usum = 0, fluid_weight = 0, flux = 0;
+  double usum = 0, fluid_weight = 0, flux = 0, fluid_mass = 0, fluid_vol = 0, mass = 0;
   for (std::size_t i = 0; i < Ns; ++i) {
     if (!owned[i]) continue;
     const double e = std::min(1.0, eps[i]);
@@ -279,11 +294,16 @@ FixedSphereResult run_fixed_sphere(const FixedSphereSpec& c, Backend b) {
     flux += rho[i] * u[3 * i];
     const double B = imb::psm_weight(e, imb::psm_weight_t(c.tau, c.weight), c.weight);
     fluid_weight += 1.0 - B;
+    fluid_mass += (1.0 - e) * rho[i];
+    fluid_vol += 1.0 - e;
+    mass += rho[i];
   }
-  const auto sums = global_sum({usum, flux, fluid_weight});
+  const auto sums = global_sum({usum, flux, fluid_weight, fluid_mass, fluid_vol, mass});
   usum = sums[0] / spheres;  // per period
   flux = sums[1] / spheres;
   fluid_weight = sums[2] / spheres;
+  r.fluid_rho = sums[3] / sums[4];
+  r.mean_rho = sums[5] / N;
   r.mean_u = usum / V;
   r.mean_flux = flux / V;
   r.exchange = F;

@@ -95,6 +95,8 @@ struct FixedSphereResult {
   double balance = 0;        // force the fluid received from the body force (steady: = exchange)
   double mean_u = 0;         // superficial velocity (solid included, lattice units)
   double mean_flux = 0;      // mean momentum density over every cell (diagnostic)
+  double fluid_rho = 0;      // mean density of the fluid: sum (1 - eps) rho / sum (1 - eps)
+  double mean_rho = 0;       // mean density over every cell (solid included; conserved)
   double re_p = 0;
   double body_force = 0;
   long steps = 0;

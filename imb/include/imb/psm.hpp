@@ -7,7 +7,8 @@
 //   f_q* = f_q - (1 - B) [omega+ (f+_q - eq+_q) + omega- (f-_q - eq-_q)]      (TRT; BGK: omega+ = omega-)
 //          + sum_k B_k Omega^S_{q,k} + (1 - B) S_q,
 // with the solid operator either
-//   NEBB (paper Eq. 2):  Omega^S_q = f_qbar - f_q + f^eq_q(rho, V_k) - f^eq_qbar(rho, u), or
+//   NEBB:                Omega^S_q = f_qbar - f_q + 3 w_q rho c_q.(V_k + u)  (the odd part of paper
+//                        Eq. 2, f_qbar - f_q + f^eq_q(rho, V_k) - f^eq_qbar(rho, u); see below), or
 //   superposition:       Omega^S_q = f^eq_q(rho, V_k) - f^eq_q(rho, u) - Omega^F_q (Holdych et al. 2003:
 //                        f^eq(V) - f + (1 - 1/tau)(f - f^eq(u)); Omega^F the fluid collision term), so
 //                        that f* = f^post + B (f^eq(V) - f^eq(u)),
@@ -19,6 +20,24 @@
 // mean pressure gradient, PsmOptions::body_force_on_solid), torque
 // (x_cell - x_k) x F_k. Forces are written per (slot, cell) and then
 // gathered per particle (deterministic: no atomics).
+//
+// Why NEBB keeps only the odd part of Eq. 2. With f^eq = w rho (1 + 3 c.u +
+// P_q(u)), P_q(u) = 4.5 (c.u)^2 - 1.5 u^2 (even in c), Eq. 2 is
+//   Omega^S_q = f_qbar - f_q + 3 w rho c.(V + u) + w rho (P_q(V) - P_q(u)).
+// The last term carries no mass and no momentum (sum_q w P_q = 0, sum_q w c P_q
+// = 0): it only adds rho (V V - u u) to the momentum flux, i.e. to the even
+// populations, every step. Nothing relaxes the even populations in a covered
+// cell but the fluid collision, weighted by 1 - B, so there this stress
+// accumulates as B / ((1 - B) omega+) times the source, without bound where
+// B -> 1. And u != V in a covered cell at rest under a body force: u is shifted
+// by F / 2 (Guo) while the solid term returns the momentum rho V + F / 2, so
+// u = V + F / rho at steady state. The stress rho (V V - u u) ~ -(V F + F V +
+// F F / rho) then builds up inside the particle and its divergence at the
+// surface moves fluid mass into the covered cells (a drift ~ F^2 at rest,
+// hardly depending on Lambda; bench/imb/NOTES.md, "Mass drift into covered
+// cells"). Dropping the even part leaves the force (and so the torque), the
+// mass and the momentum of every step exactly as Eq. 2 gives them and
+// removes the source; a steady drag moves only at O(Re).
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -213,9 +232,12 @@ struct PsmSolidUpdate {
   template <class Src>
   LBDEM_HD LBDEM_FORCEINLINE void rest(R& f0, const lbm::TrtTerms<R>& t, const lbm::CellMoments<R>& m,
                                        const Src& src) const {
-    const R fw = fluid_weight(), trM2 = trace15();
-    const R seq0 = t.w * (B * m.d - m.rho * trM2);  // sum_k B_k f^eq_0(V_k)
-    const R solid = V == PsmVariant::NEBB ? seq0 - B * t.eqp : seq0 - B * (t.eqp + t.dp);
+    const R fw = fluid_weight();
+    R solid = 0;  // NEBB: the rest direction has no odd part (formulas at the top)
+    if constexpr (V == PsmVariant::Superposition) {
+      const R seq0 = t.w * (B * m.d - m.rho * trace15());  // sum_k B_k f^eq_0(V_k)
+      solid = seq0 - B * (t.eqp + t.dp);
+    }
     R r = f0 - fw * t.dp;
     if constexpr (Force) {
       R Sp, Sm;
@@ -230,20 +252,23 @@ struct PsmSolidUpdate {
                                        const Src& src) const {
     R Sp = 0, Sm = 0;
     if constexpr (Force) src(Sp, Sm);
-    // f^eq_q and f^eq_qb as w (even +- 3 rho c.u): the same as eqp +- eqm up to
-    // round-off, and in this form the PSM kernels need fewer registers.
-    const R eq_q = t.w * (t.even + R(3) * m.rho * t.cu), eq_qb = t.w * (t.even - R(3) * m.rho * t.cu);
-    // sum_k B_k f^eq(V_k) for q and qb.
     const R cM1 = lbm::cdot<L>(q, M1);
-    const R cM2c = cM2<L>(q, M2);
-    const R fw = fluid_weight(), trM2 = trace15();
-    const R seven = B * m.d + m.rho * (R(4.5) * cM2c - trM2);
-    const R seq_q = t.w * (seven + R(3) * m.rho * cM1), seq_qb = t.w * (seven - R(3) * m.rho * cM1);
+    const R fw = fluid_weight();
     R solid_q, solid_qb;
-    if constexpr (V == PsmVariant::NEBB) {  // Omega_q = f_qb - f_q + f^eq_q(V) - f^eq_qb(u)
-      solid_q = B * (fqb - fq - eq_qb) + seq_q;
-      solid_qb = B * (fq - fqb - eq_q) + seq_qb;
+    if constexpr (V == PsmVariant::NEBB) {
+      // Omega_q = f_qb - f_q + 3 w rho c_q.(V + u), summed over the slots:
+      // B (f_qb - f_q) + 3 w rho (c.M1 + B c.u) (the odd part of
+      // f^eq_q(V) - f^eq_qb(u); formulas at the top).
+      const R odd = R(3) * t.w * m.rho * (cM1 + B * t.cu);
+      solid_q = B * (fqb - fq) + odd;
+      solid_qb = B * (fq - fqb) - odd;
     } else {  // Omega_q = f^eq_q(V) - f^eq_q(u) - (f_q - f^post_q)
+      // f^eq_q and f^eq_qb as w (even +- 3 rho c.u): the same as eqp +- eqm up to
+      // round-off, and in this form the PSM kernels need fewer registers.
+      const R eq_q = t.w * (t.even + R(3) * m.rho * t.cu), eq_qb = t.w * (t.even - R(3) * m.rho * t.cu);
+      // sum_k B_k f^eq(V_k) for q and qb.
+      const R seven = B * m.d + m.rho * (R(4.5) * cM2<L>(q, M2) - trace15());
+      const R seq_q = t.w * (seven + R(3) * m.rho * cM1), seq_qb = t.w * (seven - R(3) * m.rho * cM1);
       solid_q = seq_q - B * (eq_q + t.dp + t.dm);
       solid_qb = seq_qb - B * (eq_qb + t.dp - t.dm);
     }
