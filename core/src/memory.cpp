@@ -60,6 +60,13 @@ void backend_copy_from_host(Backend b, void* dst, const void* src, std::size_t b
   if (b == Backend::Cuda) {
 #if defined(LBDEM_HAVE_CUDA)
     LBDEM_CUDA_CHECK(cudaMemcpy(dst, src, bytes, cudaMemcpyHostToDevice));
+    // From pageable host memory cudaMemcpy returns once the bytes are staged;
+    // the transfer to the device may still be queued on the legacy default
+    // stream, which work on a non-blocking stream (the Edge lane,
+    // core/exec.cpp) does not wait for. Waiting here makes the copy done on
+    // return, as declared; it costs the transfer's own time only (cudaMemcpy
+    // has already waited for the earlier work on that stream).
+    LBDEM_CUDA_CHECK(cudaStreamSynchronize(nullptr));
     return;
 #endif
   }
