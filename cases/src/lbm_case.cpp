@@ -479,6 +479,12 @@ int run_parsed(LbmCase& c, const RunOptions& opt) {
   // Shorter solver->step() calls give the same steps as one longer call.
   bool stop = false;
   halo::StopPoll poll(comm);
+  // The rank of a cell the watchdog names (every rank stops at the same
+  // step: the diagnostics are collective).
+  auto on_rank = [&comm](int r) {
+    return comm.distributed() && r >= 0 ? " on rank " + std::to_string(r) + " of " + std::to_string(comm.size())
+                                        : std::string();
+  };
   while (step < c.steps && !stop) {
     long next = std::min(c.steps, (step / c.diag_interval + 1) * c.diag_interval);
     if (c.out_interval > 0) next = std::min(next, (step / c.out_interval + 1) * c.out_interval);
@@ -504,14 +510,15 @@ int run_parsed(LbmCase& c, const RunOptions& opt) {
         throw DivergenceError("diverged at step " + std::to_string(step) + " (t = " + std::to_string(step * U.dt) +
                               " s): non-finite density or velocity at cell (" +
                               std::to_string(d.nonfinite_cell[0]) + ", " + std::to_string(d.nonfinite_cell[1]) + ", " +
-                              std::to_string(d.nonfinite_cell[2]) + "). Output up to the last good step is kept in " +
+                              std::to_string(d.nonfinite_cell[2]) + ")" + on_rank(fluid.nonfinite_rank()) +
+                              ". Output up to the last good step is kept in " +
                               c.outdir + ". Lower the Mach number (smaller tau/dt), raise tau, or use collision.model: trt");
       }
       if (ma > c.max_mach) {
         throw DivergenceError("stopped at step " + std::to_string(step) + ": lattice Mach number " + std::to_string(ma) +
                               " (|u| = " + std::to_string(vmax) + " m/s) at cell (" + std::to_string(d.max_speed_cell[0]) +
                               ", " + std::to_string(d.max_speed_cell[1]) + ", " + std::to_string(d.max_speed_cell[2]) +
-                              ") exceeds diagnostics.max_mach = " + std::to_string(c.max_mach) +
+                              ")" + on_rank(fluid.max_speed_rank()) + " exceeds diagnostics.max_mach = " + std::to_string(c.max_mach) +
                               ". Output up to the last good step is kept in " + c.outdir +
                               ". Any one of: lower the driving (the scene's velocity or body_acceleration); a "
                               "smaller time step (collision.tau or time.dt); a finer grid (domain.spacing, with "

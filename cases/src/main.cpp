@@ -1,9 +1,12 @@
 // The `lbdem` command.
 //   lbdem run CASE.yaml [--backend cuda|cpu|auto] [--steps N] [--output DIR] [--overwrite] [--force] [--quiet]
 //                      [--memory SIZE] [--restart RUN_DIR|CHECKPOINT]
-//   lbdem check CASE.yaml [--memory SIZE]   validate a case file without running it
-//                              (SIZE: check the memory against a machine with
-//                              that much free memory, device and host, e.g. 80GiB)
+//   lbdem check CASE.yaml [--memory SIZE] [--output DIR] [--overwrite] [--force]
+//                              validate a case file without running it: what
+//                              run would refuse, the output folder included
+//                              (read only) (SIZE: check the memory against a
+//                              machine with that much free memory, device and
+//                              host, e.g. 80GiB, whatever is free here)
 //   lbdem info                 build, backends, devices
 //   lbdem join RUN_DIR [--step N | --all]   join a run's snapshot pieces into
 //                              whole files (core/piece_output.hpp); default: the last step
@@ -26,6 +29,7 @@
 #include "core/buffer.hpp"
 #include "core/checkpoint.hpp"
 #include "core/exec.hpp"
+#include "core/output.hpp"
 #include "core/piece_output.hpp"
 #include "core/signals.hpp"
 #include "halo/comm.hpp"
@@ -105,6 +109,10 @@ int main(int argc, char** argv) {
   auto* check = app.add_subcommand("check", "validate a case file without running it");
   check->add_option("case", case_file, "case file (YAML)")->required();
   check->add_flag("--force", opt.force, "accept a run planned to take more than a year (as run --force)");
+  check->add_flag("--overwrite", opt.overwrite,
+                  "accept an output folder holding an earlier run's results (as run --overwrite)");
+  auto* check_output_opt =
+      check->add_option("--output", output, "output folder to check (overrides output.directory, as run --output)");
   check->add_option("--memory", memory,
                     "check the memory against a machine with this much free memory (device and host), e.g. 80GiB "
                     "for a case meant for another machine");
@@ -180,13 +188,17 @@ int main(int argc, char** argv) {
     }
     // An empty --output "" (an unset shell variable, say) is a mistake, not a
     // request for the case file's folder.
-    if (output_opt->count() > 0 && output.empty())
+    if ((output_opt->count() > 0 || check_output_opt->count() > 0) && output.empty())
       throw ConfigError("--output was given an empty folder name; give a folder, or leave --output out to use the case "
                         "file's output.directory");
-    if (!memory.empty()) set_memory_limit(parse_memory_size(memory));
+    // run: use at most SIZE; check: answer for a machine with SIZE free.
+    if (!memory.empty()) {
+      if (*check) set_memory_assumed(parse_memory_size(memory));
+      else set_memory_limit(parse_memory_size(memory));
+    }
     const Config cfg = Config::load_file(case_file);
     if (steps > 0) opt.steps = steps;
-    if (output_opt->count() > 0) opt.output = output;
+    if (output_opt->count() > 0 || check_output_opt->count() > 0) opt.output = output;
     if (restart_opt->count() > 0) {
       // The run goes on in the checkpoint's folder (--output, if given, must name it).
       opt.restart = ckpt::resolve(restart);
@@ -205,6 +217,13 @@ int main(int argc, char** argv) {
       opt.quiet = true;
       opt.validate_only = true;
       run_case(cfg, opt);
+      // The output folder as run would take it (read only: nothing is created).
+      std::string outdir = opt.output.value_or("");
+      if (!opt.output) {
+        const auto o = cfg.optional_section("output");
+        outdir = o && o->has("directory") ? o->text("directory") : "runs/" + cfg.text("scene");
+      }
+      io::check_output_dir(outdir, opt.overwrite);
       std::printf("%s: scene '%s' ok\n", case_file.c_str(), cfg.text("scene").c_str());
       return 0;
     }

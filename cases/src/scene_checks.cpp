@@ -7,6 +7,9 @@
 #include <map>
 
 #include "core/buffer.hpp"
+#include "halo/comm.hpp"
+#include "halo/decomposition.hpp"
+#include "halo/parallel_options.hpp"
 #include "imb/coupled.hpp"
 #include "imb/coupled_checks.hpp"
 
@@ -339,28 +342,65 @@ std::string memory_table(const MemoryUse& m, double cells) {
   return out;
 }
 
+// The fluid one rank holds: under mpirun on N ranks the largest piece of
+// the decomposition the run will use (ghost layers included), else the whole
+// grid. (`lbdem check` runs as one process: the whole grid.)
+lbm::LbmSetup rank_fluid(const Config& root, const lbm::LbmSetup& whole) {
+  const int ranks = halo::Comm::world().size();
+  if (ranks <= 1) return whole;
+  const halo::ParallelOptions po = halo::parse_parallel(root);
+  const halo::Decomposition dec = halo::decompose(whole.domain, ranks, po.decomposition, "parallel.decomposition");
+  lbm::LbmSetup largest = whole;
+  Index most = -1;
+  for (int r = 0; r < ranks; ++r) {
+    const Grid p = dec.piece(whole.domain, r);
+    if (p.storage_cells() > most) {
+      most = p.storage_cells();
+      largest.domain = p;
+    }
+  }
+  return largest;
+}
+
+// Device bytes of the grid on one rank (rank_fluid) and the way out of a
+// refusal ("precision: fp32" only where it is not already so).
+double rank_grid_bytes(const Config& root, const lbm::LbmSetup& fluid) {
+  const lbm::LbmSetup mine = rank_fluid(root, fluid);
+  return lbm_grid_bytes(mine, static_cast<double>(mine.domain.storage_cells()));
+}
+std::string or_fp32(const lbm::LbmSetup& fluid) {
+  return fluid.precision == lbm::Precision::FP64 ? ", or precision: fp32" : "";
+}
+
 void check_coupled_memory(const Config& root, const lbm::LbmSetup& fluid, const imb::CoupledParams& cp,
                           double particles, const RunOptions& opt) {
   double cells = 1;
   for (int a = 0; a < 3; ++a) cells *= static_cast<double>(fluid.domain.global[static_cast<std::size_t>(a)]);
+  // The device holds this rank's piece; the host set-up builds whole-grid
+  // fields (flags, rho, u) on every rank, and every rank reads every particle.
+  const lbm::LbmSetup mine = rank_fluid(root, fluid);
+  const double piece_cells = static_cast<double>(mine.domain.storage_cells());
   const Backend b = planned_backend(opt);
   // Absurd sizes first, in double (the exact sum below is in 64-bit integers).
-  check_memory(root, b, lbm_grid_bytes(fluid, cells) + particles * kDemDeviceBytesPerParticle,
+  check_memory(root, b, lbm_grid_bytes(mine, piece_cells) + particles * kDemDeviceBytesPerParticle,
                cells * (1 + 4 * sizeof(double)) + particles * kDemHostBytesPerParticle, "domain.cells, particles",
                "the grid of " + num(cells) + " cells with " + num(particles) + " particles",
-               "use fewer cells or particles, or precision: fp32");
-  const MemoryUse m = coupled_memory(fluid, cp, particles, b);
+               "use fewer cells or particles" + or_fp32(fluid));
+  const MemoryUse m = coupled_memory(mine, cp, particles, b);
   std::vector<MemoryItem> big = m.items;
   std::sort(big.begin(), big.end(), [](const MemoryItem& x, const MemoryItem& y) { return x.bytes > y.bytes; });
   std::string parts;
   for (std::size_t i = 0; i < big.size() && i < 3; ++i)
-    parts += (i ? ", " : "") + big[i].name + " " + num(static_cast<double>(big[i].bytes) / cells) + " B/cell";
+    parts += (i ? ", " : "") + big[i].name + " " + num(static_cast<double>(big[i].bytes) / piece_cells) + " B/cell";
   // Host: the set-up fields of initialize() (flag byte, rho, u per cell) and the particles' host copies.
   check_memory(root, b, static_cast<double>(m.total()),
                cells * (1 + 4 * sizeof(double)) + particles * kDemHostBytesPerParticle, "domain.cells, particles",
                "the grid of " + num(cells) + " cells with " + num(particles) + " particles (" +
-                   num(static_cast<double>(m.total()) / cells) + " B/cell: " + parts + ")",
-               "use fewer cells or particles, or precision: fp32");
+                   num(static_cast<double>(m.total()) / piece_cells) + " B/cell: " + parts + ")" +
+                   (mine.domain.storage_cells() < fluid.domain.storage_cells()
+                        ? " on each of " + std::to_string(halo::Comm::world().size()) + " ranks"
+                        : std::string()),
+               "use fewer cells or particles" + or_fp32(fluid));
 }
 
 void check_memory(const Config& root, Backend b, double device_bytes, double host_bytes, const std::string& key,
@@ -538,13 +578,13 @@ void check_fixed_sphere(const Config& root, int dim, double diameter, double chi
 void check_particles_memory(const Config& root, const lbm::LbmSetup& fluid, double particles, const RunOptions& opt) {
   double cells = 1;
   for (int a = 0; a < 3; ++a) cells *= static_cast<double>(fluid.domain.global[static_cast<std::size_t>(a)]);
-  const double dev = lbm_grid_bytes(fluid, cells) + particles * kDemDeviceBytesPerParticle;
+  const double dev = rank_grid_bytes(root, fluid) + particles * kDemDeviceBytesPerParticle;
   // Host: the set-up fields of initialize() (flags, rho, u), the particles' host copies.
   const double host = cells * (1 + 4 * sizeof(double)) + particles * kDemHostBytesPerParticle;
   check_memory(root, planned_backend(opt), dev, host, particles > 0 ? "domain.cells, particles.solid_fraction" : "domain.cells",
                "the grid of " + num(cells) + " cells" + (particles > 0 ? " with about " + num(particles) + " particles" : ""),
                "use fewer cells" + std::string(particles > 0 ? ", a lower solid fraction or larger particles" : "") +
-                   ", or precision: fp32");
+                   or_fp32(fluid));
 }
 
 void check_particles_scene(const Config& root, const lbm::LbmSetup& fluid, const dem::DemParams& dem,
@@ -579,10 +619,10 @@ void check_particles_scene(const Config& root, const lbm::LbmSetup& fluid, const
   double cells = 1;
   for (int a = 0; a < 3; ++a) cells *= static_cast<double>(fluid.domain.global[static_cast<std::size_t>(a)]);
   const double n = static_cast<double>(p.x.size());
-  check_memory(root, planned_backend(opt), lbm_grid_bytes(fluid, cells) + n * kDemDeviceBytesPerParticle,
+  check_memory(root, planned_backend(opt), rank_grid_bytes(root, fluid) + n * kDemDeviceBytesPerParticle,
                cells * (1 + 4 * sizeof(double)) + n * kDemHostBytesPerParticle, "domain.cells, particles",
                "the grid of " + num(cells) + " cells with " + num(n) + " particles",
-               "use fewer cells or particles, or precision: fp32");
+               "use fewer cells or particles" + or_fp32(fluid));
   check_plan(root, opt, double(steps), cells, n * dem_substeps, opt.steps ? "--steps" : "time.steps");
 }
 

@@ -60,6 +60,13 @@ void backend_copy_from_host(Backend b, void* dst, const void* src, std::size_t b
   if (b == Backend::Cuda) {
 #if defined(LBDEM_HAVE_CUDA)
     LBDEM_CUDA_CHECK(cudaMemcpy(dst, src, bytes, cudaMemcpyHostToDevice));
+    // From pageable host memory cudaMemcpy returns once the bytes are staged;
+    // the transfer to the device may still be queued on the legacy default
+    // stream, which work on a non-blocking stream (the Edge lane,
+    // core/exec.cpp) does not wait for. Waiting here makes the copy done on
+    // return, as declared; it costs the transfer's own time only (cudaMemcpy
+    // has already waited for the earlier work on that stream).
+    LBDEM_CUDA_CHECK(cudaStreamSynchronize(nullptr));
     return;
 #endif
   }
@@ -90,6 +97,7 @@ void backend_memset(Backend b, void* dst, int value, std::size_t bytes) {
 
 namespace {
 std::size_t g_memory_limit = 0;
+bool g_memory_assumed = false;  // the limit is the free memory of the machine meant (not a cap)
 
 std::size_t free_bytes_of(Backend b) {
   if (b == Backend::Cuda) {
@@ -108,9 +116,18 @@ std::size_t free_bytes_of(Backend b) {
 }
 }  // namespace
 
-void set_memory_limit(std::size_t bytes) { g_memory_limit = bytes; }
+void set_memory_limit(std::size_t bytes) {
+  g_memory_limit = bytes;
+  g_memory_assumed = false;
+}
+
+void set_memory_assumed(std::size_t bytes) {
+  g_memory_limit = bytes;
+  g_memory_assumed = bytes > 0;
+}
 
 std::size_t backend_free_bytes(Backend b) {
+  if (g_memory_assumed) return g_memory_limit;  // another machine's: nothing here is measured
   const std::size_t have = free_bytes_of(b);
   return g_memory_limit > 0 ? std::min(have, g_memory_limit) : have;
 }

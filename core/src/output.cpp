@@ -13,6 +13,10 @@
 #include "core/output.hpp"
 
 #include <fcntl.h>
+#include <sys/statvfs.h>
+#ifdef __linux__
+#include <sys/vfs.h>
+#endif
 #include <hdf5.h>
 #include <unistd.h>
 
@@ -637,6 +641,8 @@ std::vector<double> read_dataset(const std::string& h5_path, const std::string& 
 // ---------------------------------------------------------------------------
 namespace {
 
+const std::string kProbePrefix = ".lbdem_write_probe_";  // write probes (prepare_output_dir)
+
 // "<name>.tmp<digits>" with <name> in `ours`, or "<prefix><digits>": a
 // temporary of one of our files, or a write probe, left by a killed run.
 bool leftover_of(const std::string& n, const std::set<std::string>& ours, const std::string& probe_prefix) {
@@ -657,18 +663,63 @@ std::string name_list(const std::vector<std::string>& names) {
   return s;
 }
 
+// A kernel file system (proc, sysfs, cgroup, ...) that holds `p`: its
+// entries are not files, and a run's output cannot go there. Empty: none.
+std::string pseudo_file_system(const fs::path& p) {
+#ifdef __linux__
+  struct statfs sf {};
+  if (::statfs(p.c_str(), &sf) != 0) return {};
+  switch (static_cast<unsigned long>(sf.f_type)) {
+    case 0x9fa0UL: return "proc";
+    case 0x62656572UL: return "sysfs";
+    case 0x27e0ebUL: case 0x63677270UL: return "cgroup";
+    case 0x64626720UL: return "debugfs";
+    case 0x74726163UL: return "tracefs";
+    case 0x73636673UL: return "securityfs";
+    case 0x1cd1UL: return "devpts";
+    case 0xcafe4a11UL: return "bpf";
+    default: return {};
+  }
+#else
+  (void)p;
+  return {};
+#endif
+}
+
+// Why a folder cannot take new entries, judged without writing (empty: it
+// can, as far as one can tell without trying; prepare_output_dir then tries).
+std::string unwritable_reason(const fs::path& p) {
+  if (const std::string k = pseudo_file_system(p); !k.empty()) return "it is on the kernel's " + k + " file system";
+  struct statvfs sv {};
+  if (::statvfs(p.c_str(), &sv) == 0 && (sv.f_flag & ST_RDONLY)) return "it is on a read-only file system";
+  if (::access(p.c_str(), W_OK | X_OK) != 0) return "no permission to write there";
+  return {};
+}
+
 }  // namespace
 
-void prepare_output_dir(const std::string& dir, bool overwrite) {
+std::vector<std::string> check_output_dir(const std::string& dir, bool overwrite) {
   if (dir.empty()) throw ConfigError("output folder is empty: give a folder name");
   std::error_code ec;
   const fs::path p(dir);
   if (fs::exists(p, ec) && !fs::is_directory(p, ec))
     throw ConfigError("output folder '" + dir + "' exists and is not a folder; choose another output folder");
-  fs::create_directories(p, ec);
-  if (ec || !fs::is_directory(p))
-    throw ConfigError("cannot create output folder '" + dir + "': " + (ec ? ec.message() : "not a folder") +
-                      "; choose a writable output folder");
+  if (!fs::exists(p, ec)) {
+    // To be created: the nearest folder above it that exists must take it.
+    fs::path a = p.parent_path();
+    while (!a.empty() && !fs::exists(a, ec) && a.has_relative_path()) a = a.parent_path();
+    if (a.empty()) a = ".";
+    if (!fs::is_directory(a, ec))
+      throw ConfigError("cannot create output folder '" + dir + "': '" + a.string() +
+                        "' is not a folder; choose a writable output folder");
+    if (const std::string why = unwritable_reason(a); !why.empty())
+      throw ConfigError("cannot create output folder '" + dir + "' in '" + a.string() + "': " + why +
+                        "; choose a writable output folder");
+    return {};
+  }
+  if (const std::string k = pseudo_file_system(p); !k.empty())
+    throw ConfigError("output folder '" + dir + "' is on the kernel's " + k +
+                      " file system; choose a writable output folder");
 
   // The folder's entries, not following symlinks (a symlink is listed, never entered).
   std::vector<std::pair<std::string, fs::file_status>> entries;
@@ -691,7 +742,6 @@ void prepare_output_dir(const std::string& dir, bool overwrite) {
 
   // With --overwrite: our files are the regular files the manifest names (and
   // temporaries of them); anything else stops the run before a file is removed.
-  const std::string probe_prefix = ".lbdem_write_probe_";
   std::vector<std::string> remove, foreign;
   if (!entries.empty()) {
     std::set<std::string> ours;
@@ -700,7 +750,7 @@ void prepare_output_dir(const std::string& dir, bool overwrite) {
     std::set<std::string> with_manifest = ours;  // the manifest's own temporaries are ours too
     with_manifest.insert(kManifestName);
     for (const auto& [name, st] : entries) {
-      const bool mine = fs::is_regular_file(st) && (ours.count(name) > 0 || leftover_of(name, with_manifest, probe_prefix));
+      const bool mine = fs::is_regular_file(st) && (ours.count(name) > 0 || leftover_of(name, with_manifest, kProbePrefix));
       (mine ? remove : foreign).push_back(name);
     }
     std::sort(foreign.begin(), foreign.end());
@@ -717,10 +767,23 @@ void prepare_output_dir(const std::string& dir, bool overwrite) {
                         "; --overwrite removes only the files named in '" + kManifestName +
                         "', so nothing was deleted. Move those entries away or choose another output folder");
   }
+  if (const std::string why = unwritable_reason(p); !why.empty())
+    throw ConfigError("output folder '" + dir + "' is not writable (" + why + "); choose a writable output folder");
+  return remove;
+}
+
+void prepare_output_dir(const std::string& dir, bool overwrite) {
+  const std::vector<std::string> remove = check_output_dir(dir, overwrite);
+  std::error_code ec;
+  const fs::path p(dir);
+  fs::create_directories(p, ec);
+  if (ec || !fs::is_directory(p))
+    throw ConfigError("cannot create output folder '" + dir + "': " + (ec ? ec.message() : "not a folder") +
+                      "; choose a writable output folder");
 
   // Writability: create and remove a probe file (permission bits lie for root
   // and on some network file systems; trying is the only reliable test).
-  const fs::path probe = p / (probe_prefix + std::to_string(static_cast<long>(::getpid())));
+  const fs::path probe = p / (kProbePrefix + std::to_string(static_cast<long>(::getpid())));
   {
     std::ofstream out(probe);
     bool ok = static_cast<bool>(out);

@@ -108,7 +108,11 @@ void DistributedFluid::step(long n) {
 
 LbmDiagnostics DistributedFluid::diagnostics() {
   LbmDiagnostics d = solver_->diagnostics();
-  if (!halo_) return d;
+  if (!halo_) {
+    max_speed_rank_ = 0;
+    nonfinite_rank_ = d.finite ? -1 : 0;
+    return d;
+  }
   const Grid& p = solver_->setup().domain;
   auto to_global = [&](std::array<long, 3>& c) {
     if (c[0] < 0) return;
@@ -130,6 +134,8 @@ LbmDiagnostics DistributedFluid::diagnostics() {
   g.momentum = {sums[1], sums[2], sums[3]};
   const auto [vmax, who] = comm_.maxloc(d.max_speed);
   g.max_speed = vmax;
+  max_speed_rank_ = who;
+  nonfinite_rank_ = -1;
   // The owner of the extreme tells everyone where it is.
   std::vector<std::byte> cell(sizeof(long) * 3);
   if (comm_.rank() == who) std::memcpy(cell.data(), d.max_speed_cell.data(), cell.size());
@@ -144,6 +150,7 @@ LbmDiagnostics DistributedFluid::diagnostics() {
     if (comm_.rank() == first) std::memcpy(nc.data(), d.nonfinite_cell.data(), nc.size());
     comm_.broadcast(nc, static_cast<int>(first));
     std::memcpy(g.nonfinite_cell.data(), nc.data(), nc.size());
+    nonfinite_rank_ = static_cast<int>(first);
   }
   return g;
 }

@@ -132,6 +132,52 @@ TEST_F(RunControl, EmptyOutputIsRefused) {
   EXPECT_EQ(names_in(dir_), before);  // nothing created next to the case file
 }
 
+// ------------------------------------------- the output folder in `check`
+// `lbdem check` refuses every output folder `run` refuses (the same one-line
+// message, exit 2) without creating or touching anything.
+TEST_F(RunControl, CheckRefusesTheOutputFoldersRunRefuses) {
+  const fs::path full = dir_ / "full";
+  fs::create_directories(full);
+  std::ofstream(full / "mine.txt") << "mine";
+  const std::vector<std::pair<std::string, std::string>> bad = {
+      {"''", "output folder is empty"},
+      {"/dev/null", "'/dev/null' exists and is not a folder"},
+      {"/etc/hostname", "'/etc/hostname' exists and is not a folder"},
+      {"/etc/hostname/sub", "'/etc/hostname' is not a folder"},
+      {"/proc/lbdem_out", "kernel's proc file system"},
+      {"/proc/self", "kernel's proc file system"},
+      {"/sys/lbdem_out/a", "kernel's sysfs file system"},
+      {full.string(), "is not empty (1 entries); pass --overwrite"},
+  };
+  const std::string c = write_case(kChannel);  // (each case below is written under this name)
+  const auto before = names_in(dir_);
+  for (const auto& [folder, why] : bad) {
+    std::string text = kChannel;
+    text.replace(text.find("output: {interval: 5}"), 21, "output: {interval: 5, directory: " + folder + "}");
+    write_case(text);
+    // (The error is the last line; a build without CUDA logs the backend it picks before it.)
+    auto error_line = [](const std::string& out) { return out.substr(std::min(out.find("error: "), out.size())); };
+    const Result chk = run("check " + c);
+    EXPECT_EQ(chk.code, 2) << folder << ": " << chk.out;
+    const std::string e = error_line(chk.out);
+    EXPECT_NE(e.find(why), std::string::npos) << folder << ": " << chk.out;
+    EXPECT_EQ(e.find('\n'), e.size() - 1) << chk.out;
+    const Result r = run("run " + c + " --backend cpu --quiet");
+    EXPECT_EQ(r.code, 2) << folder << ": " << r.out;
+    EXPECT_EQ(e, error_line(r.out)) << "check and run disagree on " << folder;
+  }
+  // With --overwrite a folder without a run manifest is refused by both, naming the file.
+  write_case(kChannel);
+  const Result chk = run("check " + c + " --overwrite --output " + full.string());
+  EXPECT_EQ(chk.code, 2) << chk.out;
+  EXPECT_NE(chk.out.find("mine.txt"), std::string::npos) << chk.out;
+  // A folder that does not exist yet passes and is not created.
+  const Result ok = run("check " + c + " --output " + (dir_ / "new" / "sub").string());
+  EXPECT_EQ(ok.code, 0) << ok.out;
+  EXPECT_EQ(names_in(dir_), before);
+  EXPECT_EQ(names_in(full), std::vector<std::string>{"mine.txt"});
+}
+
 // ----------------------------------------------------------- --memory
 // The memory checks answer for the machine --memory describes: a case that
 // fits this machine is refused for a smaller one (exit 4, the sizes named),
@@ -151,6 +197,47 @@ TEST_F(RunControl, MemoryOptionBoundsTheChecks) {
   const auto r = run("run " + c + " --backend cpu --quiet --memory 1KiB --output " + out.string());
   EXPECT_EQ(r.code, 4) << r.out;
   EXPECT_FALSE(fs::exists(out));  // refused before the output folder is made
+}
+// check --memory describes the machine the case is meant for, host memory
+// included, more or less than this one has: the full 3D suspension (~54 GiB
+// on the host backend) passes for a 141 GiB node on any machine, and is
+// refused for an 8 GiB one naming the host memory and the size given.
+TEST_F(RunControl, CheckMemoryIsTheTargetMachinesHostMemoryToo) {
+  const std::string c = std::string(LBDEM_SOURCE_DIR) + "/cases/suspension/suspension_3d.yaml";
+  const auto big = run("check " + c + " --memory 141GiB");
+  EXPECT_EQ(big.code, 0) << big.out;
+  const auto small = run("check " + c + " --memory 8GiB");
+  EXPECT_EQ(small.code, 4) << small.out;
+  EXPECT_NE(small.out.find("memory but 8192 MiB are free"), std::string::npos) << small.out;
+}
+
+// Under mpirun each rank's device holds its piece of the grid: the memory
+// checks count the largest piece (the host set-up still builds whole-grid
+// fields on every rank). A particle box of 64 x 64 x 128 cells needs ~180 MiB
+// of device memory on one rank (on the host backend that is host memory,
+// plus ~17 MiB of set-up fields), about half on each of 2: a 150 MiB machine
+// takes it on 2 ranks only.
+TEST_F(RunControl, MemoryChecksCountOneRanksPiece) {
+  if (std::string(LBDEM_MPIEXEC).empty()) GTEST_SKIP() << "built without an MPI launcher";
+  const std::string c = write_case(R"(scene: particles
+units: lattice
+domain: {cells: [64, 64, 128], periodic: [1, 1, 1]}
+fluid: {tau: 0.8}
+physics: {gravity: [0, -1.0e-6, 0]}
+particles: {init: list, diameter: 6, density_ratio: 2, list: [{position: [8, 8, 8]}]}
+dem: {stiffness: 5000, restitution: 0.5, substeps: 5}
+time: {steps: 10}
+output: {directory: unused}
+)");
+  const auto one = test::run_on_ranks(1, "check " + c + " --memory 150MiB");
+  EXPECT_EQ(one.code, 4) << one.out;
+  EXPECT_NE(one.out.find("cells with 1 particles ("), std::string::npos) << one.out;
+  EXPECT_EQ(one.out.find("on each of"), std::string::npos) << one.out;
+  const auto two = test::run_on_ranks(2, "check " + c + " --memory 150MiB");
+  EXPECT_EQ(two.code, 0) << two.out;
+  const auto small = test::run_on_ranks(2, "check " + c + " --memory 60MiB");
+  EXPECT_NE(small.code, 0) << small.out;  // (4 from the launcher, or its own code after an abort)
+  EXPECT_NE(small.out.find("on each of 2 ranks needs at least"), std::string::npos) << small.out;
 }
 
 // ----------------------------------------------------------------- signals

@@ -20,9 +20,13 @@ void backend_memset(Backend b, void* dst, int value, std::size_t bytes);
 // host: available physical memory), at most the limit set below.
 std::size_t backend_free_bytes(Backend b);
 // Caps what backend_free_bytes reports (both backends): the memory checks then
-// answer for a machine with that much free memory (`lbdem check --memory`).
-// 0 removes the cap.
+// refuse a run that needs more (`lbdem run --memory`). 0 removes the cap.
 void set_memory_limit(std::size_t bytes);
+// Makes backend_free_bytes report `bytes` on both backends, whatever is free
+// here, more or less: the memory checks then answer for the machine a case is
+// meant for (`lbdem check --memory` on a login node for a GPU node). 0
+// measures again.
+void set_memory_assumed(std::size_t bytes);
 
 template <class T>
 struct View {

@@ -177,5 +177,12 @@ std::vector<double> read_dataset(const std::string& h5_path, const std::string& 
 //    a ConfigError and nothing is deleted. Symlinks are never followed.
 // Leaves a fresh manifest in the folder.
 void prepare_output_dir(const std::string& dir, bool overwrite);
+// The checks of prepare_output_dir that only read (what `lbdem check` runs):
+// refuses with the same ConfigError what prepare_output_dir would refuse that
+// can be known without writing (an empty name, a non-folder, a folder that
+// cannot be created or written to as far as its file system and permissions
+// say, a non-empty folder without overwrite, foreign entries with it),
+// creating and changing nothing. Returns the files overwrite would remove.
+std::vector<std::string> check_output_dir(const std::string& dir, bool overwrite);
 
 }  // namespace lbdem::io

@@ -32,8 +32,14 @@ class DistributedFluid {
   // Bit for bit the state initialize() makes from the whole-grid fields.
   void initialize_uniform(const std::function<std::uint8_t(long, long, long)>& flag, double rho);
   void step(long n);
-  // Sums and extremes over all ranks; cells in whole-grid coordinates.
+  // Sums and extremes over all ranks; cells in whole-grid coordinates; every
+  // rank gets the same values (collective), so a watchdog on them stops all
+  // ranks at the same step.
   LbmDiagnostics diagnostics();
+  // The ranks holding the cells the last diagnostics() named: the fastest
+  // cell, and the first non-finite cell (-1: none). 0 on one rank.
+  int max_speed_rank() const { return max_speed_rank_; }
+  int nonfinite_rank() const { return nonfinite_rank_; }
   // Whole-grid fields on rank 0 (empty on the others).
   void macroscopic(std::vector<double>& rho, std::vector<double>& u);
   // A field of `comps` values per cell given by each rank for its owned cells
@@ -62,6 +68,7 @@ class DistributedFluid {
   std::unique_ptr<LbmSolver> solver_;
   std::unique_ptr<halo::Transport> transport_;
   std::unique_ptr<FluidHalo> halo_;
+  int max_speed_rank_ = 0, nonfinite_rank_ = -1;
 };
 
 // Per-rank memory the fluid of `whole` needs on `ranks` ranks (the largest piece).
