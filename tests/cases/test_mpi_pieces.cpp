@@ -153,7 +153,10 @@ TEST(MpiPieces, SuspensionPiecesJoinToOneRank) {
   // phase there, non-negative, max >= mean; one rank's phases together within its loop time.
   for (const char* k : {"fluid_psm", "force_reduction", "dem", "ghost_sync", "map", "exposed_communication", "packing",
                         "particle_distribution", "fluid_initial_state", "first_map"}) {
-    const std::regex re("\"" + std::string(k) + "\": \\{\"max\": ([-0-9.eE+]+), \"mean\": ([-0-9.eE+]+)\\}");
+    std::string pattern = "\"";
+    pattern += k;
+    pattern += "\": \\{\"max\": ([-0-9.eE+]+), \"mean\": ([-0-9.eE+]+)\\}";
+    const std::regex re(pattern);
     std::smatch mm;
     ASSERT_TRUE(std::regex_search(js, mm, re)) << k << "\n" << js;
     EXPECT_GE(std::stod(mm[2]), 0.0) << k;
