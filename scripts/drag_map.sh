@@ -6,7 +6,7 @@
 # Sangani & Acrivos (1982); and the dense array, chi 0.8685 (phi 0.343, spheres nearly touching), against
 # Zick & Homsy (1982). One JSON, one heat-map PNG per weighting.
 #
-#   scripts/drag_map.sh BIN OUTDIR PART...     PART: host | gpu-a | gpu-b | gpu-c | merge | plot
+#   scripts/drag_map.sh BIN OUTDIR PART...     PART: host | host-hi | gpu-a | gpu-b | gpu-c | gpu-d | merge | plot
 #
 #   BIN     lbdem_bench_psm (host build for `host`, the CUDA build for the gpu parts)
 #   OUTDIR  receives drag_map_<part>_<k>.{json,md,log}; each JSON is rewritten after every run, so a
@@ -18,10 +18,14 @@
 #         runs (lbdem_bench_psm wall); the dense array, chi = (6 phi / pi)^(1/3) at Zick & Homsy's
 #         phi 0.343, L = 5, 7, 9, 12 (d = chi L: d/l 4.34, 6.08, 7.82, 10.42) x tau {0.505 ... 1.0}, ntw
 #         exact fp64. About 20 min of one CPU core (the dense array: 1 min).
+# host-hi d/l 4, 6, 8, 10 x tau {1.25, 1.5} (the shipped suspensions run at tau 1.24): ntw exact fp64,
+#         chi 0.5. About 10 min of one CPU core.
 # gpu-a   d/l 16, 20, 30 x every tau: ntw exact fp64, nt exact fp64; ntw table fp64 and exact fp32 at
 #         d/l 16 and 20 (fp32 is not a validation precision past d/l 20). About 7 min on an H200.
 # gpu-b   d/l 50 x tau 0.52 ... 1.0: ntw exact fp64. About 4 min on an H200.
 # gpu-c   d/l 50 at tau 0.505: ntw exact fp64 (5.2e6 steps). About 8 min on an H200.
+# gpu-d   the rule above tau 1 and where d/l >= 16 has no row yet: d/l 16, 20, 30 x tau {1.5, 1.25, 1.0,
+#         0.8, 0.6} and d/l 50 x tau {1.5, 1.25, 1.0, 0.8}: ntw exact fp64. About 6 min on an H100/H200.
 # merge   every OUTDIR/drag_map_*.json (sweep rows) into OUTDIR/drag_map.json.
 # plot    scripts/plot_drag_map.py OUTDIR/drag_map.json OUTDIR (needs python3-matplotlib).
 #
@@ -29,9 +33,10 @@
 #   scripts/drag_map.sh build-cuda/bench/imb/lbdem_bench_psm $OUT gpu-a
 #   scripts/drag_map.sh build-cuda/bench/imb/lbdem_bench_psm $OUT gpu-b
 #   scripts/drag_map.sh build-cuda/bench/imb/lbdem_bench_psm $OUT gpu-c
+#   scripts/drag_map.sh build-cuda/bench/imb/lbdem_bench_psm $OUT gpu-d
 # then, here: copy the JSONs beside the host ones and run `merge plot`.
 set -uo pipefail
-if [ $# -lt 3 ]; then sed -n 2,32p "$0"; exit 2; fi
+if [ $# -lt 3 ]; then sed -n 2,38p "$0"; exit 2; fi
 bin="$1"
 out="$2"
 shift 2
@@ -76,6 +81,14 @@ for p in "${parts[@]}"; do
       run drag_map_host_dense host 900 --chi 0.8684907 --d 4.342453,6.079435,7.816416,10.421888 --offset centre \
         --tau 1.0,0.9,0.8,0.7,0.6,0.55,0.52,0.505 --weights ntw --methods exact --precisions fp64
       ;;
+    host-hi)
+      limit=${DRAG_MAP_LIMIT:-3300}
+      run drag_map_host_hi host 3300 --d 4,6,8,10 --tau 1.5,1.25 --weights ntw --methods exact --precisions fp64
+      ;;
+    gpu-d)
+      run drag_map_gpu_d1 cuda 200 --d 16,20,30 --tau 1.5,1.25,1.0,0.8,0.6 --weights ntw --methods exact --precisions fp64
+      run drag_map_gpu_d2 cuda 300 --d 50 --tau 1.5,1.25,1.0,0.8 --weights ntw --methods exact --precisions fp64
+      ;;
     gpu-a)
       run drag_map_gpu_a1 cuda 240 --d 16,20,30 --tau "$TAUS" --weights ntw --methods exact --precisions fp64
       run drag_map_gpu_a2 cuda 120 --d 16,20 --tau "$TAUS" --weights ntw --methods table --precisions fp64
@@ -104,6 +117,6 @@ PY
     plot)
       /usr/bin/python3 "$here/scripts/plot_drag_map.py" "$out/drag_map.json" "$out" || echo "plot: failed (python3-matplotlib missing?)"
       ;;
-    *) echo "drag_map: unknown part $p (host, gpu-a, gpu-b, gpu-c, merge, plot)"; exit 2 ;;
+    *) echo "drag_map: unknown part $p (host, host-hi, gpu-a, gpu-b, gpu-c, gpu-d, merge, plot)"; exit 2 ;;
   esac
 done

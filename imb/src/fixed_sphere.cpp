@@ -250,7 +250,7 @@ FixedSphereResult run_fixed_sphere(const FixedSphereSpec& c, Backend b) {
       remaining_rel = remaining / std::abs(F);
       if (!c.quiet) {
         std::fprintf(stderr, "  step %ld: F = %.9e, ratio %.4f, remaining ~ %.2e\n", step, F, r, remaining_rel);
-        {
+        {  // densities by cover (this rank's cells): the mass exchange with covered cells, bench/imb/NOTES.md
           std::vector<double> rr, uu;
           solver->macroscopic(rr, uu);
           const auto ee = coupling.slots().total_eps_host();
@@ -258,10 +258,21 @@ FixedSphereResult run_fixed_sphere(const FixedSphereSpec& c, Backend b) {
           for (std::size_t i = 0; i < Ns; ++i) {
             if (!owned[i]) continue;
             const double e = std::min(1.0, ee[i]);
-            fm += (1 - e) * rr[i]; fv += 1 - e; tot += rr[i]; us += (1 - e) * uu[3 * i]; jx += rr[i] * uu[3 * i];
-            if (e >= 1) { sm += rr[i]; sv += 1; } else if (e > 0) { pm += rr[i]; pv += 1; }
+            fm += (1 - e) * rr[i];
+            fv += 1 - e;
+            tot += rr[i];
+            us += (1 - e) * uu[3 * i];
+            jx += rr[i] * uu[3 * i];
+            if (e >= 1) {
+              sm += rr[i];
+              sv += 1;
+            } else if (e > 0) {
+              pm += rr[i];
+              pv += 1;
+            }
           }
-          std::fprintf(stderr, "  diag %ld: fluid_rho %.9f solid_rho %.6f partial_rho %.6f mean_rho %.12f usup %.6e j %.6e\n",
+          std::fprintf(stderr,
+                       "  diag %ld: fluid_rho %.9f covered_rho %.6f partial_rho %.6f mean_rho %.12f usup %.6e j %.6e\n",
                        step, fm / fv, sv > 0 ? sm / sv : 0.0, pv > 0 ? pm / pv : 0.0, tot / N, us / N, jx / N);
         }
       }

@@ -125,8 +125,19 @@ TEST(PsmDragError, OutsideTheMap) {
   EXPECT_FALSE(e.known);
   EXPECT_NE(e.reason.find("fp32"), std::string::npos);
   o = q;
-  o.tau = 1.2;
+  o.tau = 1.6;  // the map ends at tau 1.5
+  o.magic = imb::psm_magic_auto(10, o.tau);
   EXPECT_FALSE(imb::expected_drag_error(o).known);
+  // The shipped suspensions' setting (d/l 10, tau 1.2386, Lambda auto, table
+  // fractions, fp32) is inside: between the map's tau 1 and 1.25 nodes.
+  o = q;
+  o.tau = 1.2386;
+  o.magic = imb::psm_magic_auto(10, o.tau);
+  o.method = imb::FractionMethod::Table;
+  o.fp32 = true;
+  const auto s = imb::expected_drag_error(o);
+  EXPECT_TRUE(s.known) << s.reason;
+  EXPECT_LE(std::abs(s.error), 0.05);
 }
 
 // The rule at a grid of small-d/l points (host): drag within the bar.
