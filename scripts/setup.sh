@@ -4,12 +4,10 @@
 # CUDA is optional: with nvcc on the PATH (or at /usr/local/cuda) the build
 # also has the GPU backend.
 # clang is for the fuzz build (scripts/fuzz.sh, tests/fuzz), which CI runs briefly.
-# python3-numpy and python3-matplotlib: bench/cfd/compare_mueller.py and its test (skipped without numpy).
 set -euo pipefail
 pkgs=(build-essential cmake ninja-build pkg-config
       libopenmpi-dev openmpi-bin libhdf5-dev libeigen3-dev libyaml-cpp-dev
-      libcli11-dev libspdlog-dev libfmt-dev libgtest-dev libgmock-dev libbenchmark-dev clang
-      python3-numpy python3-matplotlib)
+      libcli11-dev libspdlog-dev libfmt-dev libgtest-dev libgmock-dev libbenchmark-dev clang)
 missing=()
 for p in "${pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
