@@ -12,7 +12,8 @@
 #   scripts/suspension_scaling_gpu.sh BUILD_DIR
 # BUILD_DIR: a build folder (configured from the `cuda` preset and built here if missing: lbdem_build).
 # BUILD_ONLY=1: build and stop (a first call on a fresh machine; the runs then go in a second call).
-# Environment: STEPS (200), BUDGET (seconds of runs before the remaining ones are skipped, 500), WORK (run
+# Environment: STEPS (200), BUDGET (seconds of runs before the remaining ones are skipped, 500), LIMIT (a run is
+# cut by timeout so that the runs end within LIMIT s, default 570), WORK (run
 # folders, removed after each run; default /tmp/lbdem_suspension_scaling), OUT (results; default ./out).
 # Writes $OUT/suspension_scaling/{scaling.jsonl, table.txt, <run>.log, <run>.summary.json}; never field files.
 # Time on 4 H200s, from the issue's numbers (1 GPU: set-up 40 s, 200 steps 7 s; a 10 GB fp32 snapshot per
@@ -39,6 +40,12 @@ case3d="$LBDEM_ROOT/cases/suspension/suspension_3d.yaml"
 t0=$SECONDS
 
 over_budget() { [ $((SECONDS - t0)) -gt "$budget" ]; }
+# Seconds a run may take so that the whole script ends within LIMIT (570) s of the runs' start.
+run_limit() {
+  local left=$(( ${LIMIT:-570} - (SECONDS - t0) ))
+  [ "$left" -gt 300 ] && left=300
+  echo "$left"
+}
 
 # A weak-scaling case: N paper boxes along y, cut [1, N, 1], no snapshots.
 weak_case() {
@@ -65,7 +72,10 @@ coupled() {
   fi
   rm -rf "$work/$name"
   local t=$SECONDS
-  timeout 300 "${MPIRUN[@]}" -np "$n" "$lbdem" run "$yaml" --backend cuda --steps "$steps" --output "$work/$name" \
+  local lim
+  lim=$(run_limit)
+  [ "$lim" -lt 30 ] && lim=30
+  timeout "$lim" "${MPIRUN[@]}" -np "$n" "$lbdem" run "$yaml" --backend cuda --steps "$steps" --output "$work/$name" \
     --quiet > "$out/$name.log" 2>&1
   local rc=$? wall=$((SECONDS - t))
   cp "$work/$name/summary.json" "$out/$name.summary.json" 2>/dev/null
@@ -113,7 +123,7 @@ fluid() {
   fi
   local tr=auto
   local line
-  line=$(timeout 120 "${MPIRUN[@]}" -np "$n" "$bench" --transport "$tr" --steps "$steps" --precision fp32 "$@" \
+  line=$(timeout 90 "${MPIRUN[@]}" -np "$n" "$bench" --transport "$tr" --steps "$steps" --precision fp32 "$@" \
     2>> "$out/fluid.log" | grep '^{' | tail -1)
   python3 - "$line" "$mode" "$n" >> "$jsonl" <<'PY'
 import json, sys
