@@ -29,6 +29,9 @@ t_start=$SECONDS
 [ -f "$build/build.ninja" ] || lbdem_build "$build" || exit 1
 ngpu=$(gpu_count)
 [ "$ngpu" -gt 0 ] || { echo "gpu_suite: no GPU (nvidia-smi -L lists none)"; exit 1; }
+# LBDEM_SUITE_GPUS="0 1 2": the GPUs the suite may use (default all), leaving the others to a job beside it.
+read -r -a gpu_ids <<< "${LBDEM_SUITE_GPUS:-$(seq -s ' ' 0 $((ngpu - 1)))}"
+ngpu=${#gpu_ids[@]}
 jsonl="$OUT/gpu_suite.jsonl"
 fails="$OUT/gpu_suite_failures.txt"
 : > "$fails"
@@ -38,7 +41,7 @@ spec="$OUT/gpu_resources.json"
 {
   echo '{"version": {"major": 1, "minor": 0}, "local": [{"gpus": ['
   for ((g = 0; g < ngpu; ++g)); do
-    echo "  {\"id\": \"$g\", \"slots\": 4}$([ $g -lt $((ngpu - 1)) ] && echo ,)"
+    echo "  {\"id\": \"${gpu_ids[g]}\", \"slots\": 4}$([ $g -lt $((ngpu - 1)) ] && echo ,)"
   done
   echo ']}]}'
 } > "$spec"
@@ -96,7 +99,7 @@ sanitize() {  # sanitize TOOL GPU
     summary="${summary:-none}"
   echo "$tool: exit $rc, ${summary:-no summary (see $OUT/$tool.log)}"
 }
-g1=$((ngpu > 1 ? 1 : 0)); g2=$((ngpu > 2 ? 2 : 0))
+g1=${gpu_ids[$((ngpu > 1 ? 1 : 0))]}; g2=${gpu_ids[$((ngpu > 2 ? 2 : 0))]}
 if [ "$ngpu" -gt 1 ]; then
   sanitize racecheck "$g1" &
   p_race=$!
@@ -106,7 +109,7 @@ fi
 t0=$SECONDS
 pids=()
 for ((k = 1; k <= procs; ++k)); do
-  CUDA_VISIBLE_DEVICES=0 "$lbm" --gtest_filter="$t" --gtest_repeat="$reps" > "$OUT/stress_$k.log" 2>&1 &
+  CUDA_VISIBLE_DEVICES="${gpu_ids[0]}" "$lbm" --gtest_filter="$t" --gtest_repeat="$reps" > "$OUT/stress_$k.log" 2>&1 &
   pids+=($!)
 done
 bad_procs=0
@@ -115,7 +118,7 @@ runs_ok=$(cat "$OUT"/stress_*.log | grep -c '^\[       OK \] ')
 runs_failed=$(cat "$OUT"/stress_*.log | grep -cE '^\[  FAILED  \] .* \([0-9]+ ms\)$')
 json_line "$jsonl" what=stress test="$t" processes="$procs" repeats="$reps" runs_ok="$runs_ok" \
   runs_failed="$runs_failed" failed_processes="$bad_procs" seconds=$((SECONDS - t0))
-echo "stress: $procs processes x $reps repeats on GPU 0: $runs_ok passed, $runs_failed failed in $((SECONDS - t0)) s"
+echo "stress: $procs processes x $reps repeats on GPU ${gpu_ids[0]}: $runs_ok passed, $runs_failed failed in $((SECONDS - t0)) s"
 [ "$runs_failed" -eq 0 ] && [ "$bad_procs" -eq 0 ] && [ "$runs_ok" -eq $((procs * reps)) ] || all_ok=0
 if [ "$ngpu" -gt 1 ]; then
   wait "$p_race"; wait "$p_sync"
