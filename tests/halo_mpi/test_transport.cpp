@@ -13,6 +13,7 @@
 
 #include <cstring>
 #include <ostream>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -297,7 +298,17 @@ TEST(Transport, SelectDeviceFollowsTheLocalRank) {
   int current = -1;
   ASSERT_EQ(cudaGetDevice(&current), cudaSuccess);
   EXPECT_EQ(current, d);
-  if (comm().local_size() > n) {
+  // Whether two ranks share a GPU follows from the GPUs they hold, not from
+  // the count each one sees: under CTest's resource groups every rank sees
+  // only its own GPU (CUDA_VISIBLE_DEVICES), one of n = 1, yet no two share.
+  char bus[64] = {};
+  ASSERT_EQ(cudaDeviceGetPCIBusId(bus, sizeof bus, d), cudaSuccess);
+  const std::string mine(bus);
+  const auto all = comm().allgather(std::as_bytes(std::span<const char>(mine.data(), mine.size())));
+  bool shared = false;
+  for (std::size_t a = 0; a < all.size(); ++a)
+    for (std::size_t b = a + 1; b < all.size(); ++b) shared = shared || all[a] == all[b];
+  if (shared) {
     EXPECT_THROW(select_device(comm(), TransportKind::Nccl), ResourceError);
     EXPECT_FALSE(own);
     EXPECT_NE(clash.find("share the GPU"), std::string::npos) << clash;
