@@ -32,96 +32,14 @@
 #include <system_error>
 
 #include "core/error.hpp"
+#include "hdf5_util.hpp"
 
 namespace lbdem::io {
 
 namespace fs = std::filesystem;
+using namespace detail;
 
 namespace {
-
-// Owns one HDF5 identifier; `close` is the matching H5?close function.
-class H5Id {
- public:
-  H5Id(hid_t id, herr_t (*close)(hid_t)) : id_(id), close_(close) {}
-  ~H5Id() {
-    if (id_ >= 0) close_(id_);
-  }
-  H5Id(const H5Id&) = delete;
-  H5Id& operator=(const H5Id&) = delete;
-  H5Id(H5Id&& o) noexcept : id_(o.id_), close_(o.close_) { o.id_ = -1; }
-  H5Id& operator=(H5Id&&) = delete;
-  hid_t get() const { return id_; }
-  bool ok() const { return id_ >= 0; }
-  // Closes now and returns the status (closing a file writes what HDF5 still caches).
-  herr_t close() {
-    const herr_t rc = id_ >= 0 ? close_(id_) : 0;
-    id_ = -1;
-    return rc;
-  }
-
- private:
-  hid_t id_;
-  herr_t (*close_)(hid_t);
-};
-
-// HDF5 prints its whole error stack (tens of lines) on every failure unless
-// told not to; the failure is reported as one line by h5_fail instead.
-void silence_hdf5_errors() {
-  static const bool done = [] {
-    H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
-    return true;
-  }();
-  (void)done;
-}
-
-// The errno a failed HDF5 call met in the file driver: its error stack holds a
-// record "... errno = N, error message = '...'" (sec2 driver). 0 when none.
-herr_t find_errno(unsigned, const H5E_error2_t* e, void* data) {
-  auto* out = static_cast<int*>(data);
-  if (*out == 0 && e != nullptr && e->desc != nullptr) {
-    if (const char* p = std::strstr(e->desc, "errno = ")) *out = std::atoi(p + 8);
-  }
-  return 0;
-}
-
-// One line: the file, what failed, and the system error (from HDF5's stack, or
-// errno, which the writers clear before they start). A full disk or quota is a
-// ResourceError (exit code 4), anything else an lbdem::Error.
-[[noreturn]] void h5_fail(const std::string& path, const std::string& what) {
-  const int saved = errno;
-  int err = 0;
-  H5Ewalk2(H5E_DEFAULT, H5E_WALK_DOWNWARD, find_errno, &err);
-  if (err == 0) err = saved;
-  H5Eclear2(H5E_DEFAULT);
-  std::string msg = "HDF5: " + what + " failed for '" + path + "'";
-  if (err != 0) msg += ": " + std::string(std::strerror(err)) + " (errno " + std::to_string(err) + ")";
-  if (err == ENOSPC || err == EDQUOT) throw ResourceError(msg + "; free disk space or choose another output folder");
-  throw Error(msg);
-}
-
-void h5_check(herr_t rc, const std::string& path, const std::string& what) {
-  if (rc < 0) h5_fail(path, what);
-}
-
-std::string step_tag(long step) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%08ld", step);
-  return buf;
-}
-
-std::string num(double v) {
-  std::ostringstream os;
-  os.precision(std::numeric_limits<double>::max_digits10);
-  os << v;
-  return os.str();
-}
-
-void check_name(const std::string& name, const std::string& file) {
-  if (name.empty() || name.find('/') != std::string::npos || name.find('"') != std::string::npos ||
-      name.find('<') != std::string::npos || name.find('&') != std::string::npos)
-    throw Error("output field name '" + name + "' for '" + file +
-                "' is not valid: use a non-empty name without '/', '\"', '<' or '&'");
-}
 
 // Creates a dataset of the given shape, float64 (or float32: HDF5 converts the
 // doubles handed to H5Dwrite), with an optional `units` string attribute.
@@ -199,9 +117,6 @@ void write_scalar_attr(hid_t obj, const std::string& path, const char* name, dou
   if (!attr.ok()) h5_fail(path, std::string("H5Acreate2 '") + name + "'");
   h5_check(H5Awrite(attr.get(), H5T_NATIVE_DOUBLE, &value), path, std::string("H5Awrite '") + name + "'");
 }
-
-// "<path>.tmp<pid>": the temporary a file is written under before its rename.
-std::string temp_name(const std::string& path) { return path + ".tmp" + std::to_string(static_cast<long>(::getpid())); }
 
 // A write to `path` failed with errno `err`: one line, ResourceError when the disk or quota is full.
 [[noreturn]] void io_fail(const std::string& path, const std::string& what, int err) {
@@ -293,22 +208,6 @@ void write_h5_atomically(const std::string& path, Fill&& fill) {
   }
   rename_into_place(tmp, path);
 }
-
-const char* attribute_type(int components) {
-  switch (components) {
-    case 1: return "Scalar";
-    case 3: return "Vector";
-    case 6: return "Tensor6";
-    case 9: return "Tensor";
-    default: return "Matrix";
-  }
-}
-
-std::string xdmf_head(const std::string& name) {
-  return "<?xml version=\"1.0\" ?>\n<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n<Xdmf Version=\"3.0\">\n <Domain>\n"
-         "  <Grid Name=\"" + name + "\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
-}
-const char* xdmf_tail() { return "  </Grid>\n </Domain>\n</Xdmf>\n"; }
 
 // One <Attribute> of a grid: `dims` the data's leading dimensions (cells z y x,
 // or the particle count), a trailing component count for non-scalars.

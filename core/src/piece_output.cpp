@@ -19,88 +19,27 @@
 
 #include "core/error.hpp"
 #include "core/memory_use.hpp"
+#include "hdf5_util.hpp"
 
 namespace lbdem::io {
 
 namespace fs = std::filesystem;
+using namespace detail;
 
 namespace {
-
-class H5Id {
- public:
-  H5Id(hid_t id, herr_t (*close)(hid_t)) : id_(id), close_(close) {}
-  ~H5Id() {
-    if (id_ >= 0) close_(id_);
-  }
-  H5Id(const H5Id&) = delete;
-  H5Id& operator=(const H5Id&) = delete;
-  H5Id(H5Id&& o) noexcept : id_(o.id_), close_(o.close_) { o.id_ = -1; }
-  H5Id& operator=(H5Id&&) = delete;
-  hid_t get() const { return id_; }
-  bool ok() const { return id_ >= 0; }
-  herr_t close() {
-    const herr_t rc = id_ >= 0 ? close_(id_) : 0;
-    id_ = -1;
-    return rc;
-  }
-
- private:
-  hid_t id_;
-  herr_t (*close_)(hid_t);
-};
-
-// One line naming the file and the failed call; ENOSPC/EDQUOT (errno as the
-// driver left it) is a ResourceError, as in core/output.cpp.
-[[noreturn]] void fail(const std::string& path, const std::string& what) {
-  const int err = errno;
-  H5Eclear2(H5E_DEFAULT);
-  std::string msg = "HDF5: " + what + " failed for '" + path + "'";
-  if (err == ENOSPC || err == EDQUOT)
-    throw ResourceError(msg + ": " + std::strerror(err) + "; free disk space or choose another output folder");
-  throw Error(msg);
-}
-void check(herr_t rc, const std::string& path, const std::string& what) {
-  if (rc < 0) fail(path, what);
-}
-
-void quiet_hdf5() {
-  static const bool done = [] {
-    H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
-    return true;
-  }();
-  (void)done;
-}
-
-std::string tag(long step) {
-  char b[32];
-  std::snprintf(b, sizeof b, "%08ld", step);
-  return b;
-}
-std::string num(double v) {
-  std::ostringstream os;
-  os.precision(std::numeric_limits<double>::max_digits10);
-  os << v;
-  return os.str();
-}
-std::string temp_of(const std::string& path) { return path + ".tmp" + std::to_string(static_cast<long>(::getpid())); }
-
-void check_field_name(const std::string& name, const std::string& file) {
-  if (name.empty() || name.find_first_of("/\"<&") != std::string::npos)
-    throw Error("output field name '" + name + "' for '" + file + "' is not valid: use a non-empty name without '/', '\"', '<' or '&'");
-}
 
 // Creates `path` under its temporary name, lets `fill` write into it, closes and renames it.
 template <class Fill>
 void write_h5(const std::string& path, Fill&& fill) {
-  quiet_hdf5();
-  const std::string tmp = temp_of(path);
+  silence_hdf5_errors();
+  const std::string tmp = temp_name(path);
   errno = 0;
   try {
     H5Id f(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose);
-    if (!f.ok()) fail(path, "H5Fcreate (is the folder writable?)");
+    if (!f.ok()) h5_fail(path, "H5Fcreate (is the folder writable?)");
     fill(f.get());
-    check(H5Fflush(f.get(), H5F_SCOPE_LOCAL), path, "H5Fflush");
-    check(f.close(), path, "H5Fclose");
+    h5_check(H5Fflush(f.get(), H5F_SCOPE_LOCAL), path, "H5Fflush");
+    h5_check(f.close(), path, "H5Fclose");
   } catch (...) {
     std::error_code ec;
     fs::remove(tmp, ec);
@@ -117,10 +56,10 @@ void write_h5(const std::string& path, Fill&& fill) {
 void put_attr(hid_t obj, const std::string& path, const char* name, const std::vector<double>& v) {
   const hsize_t n = v.size();
   H5Id space(n == 1 ? H5Screate(H5S_SCALAR) : H5Screate_simple(1, &n, nullptr), H5Sclose);
-  if (!space.ok()) fail(path, "H5Screate");
+  if (!space.ok()) h5_fail(path, "H5Screate");
   H5Id a(H5Acreate2(obj, name, H5T_IEEE_F64LE, space.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
-  if (!a.ok()) fail(path, std::string("H5Acreate2 '") + name + "'");
-  check(H5Awrite(a.get(), H5T_NATIVE_DOUBLE, v.data()), path, std::string("H5Awrite '") + name + "'");
+  if (!a.ok()) h5_fail(path, std::string("H5Acreate2 '") + name + "'");
+  h5_check(H5Awrite(a.get(), H5T_NATIVE_DOUBLE, v.data()), path, std::string("H5Awrite '") + name + "'");
 }
 // An attribute's values (empty when absent).
 std::vector<double> get_attr(hid_t obj, const char* name) {
@@ -136,12 +75,12 @@ std::vector<double> get_attr(hid_t obj, const char* name) {
 void put_units(hid_t dset, const std::string& path, const std::string& units) {
   if (units.empty()) return;
   H5Id type(H5Tcopy(H5T_C_S1), H5Tclose);
-  check(H5Tset_size(type.get(), units.size()), path, "H5Tset_size");
-  check(H5Tset_strpad(type.get(), H5T_STR_NULLTERM), path, "H5Tset_strpad");
+  h5_check(H5Tset_size(type.get(), units.size()), path, "H5Tset_size");
+  h5_check(H5Tset_strpad(type.get(), H5T_STR_NULLTERM), path, "H5Tset_strpad");
   H5Id sp(H5Screate(H5S_SCALAR), H5Sclose);
   H5Id a(H5Acreate2(dset, "units", type.get(), sp.get(), H5P_DEFAULT, H5P_DEFAULT), H5Aclose);
-  if (!a.ok()) fail(path, "H5Acreate2 'units'");
-  check(H5Awrite(a.get(), type.get(), units.c_str()), path, "H5Awrite 'units'");
+  if (!a.ok()) h5_fail(path, "H5Acreate2 'units'");
+  h5_check(H5Awrite(a.get(), type.get(), units.c_str()), path, "H5Awrite 'units'");
 }
 std::string get_units(hid_t dset) {
   if (H5Aexists(dset, "units") <= 0) return "";
@@ -157,9 +96,9 @@ std::string get_units(hid_t dset) {
 H5Id make_dataset(hid_t file, const std::string& path, const std::string& name, const std::vector<hsize_t>& dims,
                   hid_t type) {
   H5Id sp(H5Screate_simple(static_cast<int>(dims.size()), dims.data(), nullptr), H5Sclose);
-  if (!sp.ok()) fail(path, "H5Screate_simple for '" + name + "'");
+  if (!sp.ok()) h5_fail(path, "H5Screate_simple for '" + name + "'");
   H5Id d(H5Dcreate2(file, name.c_str(), type, sp.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Dclose);
-  if (!d.ok()) fail(path, "H5Dcreate2 of dataset '" + name + "'");
+  if (!d.ok()) h5_fail(path, "H5Dcreate2 of dataset '" + name + "'");
   return d;
 }
 
@@ -167,26 +106,23 @@ H5Id make_dataset(hid_t file, const std::string& path, const std::string& name, 
 void write_slab(hid_t dset, const std::string& path, const std::string& name, const std::vector<hsize_t>& start,
                 const std::vector<hsize_t>& count, hid_t mtype, const void* data) {
   H5Id fs_(H5Dget_space(dset), H5Sclose);
-  if (!fs_.ok()) fail(path, "H5Dget_space of '" + name + "'");
+  if (!fs_.ok()) h5_fail(path, "H5Dget_space of '" + name + "'");
   hsize_t m = 1;
   for (hsize_t c : count) m *= c;
   if (m == 0) return;
-  check(H5Sselect_hyperslab(fs_.get(), H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr), path,
+  h5_check(H5Sselect_hyperslab(fs_.get(), H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr), path,
         "H5Sselect_hyperslab of '" + name + "'");
   H5Id ms(H5Screate_simple(1, &m, nullptr), H5Sclose);
-  check(H5Dwrite(dset, mtype, ms.get(), fs_.get(), H5P_DEFAULT, data), path, "H5Dwrite of '" + name + "'");
+  h5_check(H5Dwrite(dset, mtype, ms.get(), fs_.get(), H5P_DEFAULT, data), path, "H5Dwrite of '" + name + "'");
 }
 
 void write_ids(hid_t file, const std::string& path, hsize_t n) {
   H5Id d = make_dataset(file, path, "connectivity", {n}, H5T_STD_I64LE);
   std::vector<std::int64_t> ids(static_cast<std::size_t>(n));
   for (std::size_t i = 0; i < ids.size(); ++i) ids[i] = static_cast<std::int64_t>(i);
-  if (n > 0) check(H5Dwrite(d.get(), H5T_NATIVE_INT64, H5S_ALL, H5S_ALL, H5P_DEFAULT, ids.data()), path, "H5Dwrite of 'connectivity'");
+  if (n > 0) h5_check(H5Dwrite(d.get(), H5T_NATIVE_INT64, H5S_ALL, H5S_ALL, H5P_DEFAULT, ids.data()), path, "H5Dwrite of 'connectivity'");
 }
 
-const char* attribute_type(int c) {
-  return c == 1 ? "Scalar" : c == 3 ? "Vector" : c == 6 ? "Tensor6" : c == 9 ? "Tensor" : "Matrix";
-}
 void xdmf_attr(std::ostream& x, const std::string& ind, const std::string& name, int comps, const char* center,
                const std::string& dims, const std::string& file, int bytes) {
   x << ind << "<Attribute Name=\"" << name << "\" AttributeType=\"" << attribute_type(comps) << "\" Center=\"" << center
@@ -197,11 +133,6 @@ void xdmf_attr(std::ostream& x, const std::string& ind, const std::string& name,
     << "</DataItem>\n"
     << ind << "</Attribute>\n";
 }
-std::string xdmf_head(const std::string& name) {
-  return "<?xml version=\"1.0\" ?>\n<!DOCTYPE Xdmf SYSTEM \"Xdmf.dtd\" []>\n<Xdmf Version=\"3.0\">\n <Domain>\n"
-         "  <Grid Name=\"" + name + "\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
-}
-const char* xdmf_tail() { return "  </Grid>\n </Domain>\n</Xdmf>\n"; }
 
 // A uniform CoRectMesh grid of `cells` (x y z) at `origin` (x y z, metres).
 void xdmf_mesh(std::ostream& x, const std::string& ind, const std::array<long, 3>& cells,
@@ -254,10 +185,10 @@ void write_index(const std::string& dir, const std::string& name, const std::str
 }  // namespace
 
 std::string piece_file_name(const std::string& prefix, long step, int rank, int ranks) {
-  if (ranks <= 1) return prefix + "_" + tag(step) + ".h5";
+  if (ranks <= 1) return prefix + "_" + step_tag(step) + ".h5";
   char b[32];
   std::snprintf(b, sizeof b, "_r%04d", rank);
-  return prefix + "_" + tag(step) + b + ".h5";
+  return prefix + "_" + step_tag(step) + b + ".h5";
 }
 
 // ---------------------------------------------------------------------------
@@ -287,7 +218,7 @@ std::string PieceGridWriter::write_piece(long step, double time, const std::vect
   const std::string path = (fs::path(dir_) / piece_file_name(prefix_, step, rank_, R)).string();
   std::set<std::string> seen;
   for (const auto& f : fields) {
-    check_field_name(f.name, path);
+    check_name(f.name, path);
     if (!seen.insert(f.name).second) throw Error("output field '" + f.name + "' given twice for '" + path + "'");
     if (f.components < 1) throw Error("output field '" + f.name + "' has components < 1");
   }
@@ -350,7 +281,7 @@ void PieceGridWriter::index(long step, double time, const std::vector<SlabField>
   const int R = static_cast<int>(pieces_.size());
   std::ostringstream x;
   for (const auto& en : entries_) {
-    x << "   <Grid Name=\"" << prefix_ << "_" << tag(en.step) << "\" GridType=\"Collection\" CollectionType=\"Spatial\">\n"
+    x << "   <Grid Name=\"" << prefix_ << "_" << step_tag(en.step) << "\" GridType=\"Collection\" CollectionType=\"Spatial\">\n"
       << "    <Time Value=\"" << num(en.time) << "\"/>\n";
     for (int r = 0; r < R; ++r) {
       const PieceBox& p = pieces_[static_cast<std::size_t>(r)];
@@ -391,7 +322,7 @@ std::string PieceParticleWriter::write_piece(long step, double time, long n, con
   if (n < 0) throw Error("PieceParticleWriter: negative particle count for '" + path + "'");
   std::set<std::string> seen{"positions", "connectivity"};
   for (const auto& f : fields) {
-    check_field_name(f.name, path);
+    check_name(f.name, path);
     if (!seen.insert(f.name).second) throw Error("particle field '" + f.name + "' given twice for '" + path + "'");
   }
   write_h5(path, [&](hid_t h5) {
@@ -402,7 +333,7 @@ std::string PieceParticleWriter::write_piece(long step, double time, long n, con
     const auto nn = static_cast<hsize_t>(n);
     auto whole = [&](const std::string& name, const std::vector<hsize_t>& dims, const double* d) {
       H5Id ds = make_dataset(h5, path, name, dims, H5T_IEEE_F64LE);
-      if (nn > 0) check(H5Dwrite(ds.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, d), path, "H5Dwrite of '" + name + "'");
+      if (nn > 0) h5_check(H5Dwrite(ds.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, d), path, "H5Dwrite of '" + name + "'");
     };
     whole("positions", {nn, 3}, positions);
     write_ids(h5, path, nn);
@@ -426,7 +357,7 @@ void PieceParticleWriter::index(long step, double time, const std::vector<long>&
   std::erase_if(carried_, [&](const auto& c) { return c.first == step; });
   std::ostringstream x;
   for (const auto& en : entries_) {
-    x << "   <Grid Name=\"" << prefix_ << "_" << tag(en.step) << "\" GridType=\"Collection\" CollectionType=\"Spatial\">\n"
+    x << "   <Grid Name=\"" << prefix_ << "_" << step_tag(en.step) << "\" GridType=\"Collection\" CollectionType=\"Spatial\">\n"
       << "    <Time Value=\"" << num(en.time) << "\"/>\n";
     for (int r = 0; r < static_cast<int>(en.counts.size()); ++r) {
       const long n = en.counts[static_cast<std::size_t>(r)];
@@ -479,7 +410,7 @@ bool parse_name(const std::string& n, const std::string& prefix, long& step, int
 }
 
 H5Id open_ro(const std::string& path) {
-  quiet_hdf5();
+  silence_hdf5_errors();
   H5Id f(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
   if (!f.ok()) throw Error("cannot open '" + path + "' (HDF5): is it a complete snapshot piece?");
   return f;
@@ -520,7 +451,7 @@ std::vector<double> read_all(hid_t f, const std::string& name, const std::string
   if (!d.ok()) throw Error("'" + path + "' has no dataset '" + name + "'");
   H5Id sp(H5Dget_space(d.get()), H5Sclose);
   std::vector<double> v(static_cast<std::size_t>(H5Sget_simple_extent_npoints(sp.get())));
-  if (!v.empty()) check(H5Dread(d.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()), path, "H5Dread of '" + name + "'");
+  if (!v.empty()) h5_check(H5Dread(d.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()), path, "H5Dread of '" + name + "'");
   return v;
 }
 
@@ -539,7 +470,7 @@ void write_joined_index(const std::string& dir, const std::string& prefix) {
     const std::string path = (fs::path(dir) / n).string();
     H5Id f = open_ro(path);
     const auto t = get_attr(f.get(), "time");
-    x << "   <Grid Name=\"" << prefix << "_" << tag(s) << "\" GridType=\"Uniform\">\n"
+    x << "   <Grid Name=\"" << prefix << "_" << step_tag(s) << "\" GridType=\"Uniform\">\n"
       << "    <Time Value=\"" << num(t.empty() ? double(s) : t[0]) << "\"/>\n";
     if (prefix == "particles" || H5Lexists(f.get(), "positions", H5P_DEFAULT) > 0) {
       const DsInfo pi = info_of(f.get(), "positions", path);
@@ -603,7 +534,7 @@ std::vector<long> piece_steps(const std::string& dir, const std::string& prefix)
 }
 
 std::string join_step(const std::string& dir, const std::string& prefix, long step, std::size_t* largest_values) {
-  const std::string whole_name = prefix + "_" + tag(step) + ".h5";
+  const std::string whole_name = prefix + "_" + step_tag(step) + ".h5";
   const std::string whole_path = (fs::path(dir) / whole_name).string();
   std::vector<std::string> pieces;
   const auto listed = read_manifest(dir);
