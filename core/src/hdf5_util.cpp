@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <fstream>
 #include <limits>
 #include <sstream>
 
@@ -87,5 +88,29 @@ std::string xdmf_head(const std::string& name) {
          "  <Grid Name=\"" + name + "\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
 }
 const char* xdmf_tail() { return "  </Grid>\n </Domain>\n</Xdmf>\n"; }
+
+// The <Grid> entries of steps <= up_to_step in an .xdmf index this file wrote
+// (one "   <Grid Name=\"<prefix>_<step>\"" block per step), for a restart.
+std::vector<std::pair<long, std::string>> xdmf_entries(const std::string& path, const std::string& prefix,
+                                                       long up_to_step) {
+  std::vector<std::pair<long, std::string>> out;
+  std::ifstream in(path);
+  const std::string open = "   <Grid Name=\"" + prefix + "_";
+  std::string line, block;
+  long step = -1;
+  while (std::getline(in, line)) {
+    if (line.rfind(open, 0) == 0) {
+      step = std::atol(line.c_str() + open.size());
+      block.clear();
+    }
+    if (step < 0) continue;
+    block += line + "\n";
+    if (line == "   </Grid>") {
+      if (step <= up_to_step) out.emplace_back(step, block);
+      step = -1;
+    }
+  }
+  return out;
+}
 
 }  // namespace lbdem::io::detail

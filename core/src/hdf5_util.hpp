@@ -5,6 +5,8 @@
 #include <hdf5.h>
 
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace lbdem::io::detail {
 
@@ -54,5 +56,9 @@ void check_name(const std::string& name, const std::string& file);
 const char* attribute_type(int components);
 std::string xdmf_head(const std::string& name);
 const char* xdmf_tail();
+// The <Grid> entries of steps <= up_to_step in an .xdmf index these writers wrote
+// (one "   <Grid Name=\"<prefix>_<step>\"" block per step), for a restart.
+std::vector<std::pair<long, std::string>> xdmf_entries(const std::string& path, const std::string& prefix,
+                                                       long up_to_step);
 
 }  // namespace lbdem::io::detail

@@ -147,29 +147,6 @@ void xdmf_mesh(std::ostream& x, const std::string& ind, const std::array<long, 3
     << ind << "</Geometry>\n";
 }
 
-// The top-level step blocks ("   <Grid Name=\"<prefix>_<step>\"" ... "   </Grid>")
-// of steps <= up_to of an index this file wrote.
-std::vector<std::pair<long, std::string>> carried_entries(const std::string& path, const std::string& prefix, long up_to) {
-  std::vector<std::pair<long, std::string>> out;
-  std::ifstream in(path);
-  const std::string open = "   <Grid Name=\"" + prefix + "_";
-  std::string line, block;
-  long step = -1;
-  while (std::getline(in, line)) {
-    if (line.rfind(open, 0) == 0) {
-      step = std::atol(line.c_str() + open.size());
-      block.clear();
-    }
-    if (step < 0) continue;
-    block += line + "\n";
-    if (line == "   </Grid>") {
-      if (step <= up_to) out.emplace_back(step, block);
-      step = -1;
-    }
-  }
-  return out;
-}
-
 // Rewrites <dir>/<name> with the head, carried blocks, the text of `body` and the tail.
 void write_index(const std::string& dir, const std::string& name, const std::string& title, bool& recorded,
                  const std::vector<std::pair<long, std::string>>& carried, const std::string& body) {
@@ -300,7 +277,7 @@ void PieceGridWriter::index(long step, double time, const std::vector<SlabField>
 }
 
 void PieceGridWriter::resume(long up_to_step) {
-  carried_ = carried_entries((fs::path(dir_) / (prefix_ + ".xdmf")).string(), prefix_, up_to_step);
+  carried_ = xdmf_entries((fs::path(dir_) / (prefix_ + ".xdmf")).string(), prefix_, up_to_step);
 }
 
 // ---------------------------------------------------------------------------
@@ -382,7 +359,7 @@ void PieceParticleWriter::index(long step, double time, const std::vector<long>&
 }
 
 void PieceParticleWriter::resume(long up_to_step) {
-  carried_ = carried_entries((fs::path(dir_) / (prefix_ + ".xdmf")).string(), prefix_, up_to_step);
+  carried_ = xdmf_entries((fs::path(dir_) / (prefix_ + ".xdmf")).string(), prefix_, up_to_step);
 }
 
 // ---------------------------------------------------------------------------
