@@ -10,7 +10,7 @@
 # and, with ROUND=ncu, Nsight Compute's duration of every PSM kernel of a few steps on rank 0 (single
 # pass, no replay, clocks left alone), to tell a slower kernel from a concurrency loss.
 #   scripts/suspension_cut_probe_gpu.sh BUILD_DIR [ROUND...]
-# ROUND: a (1 GPU fused, 1 GPU mapped, y-cut nccl fused), b (y-cut host_mpi fused, y-cut nccl mapped),
+# ROUND (4-GPU host): a (1 GPU fused, 1 GPU mapped, y-cut nccl fused), b (y-cut host_mpi fused, y-cut nccl mapped),
 # c (z-cut, x-cut, nccl fused), ncu (kernel durations, 1 GPU and y-cut): default "a b". Runs of a round go
 # side by side on disjoint GPUs of a 4-GPU host. STEPS (200). Writes $OUT/cut_probe/{probe.jsonl, *.log,
 # table.txt}; every run folder is removed after its summary is read. About 70 s per round after the build.
@@ -99,6 +99,8 @@ EOF
   chmod +x "$work/ncu_wrap.sh"
 }
 
+# Rounds on a 2-GPU host (every 2-GPU run alone): one (the two 1-GPU runs side by side), y_nccl_fused,
+# y_mpi_fused, y_nccl_mapped, z, x, ncu1, ncu2.
 for r in "${rounds[@]}"; do
   echo "== round $r"
   case "$r" in
@@ -112,6 +114,15 @@ for r in "${rounds[@]}"; do
     ncu) ncu_wrap
        CUT_NAME=one one ncu_one 0 1 y nccl fused -x CUT_NAME "$work/ncu_wrap.sh"
        CUT_NAME=y2 one ncu_y2 2,3 2 y nccl fused -x CUT_NAME "$work/ncu_wrap.sh" ;;
+    one) one one_fused 0 1 y nccl fused
+       one one_mapped 1 1 y nccl mapped ;;
+    y_nccl_fused) one y_nccl_fused 0,1 2 y nccl fused ;;
+    y_mpi_fused) one y_mpi_fused 0,1 2 y host_mpi fused ;;
+    y_nccl_mapped) one y_nccl_mapped 0,1 2 y nccl mapped ;;
+    z) one z_nccl_fused 0,1 2 z nccl fused ;;
+    x) one x_nccl_fused 0,1 2 x nccl fused ;;
+    ncu1) ncu_wrap; CUT_NAME=one one ncu_one 0 1 y nccl fused -x CUT_NAME "$work/ncu_wrap.sh" ;;
+    ncu2) ncu_wrap; CUT_NAME=y2 one ncu_y2 0,1 2 y nccl fused -x CUT_NAME "$work/ncu_wrap.sh" ;;
     *) echo "unknown round $r" ;;
   esac
   wait
