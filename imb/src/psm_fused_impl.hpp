@@ -163,6 +163,10 @@ void fused_launch(const Exec& ex, const FusedArgs& a) {
   k.K = a.K;
   k.tv = a.tv;
   k.tiles = a.tiles;
+  for (int d = 0; d < 3; ++d) {
+    k.own_lo[d] = a.raw->owned.lo[d];
+    k.own_hi[d] = a.raw->owned.lo[d] + a.raw->owned.ext[d];
+  }
   k.p = a.p;
   k.frac = Frac{};
   k.frac.linear_normalised = a.opt->map.linear_normalised;

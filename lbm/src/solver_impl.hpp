@@ -251,9 +251,10 @@ class SolverImpl final : public LbmSolver {
     r.grid = g_;
     r.owned = owned_;
     r.flags = flags_.data();
-    // Coupling kernels that run over whole tiles skip the ghost cells of a
-    // piece by their flag.
-    r.has_boundaries = has_bnd_ || !s_.domain.whole_grid();
+    // Boundary entries only: ghost cells stream as fluid, so a piece of a
+    // periodic grid takes the kernels without flag reads. Coupling kernels
+    // that run over whole tiles skip a piece's ghost cells by `owned`.
+    r.has_boundaries = has_bnd_;
     r.step = t_;
     r.omega_p = omega_p_;
     r.omega_m = omega_m_;

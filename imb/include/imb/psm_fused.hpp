@@ -77,6 +77,7 @@ struct PsmFusedKernel : PsmLatticeFields<T> {
   int K;  // slots per cell in use (<= kFusedMaxSlots)
   TileView tv;
   CellBox tiles;  // the tiles this launch updates (a box in tile coordinates; PsmCoupling::parts)
+  int own_lo[3] = {0, 0, 0}, own_hi[3] = {0, 0, 0};  // the owned cells [lo, hi) in storage coordinates
   SphereView p;
   Frac frac;
 
@@ -107,9 +108,10 @@ struct PsmFusedKernel : PsmLatticeFields<T> {
     o[2] = t.iz * kTZ;
   }
 
-  // Cell of thread `tid` in tile `t`; false if the tile overhangs the grid
-  // there. (Ghost cells of a cut grid are skipped by their flag: a solver on
-  // a piece reports boundaries, LbmRaw::has_boundaries.)
+  // Cell of thread `tid` in tile `t`; false if it lies outside the owned box
+  // (the tile overhangs the grid, or the cell is a ghost of a cut grid).
+  // Ghosts are told by position, not by their flag: a piece without boundary
+  // entries then takes the kernel without flag reads (LbmRaw::has_boundaries).
   LBDEM_HD bool coords(const TileId& t, int tid, int& x, int& y, int& z) const {
     int o[3], lx, ly, lz;
     tile_origin(t, o);
@@ -117,7 +119,7 @@ struct PsmFusedKernel : PsmLatticeFields<T> {
     x = o[0] + lx;
     y = o[1] + ly;
     z = o[2] + lz;
-    return x < g.nx && y < g.ny && z < g.nz;
+    return x >= own_lo[0] && x < own_hi[0] && y >= own_lo[1] && y < own_hi[1] && z >= own_lo[2] && z < own_hi[2];
   }
 
   LBDEM_HD int candidates(Index tile) const {

@@ -58,7 +58,7 @@ struct LbmRaw {
   GridView grid;
   CellBox owned;         // the cells a step updates (storage coordinates)
   const std::uint8_t* flags = nullptr;
-  bool has_boundaries = false;  // read the flags: boundary entries, or ghost cells (a piece of a cut grid)
+  bool has_boundaries = false;  // boundary entries exist: kernels read the flags (ghost cells never reflect)
   long step = 0;         // steps done; AA parity = step & 1
   double omega_p = 1, omega_m = 1;
   std::array<double, 3> body_force{0, 0, 0};
