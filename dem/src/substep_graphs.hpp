@@ -27,7 +27,11 @@ namespace lbdem::dem {
 class SubstepGraphs {
  public:
   static constexpr int kMaxRun = 16;  // sub-steps per graph (a longer run is flushed in parts)
-  static constexpr int kTable = 32;   // graphs kept
+  // Graphs kept: a run's key takes 2 rebuild parities (the reorder and the
+  // list swap their arrays at each build) x 2 force parities x 4 report
+  // slots = 16 values per run length, so every key of runs up to kMaxRun
+  // long fits and a steady schedule never captures again.
+  static constexpr int kTable = 16 * kMaxRun;
 
   // Issues one plain sub-step's two launches on `ex` (DemSystem's own
   // kernels, so that a capture records exactly what a direct launch runs).
