@@ -25,10 +25,11 @@ using namespace lbdem::dem;
 
 namespace {
 
-// A bed of Mueller's particles (d = 1.2 mm, k = 800 N/m, e = 0.97, mu 0.1)
-// moving at random in a closed 12 x 6 x 30 mm box under gravity, with an upward
-// coupling force of half the weight that changes between calls: contacts,
-// wall friction, rebuilds and reports at the rates of a settling bed.
+// A bed of Mueller's particles (d = 1.2 mm, k = 800 N/m, e = 0.97, mu 0.1
+// or none) moving at random in a closed 12 x 6 x 30 mm box under gravity,
+// with an upward coupling force of 0.4-0.6 times the weight that changes
+// between calls: contacts, wall friction, rebuilds (one per ~70 sub-steps)
+// and reports (one per ~3) at the rates of a bubbling bed's fast particles.
 struct Bed {
   DemParams p;
   HostParticles h;
