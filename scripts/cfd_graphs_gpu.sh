@@ -10,9 +10,9 @@
 #          the GPU: Mueller u09 RESTART_STEPS gas steps straight (A), half then `--restart` (B), and straight with the
 #          graphs off (C); the final checkpoints, series and profiles of A and B, and of A and C, compared byte for
 #          byte (B: a chained run ends where a straight one does; C: the graphs change no bit of the scene)
-#   GPU 2  dem_tests on the GPU (DemSubstepGraphs.*: graphs against kernel-by-kernel launches, bitwise; the
-#          rest of the DEM suite's CUDA instances), then the CUDA instances of cfd_tests and imb_tests (the
-#          resolved mode's DEM runs through the same graphs)
+#   GPU 2  DemSubstepGraphs.* on the GPU (graphs against kernel-by-kernel launches, bitwise, with and without
+#          friction), then the quick CUDA instances of the dem, cfd and imb suites under ctest (the resolved
+#          mode's DEM runs through the same graphs; at most 5 min)
 #   GPU 3  lbdem_bench_cfd (10^6 particles, Sec. 5.2): multigrid + graphs on the GPU and on HOST_THREADS host cores
 #          (default 16), then the GPU alone with the graphs off and with the Jacobi CG of the earlier figures
 #
@@ -24,7 +24,7 @@
 #   env  LINK_STEPS (default 5000: 0.15 s simulated), RESTART_STEPS (default 400), HOST_THREADS (default 16)
 # Output under $OUT/graphs: speed.jsonl (one JSON line per bed run: seconds per simulated second, particle-steps
 # /s, per gas step the DEM's sub-steps, rebuilds, report reads and waits), restart.txt (the comparisons: "same" or
-# "DIFFER" per file), dem_tests.log, bench_*.{json,md,log}, each run's summary.json/series.csv/log.
+# "DIFFER" per file), dem_tests.log, suite.log, bench_*.{json,md,log}, each run's summary.json/series.csv/log.
 # Prints one line per bed run, the restart verdicts, the test summary and the benchmark tables.
 set -uo pipefail
 source "$(dirname "$0")/lib.sh"
@@ -110,15 +110,14 @@ lane1() {
   } > "$out/restart.txt" 2>&1
 }
 lane2() {
-  CUDA_VISIBLE_DEVICES="$(gpu 2)" timeout 300 "$build/tests/dem/dem_tests" --gtest_brief=1 > "$out/dem_tests.log" 2>&1
-  echo "dem_tests exit $?" >> "$out/dem_tests.log"
-  # The CUDA instances of the coupled suites (the resolved mode's DEM runs through the same graphs).
-  local t
-  for t in cfd imb; do
-    CUDA_VISIBLE_DEVICES="$(gpu 2)" timeout 240 "$build/tests/$t/${t}_tests" --gtest_brief=1 \
-      --gtest_filter='*Cuda*:*cuda*' > "$out/${t}_tests.log" 2>&1
-    echo "${t}_tests (CUDA instances) exit $?" >> "$out/${t}_tests.log"
-  done
+  CUDA_VISIBLE_DEVICES="$(gpu 2)" timeout 180 "$build/tests/dem/dem_tests" --gtest_filter='*SubstepGraphs*' \
+    > "$out/dem_tests.log" 2>&1
+  echo "dem_tests (DemSubstepGraphs) exit $?" >> "$out/dem_tests.log"
+  # The CUDA instances of the DEM, CFD and resolved suites, long ones left out (the resolved mode's DEM runs
+  # through the same graphs).
+  CUDA_VISIBLE_DEVICES="$(gpu 2)" timeout 300 ctest --test-dir "$build" -L 'dem|cfd|imb' -LE long -R 'cuda|Cuda' \
+    --timeout 120 > "$out/suite.log" 2>&1
+  echo "ctest (dem|cfd|imb CUDA instances, quick) exit $?" >> "$out/suite.log"
 }
 lane3() {
   local g; g="$(gpu 3)"
@@ -143,6 +142,7 @@ else
 fi
 echo "all lanes done in $((SECONDS - t0)) s"
 cat "$out/restart.txt"
-for t in dem cfd imb; do grep -E "PASSED|FAILED|exit" "$out/${t}_tests.log" | tail -6; done
+grep -E "PASSED|FAILED|OK \]|exit" "$out/dem_tests.log" | tail -8
+grep -E "tests passed|Failed|exit" "$out/suite.log" | tail -12
 cat "$out/speed.jsonl"
 for f in graphs_on graphs_off cg; do cat "$out/bench_$f.md" 2>/dev/null || tail_log "$out/bench_$f.log" 8; done
