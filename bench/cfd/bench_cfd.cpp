@@ -4,6 +4,7 @@
 //
 //   lbdem_bench_cfd --out DIR [--particles 1000000] [--steps 20] [--host-steps 3]
 //                   [--backends cuda,cpuall] [--void-fraction linear] [--gas-dt 5e-4]
+//                   [--pressure-solver multigrid|cg] [--dem-graphs 1|0] [--host-threads N]
 //
 // Set-up: 50 x 50 x 120 cubic gas cells of 10 mm (300,000); particles of
 // d = 2.5 mm (4 per cell width), rho = 1000 kg/m^3, k = 800 N/m, e = 0.97,
@@ -12,6 +13,11 @@
 // size for this system; with these U_mf ~ 0.72 m/s, so 0.9 m/s fluidizes);
 // walls no-slip, a uniform distributor at 0.9 m/s, pressure outlet on top;
 // Gidaspow drag. Gas dt 5e-4 s (the paper's 1e-3 s halved), DEM dt t_c/50.
+// The pressure solve is the multigrid-preconditioned CG of the shipped bed
+// cases (`--pressure-solver cg`: the Jacobi CG the first runs of this bench
+// used); `--dem-graphs 0` launches the DEM sub-steps kernel by kernel
+// (DemParams::substep_graphs); `--host-threads N` runs the host on N cores
+// (default: all of them, `cpuall`).
 //
 // For every backend (CUDA where usable; the host on all its cores): after
 // `--warmup` gas steps, (1) the whole coupled step (gas step + DEM sub-steps,
@@ -51,6 +57,9 @@ struct Options {
   double gas_dt = 5e-4;
   std::string backends = "cuda,cpuall";
   std::string deposition = "linear";
+  std::string pressure = "multigrid";
+  bool dem_graphs = true;
+  int host_threads = 0;  // 0: all cores
   std::string out;
 };
 
@@ -64,6 +73,9 @@ struct Result {
   double gas_s = 0, void_s = 0, drag_s = 0, dem_s = 0;  // per step, with waits
   double setup_s = 0;
   int cg_iterations = 0;
+  // DEM over the timed whole steps: sub-steps, list rebuilds, reports read
+  // (and of those, waits), sub-step graphs launched and the sub-steps in them.
+  long dem_steps = 0, rebuilds = 0, reads = 0, waits = 0, graphs = 0, graph_steps = 0;
 };
 
 Result run(const Options& o, Backend b, int threads) {
@@ -100,6 +112,7 @@ Result run(const Options& o, Backend b, int threads) {
   dp.gravity = {0, 0, -9.80665};
   dp.external_forcing = true;
   dp.skin = 0.1 * d;
+  dp.substep_graphs = o.dem_graphs;
   const int substeps = static_cast<int>(std::ceil(o.gas_dt / (dem::min_collision_time(dp, init) / 50)));
   dp.dt = o.gas_dt / substeps;
 
@@ -118,6 +131,8 @@ Result run(const Options& o, Backend b, int threads) {
   gp.faces[5].kind = cfd::FaceKind::Outlet;
   gp.drag = cfd::DragLaw::Gidaspow;
   gp.deposition = cfd::parse_deposition("--void-fraction", o.deposition);
+  gp.pressure_solver = cfd::parse_pressure_solver("--pressure-solver", o.pressure);
+  gp.cg_poll_every = gp.pressure_solver == cfd::PressureSolverKind::Multigrid ? 2 : 25;
 
   if (b == Backend::Host) omp_set_num_threads(threads);
   const Exec ex(b);
@@ -145,10 +160,18 @@ Result run(const Options& o, Backend b, int threads) {
   for (int i = 0; i < o.warmup; ++i) loop.step();
   ex.synchronize();
   // (1) the whole coupled step.
+  const dem::DemStats s0 = dem.stats();
   auto t0 = Clock::now();
   for (int i = 0; i < steps; ++i) loop.step();
   ex.synchronize();
   r.step_s = since(t0) / steps;
+  const dem::DemStats s1 = dem.stats();
+  r.dem_steps = s1.steps - s0.steps;
+  r.rebuilds = s1.rebuilds - s0.rebuilds;
+  r.reads = s1.status_reads - s0.status_reads;
+  r.waits = s1.status_waits - s0.status_waits;
+  r.graphs = s1.graph_launches - s0.graph_launches;
+  r.graph_steps = s1.graph_steps - s0.graph_steps;
   r.cg_iterations = gas.last_solve().iterations;
   // (2) the split.
   cfd::StepTimes st;
@@ -199,14 +222,19 @@ int main(int argc, char** argv) {
     else if (a == "--gas-dt") o.gas_dt = std::stod(next());
     else if (a == "--backends") o.backends = next();
     else if (a == "--void-fraction") o.deposition = next();
+    else if (a == "--pressure-solver") o.pressure = next();
+    else if (a == "--dem-graphs") o.dem_graphs = next() != "0";
+    else if (a == "--host-threads") o.host_threads = std::stoi(next());
     else {
       std::fprintf(stderr,
                    "usage: lbdem_bench_cfd --out DIR [--particles N] [--steps N] [--host-steps N] [--warmup N] "
-                   "[--gas-dt S] [--backends cuda,cpuall] [--void-fraction centroid|linear|quadratic]\n");
+                   "[--gas-dt S] [--backends cuda,cpuall] [--void-fraction centroid|linear|quadratic] "
+                   "[--pressure-solver multigrid|cg] [--dem-graphs 1|0] [--host-threads N]\n");
       return 2;
     }
   }
-  if (o.out.empty() || o.particles < 1 || o.steps < 1 || o.host_steps < 1 || o.warmup < 0 || !(o.gas_dt > 0)) {
+  if (o.out.empty() || o.particles < 1 || o.steps < 1 || o.host_steps < 1 || o.warmup < 0 || !(o.gas_dt > 0) ||
+      o.host_threads < 0) {
     std::fprintf(stderr, "--out DIR is required; counts must be positive\n");
     return 2;
   }
@@ -215,7 +243,7 @@ int main(int argc, char** argv) {
     std::vector<std::pair<std::string, double>> bw;
     std::stringstream bs(o.backends);
     std::string tok;
-    const int all = omp_get_num_procs();
+    const int all = o.host_threads > 0 ? o.host_threads : omp_get_num_procs();
     while (std::getline(bs, tok, ',')) {
       if (tok == "cuda") {
         if (!cuda_unavailable_reason().empty()) {
@@ -241,10 +269,13 @@ int main(int argc, char** argv) {
     std::ostringstream js, md;
     js << "{\n" << bench::json_header("cfd_coupled_step", dev, bw) << ",\n  \"system\": \"Yu et al. 2024 Sec. 5.2: "
        << "0.5 x 0.5 x 1.2 m, 50 x 50 x 120 cells, d = 2.5 mm, U = 0.9 m/s, Gidaspow, void fraction "
-       << o.deposition << "\",\n  \"runs\": [\n";
+       << o.deposition << ", pressure solve " << o.pressure << ", DEM sub-step graphs " << (o.dem_graphs ? "on" : "off")
+       << "\",\n  \"pressure_solver\": \"" << o.pressure << "\",\n  \"dem_substep_graphs\": "
+       << (o.dem_graphs ? "true" : "false") << ",\n  \"runs\": [\n";
     md << "# CFD-DEM coupled step, Yu et al. 2024 Sec. 5.2 system\n\n"
        << "Device: " << dev << ", commit " << bench::git_commit() << ", " << bench::utc_date() << ". Void fraction "
-       << o.deposition << ", Gidaspow drag.\n\n"
+       << o.deposition << ", Gidaspow drag, pressure solve " << o.pressure << ", DEM sub-step graphs "
+       << (o.dem_graphs ? "on" : "off") << ".\n\n"
        << "| backend | threads | particles | cells | sub-steps | s / gas step | s / simulated s | particle-steps/s "
           "| gas | void fraction | drag | DEM | CG iterations |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
     for (std::size_t k = 0; k < res.size(); ++k) {
@@ -258,6 +289,9 @@ int main(int argc, char** argv) {
          << ", \"particle_steps_per_second\": " << num(psps) << ", \"split_seconds_per_gas_step\": {\"gas\": "
          << num(r.gas_s) << ", \"void_fraction\": " << num(r.void_s) << ", \"drag\": " << num(r.drag_s)
          << ", \"dem\": " << num(r.dem_s) << "}, \"cg_iterations\": " << r.cg_iterations
+         << ", \"dem_steps\": " << r.dem_steps << ", \"dem_rebuilds\": " << r.rebuilds
+         << ", \"dem_report_reads\": " << r.reads << ", \"dem_report_waits\": " << r.waits
+         << ", \"dem_graph_launches\": " << r.graphs << ", \"dem_graph_steps\": " << r.graph_steps
          << ", \"setup_seconds\": " << num(r.setup_s) << "}" << (k + 1 < res.size() ? "," : "") << "\n";
       md << "| " << r.backend << " | " << r.threads << " | " << r.particles << " | " << r.cells << " | " << r.substeps
          << " | " << num(r.step_s) << " | " << num(r.step_s / r.gas_dt) << " | " << num(psps) << " | "

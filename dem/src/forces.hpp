@@ -7,13 +7,19 @@
 
 namespace lbdem::dem {
 
+// The particle path's one kernel on `ex` (also what a sub-step graph captures).
+template <bool Friction>
+void force_particle(const Exec& ex, Index n, const State& s) {
+  launch(ex, n, ForceParticle<Friction>{s});
+}
+
 template <bool Friction>
 void force_step(DemSystem::Impl& m) {
   const State s = m.state();
   // Rows of the owned particles (ghosts, behind them, are partners only).
   const Index n = m.store.owned();
   if (m.p.path == ForcePath::Particle) {
-    launch(m.ex, n, ForceParticle<Friction>{s});
+    force_particle<Friction>(m.ex, n, s);
     return;
   }
   // Pair path (Yu et al. 2024, Sec. 3): count contacts per particle, prefix

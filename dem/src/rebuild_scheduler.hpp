@@ -59,6 +59,8 @@ class RebuildScheduler {
   void read_due(long t) {
     while (npending > 0 && pending[0].due <= t) read_front();
   }
+  // Whether read_due(t) reads a report (and may wait for the device).
+  bool read_waits(long t) const { return npending > 0 && pending[0].due <= t; }
   // Whether the list must be rebuilt before the forces of state t (Lookahead).
   bool rebuild_due(long t) const { return predicted_displacement(t) > 0.5 * skin; }
   // Every-step check: takes the report of state t and reads it now (one

@@ -2,6 +2,8 @@
 // (dem/README.md describes the step and the rebuild decisions).
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <cstring>
 #include <string>
 
 #include "core/algorithms.hpp"
@@ -9,6 +11,7 @@
 #include "domain_exchange.hpp"
 #include "format.hpp"
 #include "kernels.hpp"
+#include "substep_graphs.hpp"
 #include "system_impl.hpp"
 
 namespace lbdem::dem {
@@ -88,6 +91,35 @@ void rebuild_list(DemSystem::Impl& m) {
   ++m.rebuilds;
 }
 
+// One plain sub-step's launches (SubstepGraphs captures these): the fused
+// kick-drift with synced 0, extrapolation 1, no report and the displacement
+// check on, then the particle path's forces, the very launches advance()
+// issues for such a step.
+void issue_plain_step(const Exec& ex, const State& kick, StatusRecord* rec, StatusRecord* next, const State& force,
+                      bool friction) {
+  const Index n = kick.n;
+  if (friction) {
+    launch(ex, n, KickDrift<true>{kick, 0, 1, rec, next, 0, 1});
+    launch_force_particle_frictional(ex, n, force);
+  } else {
+    launch(ex, n, KickDrift<false>{kick, 0, 1, rec, next, 0, 1});
+    launch_force_particle_frictionless(ex, n, force);
+  }
+}
+
+// Whether plain sub-steps run as graphs: DemParams::substep_graphs (and no
+// LBDEM_DEM_GRAPHS=0) where the step's launches are the plain pair — CUDA, one
+// rank (a decomposed step exchanges ghosts between them), the particle path
+// (the pair path's scan uses scratch memory), look-ahead decisions (the
+// every-step test reads each step).
+bool graphs_apply(const DemSystem::Impl& m) {
+  if (!m.p.substep_graphs || !m.ex.on_device() || m.decomposed() || m.p.path != ForcePath::Particle ||
+      m.p.rebuild_check != RebuildCheck::Lookahead)
+    return false;
+  const char* env = std::getenv("LBDEM_DEM_GRAPHS");
+  return !(env && std::strcmp(env, "0") == 0);
+}
+
 }  // namespace
 
 DemSystem::Impl::Impl() : scratch_ptr(std::make_unique<Scratch>()) {}
@@ -145,6 +177,7 @@ DemSystem::DemSystem(Exec ex, DemParams params, const HostParticles& hp, const D
     if (refit) rebuild();
   }
   m.rebuilds = 0;  // the initial build is not counted
+  if (graphs_apply(m)) m.graphs = std::make_unique<SubstepGraphs>(m.ex, p.friction, issue_plain_step);
 }
 
 DemSystem::~DemSystem() = default;
@@ -191,13 +224,22 @@ void DemSystem::advance(long steps) {
     else launch(m.ex, n, Kick<false>{st});
     m.forces_valid = true;
   };
+  // Plain sub-steps (SubstepGraphs) are queued and issued as one graph
+  // before any other launch and before the host waits for a report, so the
+  // device's queue is the same sequence of kernels as without graphs.
+  SubstepGraphs* const graphs = m.graphs.get();
+  auto flush = [graphs] {
+    if (graphs) graphs->flush();
+  };
   for (long s = 0; s < steps; ++s) {
     const long t = m.steps + 1;  // the state this step produces
     bool build = false;
     if (ahead) {
+      if (r.read_waits(t)) flush();  // the device works on the queued steps while the host reads
       try {
         r.read_due(t);
       } catch (const DivergenceError&) {
+        flush();
         if (s > 0) close();  // leave a consistent state (stopped at step t - 1)
         throw;
       }
@@ -212,6 +254,17 @@ void DemSystem::advance(long steps) {
     const int synced = s == 0, extrap = m.old_valid ? 1 : 0;
     StatusRecord *rec = r.slot(r.reports), *next = r.slot(r.reports + 1);
     const int rep = report ? 1 : 0, check = build ? 0 : 1;
+    if (graphs && !report && !build && !synced && extrap && n > 0) {
+      // A plain step: the same bookkeeping, its launches queued.
+      m.store.frc.swap(m.store.frco);
+      if (m.p.friction) m.store.trq.swap(m.store.trqo);
+      ++m.steps;
+      m.time += dt;
+      graphs->add(st, rec, next, m.state());
+      m.old_valid = true;
+      continue;
+    }
+    flush();
     if (m.p.friction) launch(m.ex, n, KickDrift<true>{st, synced, extrap, rec, next, rep, check});
     else launch(m.ex, n, KickDrift<false>{st, synced, extrap, rec, next, rep, check});
     // A rank without particles reports zeros (a decomposed run; the kernel's
@@ -232,6 +285,7 @@ void DemSystem::advance(long steps) {
     run_forces(m);
     m.old_valid = true;
   }
+  flush();
   close();
 }
 

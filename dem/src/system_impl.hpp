@@ -17,6 +17,7 @@ struct Scratch;  // core/algorithms.hpp (kernel TUs only)
 namespace lbdem::dem {
 
 class DomainExchange;  // domain_exchange.hpp
+class SubstepGraphs;   // substep_graphs.hpp
 
 struct DemSystem::Impl {
   Impl();
@@ -39,6 +40,9 @@ struct DemSystem::Impl {
   std::unique_ptr<DomainExchange> domain;
   const halo::Comm* comm = nullptr;  // the ranks of a decomposed run (null on one rank)
   bool decomposed() const { return domain != nullptr; }
+  // Plain sub-steps as CUDA graphs (substep_graphs.hpp): made at construction
+  // where DemParams::substep_graphs applies (null otherwise).
+  std::unique_ptr<SubstepGraphs> graphs;
 
   // The set-up constants of the kernel view (no arrays bound).
   State physics() const {
@@ -59,5 +63,9 @@ struct DemSystem::Impl {
 // Force evaluation, one instantiation per friction flag (own TU each).
 void run_forces_frictionless(DemSystem::Impl& m);
 void run_forces_frictional(DemSystem::Impl& m);
+// The particle path's force kernel with an explicit view and stream (the
+// sub-step graphs capture it; the same kernel run_forces_* launches).
+void launch_force_particle_frictionless(const Exec& ex, Index n, const State& s);
+void launch_force_particle_frictional(const Exec& ex, Index n, const State& s);
 
 }  // namespace lbdem::dem

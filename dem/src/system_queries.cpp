@@ -5,6 +5,7 @@
 #include <numeric>
 
 #include "domain_exchange.hpp"
+#include "substep_graphs.hpp"
 #include "system_impl.hpp"
 
 namespace lbdem::dem {
@@ -17,6 +18,11 @@ DemStats DemSystem::stats() const {
   s.neighbour_capacity = m.lists.cap;
   s.status_reads = m.sched.status_reads;
   s.status_waits = m.sched.status_waits;
+  if (m.graphs) {
+    s.graph_launches = m.graphs->graph_launches;
+    s.graph_steps = m.graphs->graph_steps;
+    s.graph_captures = m.graphs->captures;
+  }
   if (m.domain) {
     for (int k = 0; k < 3; ++k) s.migrations[k] = m.domain->migrations[k];
     s.migrations_periodic = m.domain->migrations_periodic;

@@ -76,6 +76,13 @@ struct DemParams {
   // Moment of inertia of each particle = inertia_factor m r^2: 0.4 for solid
   // spheres, 0.5 for the disks (cylinders about their axis) of a 2D scene.
   double inertia_factor = 0.4;
+  // CUDA, one rank, particle force path, look-ahead rebuilds: the sub-steps
+  // between two host decisions (reports, rebuilds) run as CUDA graphs
+  // (dem/README.md, "Sub-step graphs"); the same kernels in the same order,
+  // so the same particles bit for bit. false: each kernel launched on its own.
+  // The environment variable LBDEM_DEM_GRAPHS=0 turns it off for a whole run
+  // (A/B timing of a case without a key for it).
+  bool substep_graphs = true;
 };
 
 // Smallest collision time among particle-particle and particle-wall contacts
@@ -91,6 +98,9 @@ struct DemStats {
   double mean_neighbours = 0;  // at the last build
   long status_reads = 0;  // rebuild-decision reports read by the host
   long status_waits = 0;  // of those, reads that found the device not yet there (CUDA; timing-dependent)
+  long graph_launches = 0;  // sub-step graphs launched (DemParams::substep_graphs)
+  long graph_steps = 0;     // sub-steps run inside them (the rest were launched kernel by kernel)
+  long graph_captures = 0;  // graphs captured (a new set of buffers, counts or run length)
   // Decomposed run, this rank: particles sent to another rank across a face,
   // an edge and a corner of its piece (1, 2 and 3 piece coordinates changed,
   // periodic wrap included), and the ghosts held at the last build.
