@@ -21,7 +21,8 @@
 #                lbdem_bench_cfd, dem_tests, cfd_tests, imb_tests)
 #     STEPS      gas steps per Mueller speed run (default 4000: 0.6 s simulated, the last 0.4 s bubbling; ~20 s each
 #                at 33 s per simulated s)
-#   env  LINK_STEPS (default 5000: 0.15 s simulated), RESTART_STEPS (default 400), HOST_THREADS (default 16)
+#   env  LINK_STEPS (default 5000: 0.15 s simulated), RESTART_STEPS (default 400), HOST_THREADS (default 16);
+#        LANES (default "0 1 2 3"), LANE_GPU_n (lane n's GPU), PARALLEL=1 (the lanes side by side on fewer GPUs)
 # Output under $OUT/graphs: speed.jsonl (one JSON line per bed run: seconds per simulated second, particle-steps
 # /s, per gas step the DEM's sub-steps, rebuilds, report reads and waits), restart.txt (the comparisons: "same" or
 # "DIFFER" per file), dem_tests.log, suite.log, bench_*.{json,md,log}, each run's summary.json/series.csv/log.
@@ -41,7 +42,9 @@ build="$(realpath "$build")"
 exe="$build/cases/lbdem"
 ngpu="$(gpu_count)"
 [ "$ngpu" -ge 1 ] || { echo "no GPU"; exit 1; }
-gpu() { if [ "$ngpu" -ge 4 ]; then echo "$1"; else echo 0; fi; }
+# Lane n runs on GPU $LANE_GPU_n if set, else on GPU n (4 GPUs) or GPU 0.
+gpu() { local v="LANE_GPU_$1"; if [ -n "${!v:-}" ]; then echo "${!v}"; elif [ "$ngpu" -ge 4 ]; then echo "$1"; else echo 0; fi; }
+lanes="${LANES:-0 1 2 3}"
 
 # yaml CASE NAME STEPS [SED...]: CASE for STEPS gas steps, snapshots only at the first and last step, a
 # checkpoint at the end; further sed expressions change more.
@@ -134,11 +137,11 @@ lane3() {
     mv "$out/bench_cfd.json" "$out/bench_$tag.json"; mv "$out/bench_cfd.md" "$out/bench_$tag.md"
   done
 }
-if [ "$ngpu" -ge 4 ]; then
-  lane0 & lane1 & lane2 & lane3 &
+if [ "$ngpu" -ge 4 ] || [ -n "${PARALLEL:-}" ]; then
+  for l in $lanes; do "lane$l" & done
   wait
 else
-  lane0; lane1; lane2; lane3
+  for l in $lanes; do "lane$l"; done
 fi
 echo "all lanes done in $((SECONDS - t0)) s"
 cat "$out/restart.txt"
