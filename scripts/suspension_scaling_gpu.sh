@@ -11,6 +11,7 @@
 # "particles_per_rank" go to one JSON line each; a table is printed at the end.
 #   scripts/suspension_scaling_gpu.sh BUILD_DIR
 # BUILD_DIR: a build folder (configured from the `cuda` preset and built here if missing: lbdem_build).
+# SKIP_FLUID=1: the coupled runs only (the fluid-only ones measured before, same machine kind).
 # BUILD_ONLY=1: build and stop (a first call on a fresh machine; the runs then go in a second call).
 # Environment: STEPS (200), BUDGET (seconds of runs before the remaining ones are skipped, 500), LIMIT (a run is
 # cut by timeout so that the runs end within LIMIT s, default 570), WORK (run
@@ -139,10 +140,12 @@ PY
 }
 
 for n in 1 2 4; do [ "$n" -le "$G" ] && coupled strong "$n" "$case3d"; done
-for n in 1 2 4; do [ "$n" -le "$G" ] && fluid strong "$n" --grid 512 2016 512; done
+if [ -z "${SKIP_FLUID:-}" ]; then
+  for n in 1 2 4; do [ "$n" -le "$G" ] && fluid strong "$n" --grid 512 2016 512; done
+fi
 for n in 2 4; do
   [ "$n" -le "$G" ] || continue
-  fluid weak "$n" --per-rank 512 2016 512
+  [ -n "${SKIP_FLUID:-}" ] || fluid weak "$n" --per-rank 512 2016 512
   coupled weak "$n" "$(weak_case "$n")"
 done
 
