@@ -39,9 +39,11 @@ namespace lbdem::imb {
 // drag_map_host.md, drag_map_gpu_h200.md). t's excess does not fade with d
 // (about +1 to +2 points at tau 0.8-1 from d/l 8 to 50), so Lambda grows with
 // d/l. Above tau 1 the weighting is at its limit B = eps and the drag falls
-// with tau: d/l 10 needs a smaller Lambda at tau 1.25 than at 1, d/l <= 8 at
-// tau >= 1.25 and every d/l <= 10 at tau 1.5 get the floor 1e-4 (they would
-// need more drag than the form gives: drag_map_host.md). log Lambda is
+// with tau: d/l 10 needs a smaller Lambda at tau 1.25 than at 1, d/l 8 at tau
+// >= 1.25 and d/l 10 at 1.5 get the floor 1e-4 (they would need more drag
+// than the form gives: drag_map_host.md); d/l 4-6, which miss the bar above
+// tau 1 at any Lambda, keep their tau 1 Lambda (a smaller one lets more mass
+// move between fluid and covered cells: PsmMassDrift at d/l 4.34, tau 1.24). log Lambda is
 // interpolated linearly in tau and in 1/d, clamped at the table's edges.
 namespace detail {
 inline constexpr int kMagicRows = 8, kMagicCols = 8;
@@ -51,7 +53,7 @@ inline constexpr double kMagicTau[kMagicCols] = {0.52, 0.6, 0.7, 0.8, 0.9, 1.0, 
 inline constexpr double kMagicTable[kMagicRows][kMagicCols] = {
     // 0.52   0.6     0.7     0.8     0.9     1.0     1.25    1.5
     {1e-4,   1.2e-4, 4.2e-3, 0.011,  9.7e-3, 1e-4,   1e-4,   1e-4},  // d/l 4
-    {1e-4,   0.01,   0.041,  0.08,   0.1,    0.062,  1e-4,   1e-4},  // d/l 6
+    {1e-4,   0.01,   0.041,  0.08,   0.1,    0.062,  0.062,  0.062},  // d/l 6
     {1e-4,   0.027,  0.085,  0.15,   0.2,    0.16,   1e-4,   1e-4},  // d/l 8
     {1e-4,   0.014,  0.094,  0.17,   0.23,   0.21,   0.024,  1e-4},  // d/l 10
     {3e-2,   0.096,  0.19,   0.36,   0.41,   0.46,   0.22,   0.081},  // d/l 16
@@ -117,8 +119,8 @@ namespace detail {
 // (interpolated in tau from the row's measured nodes). Host, d/l 4-10
 // (bench/results/drag_map_host.*): the rule as committed (t of
 // psm_wall_weight_t, Lambda of psm_magic_auto), tau 0.505 to 1.5 (above tau
-// 1: B = eps, the weighting's limit; Lambda 1e-4 there but at d/l 10, tau
-// 1.25; the drag falls with tau, below the bar at d/l <= 6 from tau 1.25 and
+// 1: B = eps, the weighting's limit; Lambda 1e-4 at d/l 8 and 10 but at
+// d/l 10, tau 1.25, d/l 4-6 the tau 1 Lambda; the drag falls with tau, below the bar at d/l <= 6 from tau 1.25 and
 // at every d/l of the host map at tau 1.5). tau 0.52 from d/l 16: the
 // fixed-sphere study (bench/results/psm_fixed_sphere_sweep_h200.json, set
 // by_resolution; classic NT weighting, whose t is within 6 % of the rule's at
@@ -135,7 +137,7 @@ inline constexpr double kNo = std::numeric_limits<double>::quiet_NaN();
 inline constexpr double kDragMapError[8][kMapTaus] = {
     // 0.505   0.52    0.55    0.6     0.7     0.8     0.9     1.0     1.25    1.5
     {-6.69,  -6.80,  -6.87,  -6.74,  -6.80,  -6.85,  -6.75,  -8.29,  -21.23,  -30.35},  // d/l 4
-    {-1.90,  -1.77,  -1.55,  -2.04,  -2.24,  -2.17,  -2.02,  -1.84,  -6.70,  -12.99},  // d/l 6
+    {-1.90,  -1.77,  -1.55,  -2.04,  -2.24,  -2.17,  -2.02,  -1.84,  -9.80,  -15.80},  // d/l 6
     {-0.61,  -0.38,  +0.01,  -0.67,  -0.73,  -0.68,  -0.80,  -0.64,  -1.18,  -5.51},  // d/l 8
     {+0.26,  +0.44,  +0.77,  +0.68,  +0.35,  +0.56,  +0.60,  +0.54,  -0.07,  -2.18},  // d/l 10
     {kNo,    -0.39,  kNo,    kNo,    kNo,    +0.45,  kNo,    +0.49,  +0.02,   -0.37},  // d/l 16
