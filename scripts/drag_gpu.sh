@@ -1,40 +1,76 @@
 #!/usr/bin/env bash
-# Drag and mass checks of issue 29 on one GPU (about 8 minutes after the build):
+# Drag and mass checks of issue 29 on one GPU:
 #
-#   scripts/drag_gpu.sh BUILD_DIR [PART...]      PART: drift | map (default: both)
+#   scripts/drag_gpu.sh BUILD_DIR [PART...]      PART: map | lambda | random | drift (default: map random)
 #
-#   drift  the mean fluid density of a weight-balanced periodic suspension with the shipped 3D suspension's
-#          physics (lbdem_bench_psm drift: tau 1.2386, d/l 10, solid fraction 0.128, density ratio 692.3,
-#          g 4.704e-7, random speeds 5e-3, the default rule: wall weighting, Lambda auto, NEBB, table
-#          fractions, fused pipeline), fp64, in the eighth box (64 x 252 x 64 cells, 252 particles,
-#          cases/suspension/suspension_3d_eighth.yaml's box) for 1e5 steps, a sample every 5,000.
-#          Bar (issue 29): |drift| = |fluid_rho(n) - fluid_rho(5,000)| <= 1e-6 up to n = 1e5. About 2-3 min.
-#          Output: $OUT/drift.jsonl (one line per sample: step, fluid_rho, drift, mean_rho, superficial_u).
-#   map    the fixed-sphere drag map where d/l >= 16 (scripts/drag_map.sh gpu-d): d/l 16, 20, 30 x tau
-#          {1.5, 1.25, 1.0, 0.8, 0.6} and d/l 50 x tau {1.5, 1.25, 1.0, 0.8}, the default rule, exact
-#          fractions, fp64, chi 0.5, Re_p 0.2. About 5 min (cut at 8 min). Output: $OUT/drag_map_gpu_d*.{json,md}
-#          (copy the JSONs beside bench/results/drag_map_host.json; the rows fill imb/drag_error.hpp's map).
-# Prints the drift lines and the map's table rows.
+#   map     the fixed-sphere drag map of the default rule where d/l >= 16 (scripts/drag_map.sh gpu-e):
+#           d/l 16, 20, 30, 50 x tau {1.5, 1.25, 1.0, 0.8, 0.6}, chi 0.5, Re_p 0.2, exact fractions, fp64,
+#           against Sangani & Acrivos; bar: half the first paper's Table 1 error. About 1.5 min on an H200
+#           (d/l 50 at tau 0.6 alone ~30 s). Output: $OUT/drag_map_gpu_e*.{json,md,log}, $OUT/drag_map.json
+#           (merged), $OUT/drag_map_rows.jsonl (one JSON line per run), $OUT/drag_map_ntw.png.
+#   lambda  the same points at Lambda = 0.6 and 1.6 times the rule's (scripts/drag_map.sh gpu-lam): the
+#           slope dE/dLambda at each point, to re-centre imb/drag_error.hpp's Lambda table for d/l >= 16
+#           if the map misses. About 2.5 min. Output: $OUT/drag_map_gpu_lam*.{json,md,log}, rows in
+#           $OUT/drag_map_rows.jsonl.
+#   random  random arrays of 27 spheres, d/l 10, against Beetstra et al. (2007) and Tenneti et al. (2011)
+#           (lbdem_bench_psm random): phi 0.1, 0.2, 0.3, 0.4 at Re 0.2 (tau 0.8), two configurations each;
+#           Re 10 and 50 at phi 0.2 and 0.4 (tau 0.55, d/l 16; Mach ~0.1 at Re 50). At most 130 s. Output: $OUT/random_array.jsonl
+#           and its table $OUT/random_array.md.
+#   drift   the mean fluid density of a weight-balanced periodic suspension with the shipped 3D suspension's
+#           physics (lbdem_bench_psm drift: tau 1.2386, d/l 10, solid fraction 0.128, density ratio 692.3,
+#           g 4.704e-7, random speeds 5e-3, the default rule), fp64, in the eighth box (64 x 252 x 64 cells,
+#           252 particles) for 1e5 steps, a sample every 5,000. Bar (issue 29): |fluid_rho(n) - fluid_rho(5,000)|
+#           <= 1e-6 up to n = 1e5. About 2-3 min. Output: $OUT/drift.jsonl.
+# `map random` together: about 4 min on one H200 after the build. Prints the table rows.
 set -uo pipefail
 source "$(dirname "$0")/lib.sh"
-build="${1:?usage: scripts/drag_gpu.sh BUILD_DIR [drift|map]...}"
+build="${1:?usage: scripts/drag_gpu.sh BUILD_DIR [map|lambda|random|drift]...}"
 shift
 parts=("$@")
-[ ${#parts[@]} -eq 0 ] && parts=(drift map)
+[ ${#parts[@]} -eq 0 ] && parts=(map random)
 lbdem_env
 lbdem_build "$build" lbdem_bench_psm || exit 1
-bin="$build/bench/imb/lbdem_bench_psm"
+bin="$(realpath "$build")/bench/imb/lbdem_bench_psm"
+
+# Every sweep row of the map parts as one JSON line (device, commit added).
+rows_jsonl() {
+  /usr/bin/python3 - "$OUT" "$LBDEM_COMMIT" "$LBDEM_DEVICE" <<'PY' || echo "rows: failed"
+import glob, json, os, sys
+out, commit, device = sys.argv[1:4]
+with open(os.path.join(out, "drag_map_rows.jsonl"), "w") as f:
+    for p in sorted(glob.glob(os.path.join(out, "drag_map_gpu_*.json"))):
+        for r in json.load(open(p)).get("rows", []):
+            f.write(json.dumps(dict(r, source=os.path.basename(p), commit=commit, device=device)) + "\n")
+PY
+}
+
 for p in "${parts[@]}"; do
   case "$p" in
+    map)
+      DRAG_MAP_LIMIT=150 "$LBDEM_ROOT/scripts/drag_map.sh" "$bin" "$OUT" gpu-e merge plot
+      rows_jsonl
+      ;;
+    lambda)
+      DRAG_MAP_LIMIT=200 "$LBDEM_ROOT/scripts/drag_map.sh" "$bin" "$OUT" gpu-lam
+      rows_jsonl
+      ;;
+    random)
+      rm -f "$OUT/random_array.jsonl"
+      {
+        timeout 70 "$bin" random --backend cuda --n 3 --d 10 --phi 0.1,0.2,0.3,0.4 --re 0.2 --tau 0.8 --seeds 1,2 \
+          --out "$OUT/random_array.jsonl"
+        timeout 60 "$bin" random --backend cuda --n 3 --d 16 --phi 0.2,0.4 --re 10,50 --tau 0.55 --seeds 1 \
+          --out "$OUT/random_array.jsonl"
+      } > "$OUT/random_array.md" 2> "$OUT/random_array.log"
+      echo "random: exit $?"
+      cat "$OUT/random_array.md"
+      ;;
     drift)
       timeout 300 "$bin" drift --backend cuda --precision fp64 --dims 64,252,64 --steps 100000 --every 5000 \
         > "$OUT/drift.jsonl" 2> "$OUT/drift.log"
       echo "drift: exit $?"
       cat "$OUT/drift.jsonl"
       ;;
-    map)
-      DRAG_MAP_LIMIT=480 "$LBDEM_ROOT/scripts/drag_map.sh" "$bin" "$OUT" gpu-d
-      ;;
-    *) echo "drag_gpu: unknown part $p (drift, map)"; exit 2 ;;
+    *) echo "drag_gpu: unknown part $p (map, lambda, random, drift)"; exit 2 ;;
   esac
 done

@@ -6,7 +6,7 @@
 # Sangani & Acrivos (1982); and the dense array, chi 0.8685 (phi 0.343, spheres nearly touching), against
 # Zick & Homsy (1982). One JSON, one heat-map PNG per weighting.
 #
-#   scripts/drag_map.sh BIN OUTDIR PART...     PART: host | host-hi | gpu-a | gpu-b | gpu-c | gpu-d | merge | plot
+#   scripts/drag_map.sh BIN OUTDIR PART...     PART: host | host-hi | gpu-a | gpu-b | gpu-c | gpu-d | gpu-e | gpu-lam | merge | plot
 #
 #   BIN     lbdem_bench_psm (host build for `host`, the CUDA build for the gpu parts)
 #   OUTDIR  receives drag_map_<part>_<k>.{json,md,log}; each JSON is rewritten after every run, so a
@@ -26,6 +26,10 @@
 # gpu-c   d/l 50 at tau 0.505: ntw exact fp64 (5.2e6 steps). About 8 min on an H200.
 # gpu-d   the rule above tau 1 and where d/l >= 16 has no row yet: d/l 16, 20, 30 x tau {1.5, 1.25, 1.0,
 #         0.8, 0.6} and d/l 50 x tau {1.5, 1.25, 1.0, 0.8}: ntw exact fp64. About 6 min on an H100/H200.
+# gpu-e   the rule (issue 29's Lambda table to d/l 50 and tau 1.5) where d/l >= 16: d/l 16, 20, 30, 50 x tau
+#         {1.5, 1.25, 1.0, 0.8, 0.6}: ntw exact fp64. About 1.5 min on an H200.
+# gpu-lam the gpu-e points at 0.6 and 1.6 times the rule's Lambda (the slope that re-centres the table).
+#         About 2.5 min on an H200.
 # merge   every OUTDIR/drag_map_*.json (sweep rows) into OUTDIR/drag_map.json.
 # plot    scripts/plot_drag_map.py OUTDIR/drag_map.json OUTDIR (needs python3-matplotlib).
 #
@@ -89,6 +93,16 @@ for p in "${parts[@]}"; do
       run drag_map_gpu_d1 cuda 200 --d 16,20,30 --tau 1.5,1.25,1.0,0.8,0.6 --weights ntw --methods exact --precisions fp64
       run drag_map_gpu_d2 cuda 300 --d 50 --tau 1.5,1.25,1.0,0.8 --weights ntw --methods exact --precisions fp64
       ;;
+    gpu-e)
+      run drag_map_gpu_e1 cuda 60 --d 16,20,30 --tau 1.5,1.25,1.0,0.8,0.6 --weights ntw --methods exact --precisions fp64
+      run drag_map_gpu_e2 cuda 90 --d 50 --tau 1.5,1.25,1.0,0.8,0.6 --weights ntw --methods exact --precisions fp64
+      ;;
+    gpu-lam)
+      run drag_map_gpu_lam1 cuda 80 --d 16,20,30 --tau 1.5,1.25,1.0,0.8,0.6 --weights ntw --methods exact \
+        --precisions fp64 --magic "auto*0.6,auto*1.6"
+      run drag_map_gpu_lam2 cuda 120 --d 50 --tau 1.5,1.25,1.0,0.8 --weights ntw --methods exact --precisions fp64 \
+        --magic "auto*0.6,auto*1.6"
+      ;;
     gpu-a)
       run drag_map_gpu_a1 cuda 240 --d 16,20,30 --tau "$TAUS" --weights ntw --methods exact --precisions fp64
       run drag_map_gpu_a2 cuda 120 --d 16,20 --tau "$TAUS" --weights ntw --methods table --precisions fp64
@@ -117,6 +131,6 @@ PY
     plot)
       /usr/bin/python3 "$here/scripts/plot_drag_map.py" "$out/drag_map.json" "$out" || echo "plot: failed (python3-matplotlib missing?)"
       ;;
-    *) echo "drag_map: unknown part $p (host, host-hi, gpu-a, gpu-b, gpu-c, gpu-d, merge, plot)"; exit 2 ;;
+    *) echo "drag_map: unknown part $p (host, host-hi, gpu-a, gpu-b, gpu-c, gpu-d, gpu-e, gpu-lam, merge, plot)"; exit 2 ;;
   esac
 done

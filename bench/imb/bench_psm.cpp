@@ -2,13 +2,16 @@
 //
 //   lbdem_bench_psm sweep [--out FILE.json] [--d 4,6,8,...] [--tau 0.52] [--methods exact,table,linear]
 //                   [--precisions fp64,fp32,fp16s,fp16c] [--collisions trt,bgk] [--variants nebb,super] [--weights nt,eps]
-//                   [--magic 1e-4 (or auto: by d/l and tau, imb::psm_magic_auto)] [--offset 0.5,0,centre] [--re 0.2]
+//                   [--magic 1e-4 (or auto: by d/l and tau, imb::psm_magic_auto; auto*F: F times it)] [--offset 0.5,0,centre] [--re 0.2]
 //                   [--chi 0.5 (<= 0.75, or a dense point of Zick & Homsy: 0.8685, 0.9508, 1)] [--tol 1e-5]
 //                   [--start estimate|rest] [--check N] [--max-steps N] [--periods 0 (per axis; 0: as needed)]
 //                   [--backend host|cuda] [--dim 3] [-v]
 //   lbdem_bench_psm suspension [--out FILE.json] [--n 256 | --dims X,Y,Z] [--phi 0.128] [--d 10] [--steps 200]
 //                   [--substeps N (default: fewest accepted)] [--tau 0.6] [--precision fp32|fp64|fp16s|fp16c] [--fraction exact|table|linear]
 //                   [--pipeline auto|fused|mapped] [--backend host|cuda]
+//   lbdem_bench_psm random [--out FILE.jsonl] [--n 3 (n^3 spheres)] [--d 8] [--phi 0.1,0.2,0.3] [--re 0.2]
+//                   [--tau 0.8] [--magic auto] [--seeds 1] [--sweeps 200] [--min-gap 1] [--weights ntw] [--tol 1e-5]
+//                   [--backend host|cuda]
 //   lbdem_bench_psm drift [--dims 64,252,64] [--steps 100000] [--every 5000] [--tau 1.2386] [--d 10] [--phi 0.128]
 //                   [--precision fp64] [--fraction table|exact] [--backend host|cuda]
 //
@@ -29,6 +32,7 @@
 
 #include "bench_support.hpp"
 #include "psm_plane_wall.hpp"
+#include "random_array.hpp"
 #include "imb/fixed_sphere.hpp"
 #include "core/error.hpp"
 #include "core/exec.hpp"
@@ -172,7 +176,10 @@ int sweep(int argc, char** argv) {
                       s.re_p = std::stod(rs);
                       s.tau = std::stod(ts);
                       // "auto": Lambda by d/l and tau (imb::psm_magic_auto, bench/imb/NOTES.md).
-                      s.magic = ms == "auto" ? imb::psm_magic_auto(s.diameter, s.tau) : std::stod(ms);
+                      // "auto*F": F times that (the table's slope, scripts/drag_map.sh gpu-lam).
+                      s.magic = ms == "auto"                ? imb::psm_magic_auto(s.diameter, s.tau)
+                                : ms.rfind("auto*", 0) == 0 ? imb::psm_magic_auto(s.diameter, s.tau) * std::stod(ms.substr(5))
+                                                            : std::stod(ms);
                       // "centre": the sphere centre on a cell centre (L/2 is one for odd L, a corner for even L).
                       s.offset = os == "centre" ? (std::lround(s.diameter / chi) % 2 == 0 ? 0.5 : 0.0) : std::stod(os);
                       // fp32 round-off floors the drag's step-to-step change near 1e-6, 16-bit storage near 1e-4.
@@ -548,6 +555,76 @@ int drift(int argc, char** argv) {
 
 }  // namespace
 
+// Random arrays (random_array.hpp): F against Beetstra et al. (2007) and
+// Tenneti et al. (2011), one JSON line per run (appended to --out) and a table.
+int random_arrays(int argc, char** argv) {
+  std::string out, phis = "0.1,0.2,0.3", res = "0.2", taus = "0.8", magic = "auto", seeds = "1", weights = "ntw",
+                   ds = "8", backend = "auto";
+  bench::RandomArraySpec base;
+  for (int i = 2; i < argc; ++i) {
+    const std::string k = argv[i];
+    auto next = [&] { return option_value(argc, argv, i); };
+    if (k == "--out") out = next();
+    else if (k == "--n") base.n = std::stoi(next());
+    else if (k == "--d") ds = next();
+    else if (k == "--phi") phis = next();
+    else if (k == "--re") res = next();
+    else if (k == "--tau") taus = next();
+    else if (k == "--magic") magic = next();
+    else if (k == "--seeds") seeds = next();
+    else if (k == "--sweeps") base.sweeps = std::stoi(next());
+    else if (k == "--min-gap") base.min_gap = std::stod(next());
+    else if (k == "--weights") weights = next();
+    else if (k == "--tol") base.tolerance = std::stod(next());
+    else if (k == "--max-steps") base.max_steps = std::stol(next());
+    else if (k == "--backend") backend = next();
+    else throw ConfigError("random: unknown option " + k);
+  }
+  const Backend b = resolve_backend(backend);
+  std::printf("| d/l | phi | tau | Lambda | weight | seed | Re | F | Beetstra | err %% | Tenneti | err %% | L | min gap | steps | s |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+  for (const auto& dstr : split(ds))
+    for (const auto& ph : split(phis))
+      for (const auto& rs : split(res))
+        for (const auto& ts : split(taus))
+          for (const auto& we : split(weights))
+            for (const auto& sd : split(seeds)) {
+              bench::RandomArraySpec s = base;
+              s.diameter = std::stod(dstr);
+              s.phi = std::stod(ph);
+              s.re = std::stod(rs);
+              s.tau = std::stod(ts);
+              s.magic = magic == "auto" ? -1.0 : std::stod(magic);
+              s.seed = std::stoull(sd);
+              if (we != "ntw" && we != "nt") throw ConfigError("--weights " + we + ": must be ntw or nt");
+              s.weight = we == "ntw" ? imb::PsmWeight::NobleTorczynskiWall : imb::PsmWeight::NobleTorczynski;
+              bench::RandomArrayResult r;
+              try {
+                r = bench::run_random_array(s, b);
+              } catch (const DivergenceError& e) {  // one run's divergence does not end the sweep
+                std::printf("| %s | %s | %s | diverged: %s |\n", dstr.c_str(), ph.c_str(), ts.c_str(), e.what());
+                continue;
+              }
+              const double eb = 100 * (r.F / r.beetstra - 1), et = 100 * (r.F / r.tenneti - 1);
+              std::printf("| %s | %.4f | %s | %.3g | %s | %s | %.3f | %.4f | %.4f | %+.2f | %.4f | %+.2f | %.0f | %.2f | %ld%s | %.1f |\n",
+                          dstr.c_str(), r.phi, ts.c_str(), r.magic, we.c_str(), sd.c_str(), r.re, r.F, r.beetstra, eb,
+                          r.tenneti, et, r.L, r.min_surface_gap, r.steps, r.converged ? "" : "*", r.seconds);
+              std::fflush(stdout);
+              if (!out.empty()) {
+                std::ofstream o(out, std::ios::app);
+                o << "{\"bench\": \"random_array\", \"device\": \"" << bench::device_name(b) << "\", \"n\": " << s.n
+                  << ", \"d\": " << jnum(s.diameter) << ", \"phi\": " << jnum(r.phi) << ", \"tau\": " << jnum(s.tau)
+                  << ", \"magic\": " << jnum(r.magic) << ", \"weight\": \"" << we << "\", \"seed\": " << s.seed
+                  << ", \"re\": " << jnum(r.re) << ", \"F\": " << jnum(r.F) << ", \"beetstra\": " << jnum(r.beetstra)
+                  << ", \"tenneti\": " << jnum(r.tenneti) << ", \"L\": " << jnum(r.L)
+                  << ", \"min_gap\": " << jnum(r.min_surface_gap) << ", \"steps\": " << r.steps
+                  << ", \"converged\": " << (r.converged ? "true" : "false") << ", \"remaining\": " << jnum(r.remaining)
+                  << ", \"seconds\": " << jnum(r.seconds) << ", \"mlups\": " << jnum(r.mlups) << "}\n";
+              }
+            }
+  return 0;
+}
+
 int main(int argc, char** argv) {
   try {
     const std::string mode = argc > 1 ? argv[1] : "sweep";
@@ -555,7 +632,8 @@ int main(int argc, char** argv) {
     if (mode == "suspension") return suspension(argc, argv);
     if (mode == "drift") return drift(argc, argv);
     if (mode == "wall") return plane_wall(argc, argv);
-    std::fprintf(stderr, "usage: lbdem_bench_psm sweep|suspension|wall|drift [options]\n");
+    if (mode == "random") return random_arrays(argc, argv);
+    std::fprintf(stderr, "usage: lbdem_bench_psm sweep|suspension|wall|random|drift [options]\n");
     return 2;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "error: %s\n", e.what());

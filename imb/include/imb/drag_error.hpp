@@ -23,39 +23,51 @@
 namespace lbdem::imb {
 
 // Lambda auto, the TRT magic parameter of particle scenes, by particle
-// diameter d (cells) and tau (bench/imb/NOTES.md, "One rule for every tau").
-// tau -> 1/2: 1e-4 below d/l 16, 3e-2 from 16 (the fixed-sphere study: small
-// spheres need the most drag, Lambda -> 0; from d/l 16 the O(1/d)
-// hydrodynamic-radius excess that Lambda 1e-4 leaves is cut by 3e-2). Above
-// tau -> 1/2 the wall rule's weighting (psm_wall_weight_t) gives the d/l 4
-// sphere the drag it needs but larger spheres too much; a larger Lambda
-// lowers the drag like a smaller radius (by ~g(Lambda)/d %, g(1e-2) ~ 6,
-// g(3e-2) ~ 13, g(0.1) ~ 28 %-cells at tau 0.8 and 1). The table holds, per
-// d/l and tau, the Lambda that brings the drag back to its tau -> 1/2 value
-// (never below 1e-4): Lambda = g^-1(d (E_t - E_0)), E_t the error with
-// Lambda 1e-4 and E_0 the one at tau 0.52, from host runs at d/l 4-10
-// (bench/results/drag_map_host.md); log Lambda is interpolated linearly
-// in tau and in 1/d, clamped at the table's edges. d/l 10-16 take the d/l 10
-// row; from d/l 16 the larger of 3e-2 and that row (the device map has not
-// measured d/l >= 16 at tau > 0.52 with this rule yet).
+// diameter d (cells) and tau (bench/imb/NOTES.md, "One rule for every tau",
+// "Lambda to d/l 50 and tau 1.5"). tau -> 1/2: 1e-4 below d/l 16, 3e-2 from
+// 16 (the fixed-sphere study: small spheres need the most drag, Lambda -> 0;
+// from d/l 16 the O(1/d) hydrodynamic-radius excess that Lambda 1e-4 leaves
+// is cut by 3e-2). Above tau -> 1/2 the wall rule's weighting
+// (psm_wall_weight_t) gives the d/l 4 sphere the drag it needs but larger
+// spheres too much; a larger Lambda lowers the drag like a smaller radius:
+// by g(Lambda)/d %, g ~ 139 Lambda^0.69 %-cells (fitted at Lambda <= 0.2,
+// d/l 4-10, tau 0.8 and 1). The table holds, per d/l and tau, the Lambda
+// that brings the drag back to its tau -> 1/2 value (d/l 4-10) or to the
+// reference (d/l >= 16), never below 1e-4: Lambda = g^-1(g(Lambda_0) + d E),
+// E the error measured with Lambda_0 (host map d/l 4-10, device map d/l
+// 16-50 at Lambda_0 = the previous table's d/l 10 row; bench/results/
+// drag_map_host.md, drag_map_gpu_h200.md). t's excess does not fade with d
+// (about +1 to +2 points at tau 0.8-1 from d/l 8 to 50), so Lambda grows with
+// d/l. Above tau 1 the weighting is at its limit B = eps and the drag falls
+// with tau: d/l 10 needs a smaller Lambda at tau 1.25 than at 1, d/l 8 at tau
+// >= 1.25 and d/l 10 at 1.5 get the floor 1e-4 (they would need more drag
+// than the form gives: drag_map_host.md); d/l 4-6, which miss the bar above
+// tau 1 at any Lambda, keep their tau 1 Lambda (a smaller one lets more mass
+// move between fluid and covered cells: PsmMassDrift at d/l 4.34, tau 1.24). log Lambda is
+// interpolated linearly in tau and in 1/d, clamped at the table's edges.
 namespace detail {
-inline constexpr double kMagicD[4] = {4, 6, 8, 10};
-inline constexpr double kMagicTau[6] = {0.52, 0.6, 0.7, 0.8, 0.9, 1.0};
+inline constexpr int kMagicRows = 8, kMagicCols = 8;
+inline constexpr double kMagicD[kMagicRows] = {4, 6, 8, 10, 16, 20, 30, 50};
+inline constexpr double kMagicTau[kMagicCols] = {0.52, 0.6, 0.7, 0.8, 0.9, 1.0, 1.25, 1.5};
 // clang-format off
-inline constexpr double kMagicTable[4][6] = {
-    // 0.52   0.6     0.7     0.8     0.9     1.0
-    {1e-4,   1.2e-4, 4.2e-3, 0.011,  9.7e-3, 1e-4},  // d/l 4
-    {1e-4,   0.01,   0.041,  0.08,   0.1,    0.062},  // d/l 6
-    {1e-4,   0.027,  0.085,  0.15,   0.2,    0.16},  // d/l 8
-    {1e-4,   0.014,  0.094,  0.17,   0.23,   0.21},  // d/l 10
+inline constexpr double kMagicTable[kMagicRows][kMagicCols] = {
+    // 0.52   0.6     0.7     0.8     0.9     1.0     1.25    1.5
+    {1e-4,   1.2e-4, 4.2e-3, 0.011,  9.7e-3, 1e-4,   1e-4,   1e-4},  // d/l 4
+    {1e-4,   0.01,   0.041,  0.08,   0.1,    0.062,  0.062,  0.062},  // d/l 6
+    {1e-4,   0.027,  0.085,  0.15,   0.2,    0.16,   1e-4,   1e-4},  // d/l 8
+    {1e-4,   0.014,  0.094,  0.17,   0.23,   0.21,   0.024,  1e-4},  // d/l 10
+    {3e-2,   0.096,  0.19,   0.36,   0.41,   0.46,   0.22,   0.081},  // d/l 16
+    {3e-2,   0.12,   0.23,   0.43,   0.49,   0.55,   0.31,   0.16},  // d/l 20
+    {3e-2,   0.15,   0.28,   0.52,   0.59,   0.68,   0.45,   0.31},  // d/l 30
+    {3e-2,   0.25,   0.39,   0.60,   0.69,   0.79,   0.57,   0.44},  // d/l 50
 };
 // clang-format on
 
 // log Lambda of table row a at tau (linear in tau, clamped).
 inline double magic_row(int a, double tau) {
-  const double x = std::clamp(tau, kMagicTau[0], kMagicTau[5]);
+  const double x = std::clamp(tau, kMagicTau[0], kMagicTau[kMagicCols - 1]);
   int j = 0;
-  while (j < 4 && x > kMagicTau[j + 1]) ++j;
+  while (j < kMagicCols - 2 && x > kMagicTau[j + 1]) ++j;
   const double w = (x - kMagicTau[j]) / (kMagicTau[j + 1] - kMagicTau[j]);
   return std::log(kMagicTable[a][j]) + w * (std::log(kMagicTable[a][j + 1]) - std::log(kMagicTable[a][j]));
 }
@@ -64,10 +76,9 @@ inline double magic_row(int a, double tau) {
 inline double psm_magic_auto(double diameter, double tau) {
   using namespace detail;
   if (tau <= kMagicTau[0]) return diameter < 16.0 ? 1e-4 : 3e-2;  // the study's setting, exactly
-  if (diameter >= 16.0) return std::max(3e-2, std::exp(magic_row(3, tau)));
-  const double x = std::clamp(diameter, kMagicD[0], kMagicD[3]);
+  const double x = std::clamp(diameter, kMagicD[0], kMagicD[kMagicRows - 1]);
   int i = 0;
-  while (i < 2 && x > kMagicD[i + 1]) ++i;
+  while (i < kMagicRows - 2 && x > kMagicD[i + 1]) ++i;
   const double s = (1.0 / x - 1.0 / kMagicD[i]) / (1.0 / kMagicD[i + 1] - 1.0 / kMagicD[i]);
   return std::exp(magic_row(i, tau) + s * (magic_row(i + 1, tau) - magic_row(i, tau)));
 }
@@ -104,15 +115,19 @@ struct DragErrorEstimate {
 
 namespace detail {
 // The map of the default setting: relative drag error (%), rows d/l, columns
-// tau; NaN where not measured yet (interpolated in tau from the row's measured
-// nodes). Host, d/l 4-10 (bench/results/drag_map_host.*): the rule as
-// committed (t of psm_wall_weight_t, Lambda of psm_magic_auto), tau 0.505 to
-// 1.5 (above tau 1: B = eps and the tau 1 Lambda, the rule's limits; the
-// drag falls there, below the bar at every d/l of the host map). tau 0.52 from d/l 16: the fixed-sphere study
-// (bench/results/psm_fixed_sphere_sweep_h200.json, set by_resolution; classic NT weighting, whose
-// t is within 6 % of the rule's at 0.52). d/l 16-50 at tau other than 0.52
-// await the device part of scripts/drag_map.sh. Simple cubic arrays at chi 0.5;
-// the dense array (chi 0.8685) is not mapped here (drag_map_host.md: the rule
+// tau; NaN where not measured yet with the current Lambda table
+// (interpolated in tau from the row's measured nodes). Host, d/l 4-10
+// (bench/results/drag_map_host.*): the rule as committed (t of
+// psm_wall_weight_t, Lambda of psm_magic_auto), tau 0.505 to 1.5 (above tau
+// 1: B = eps, the weighting's limit; Lambda 1e-4 at d/l 8 and 10 but at
+// d/l 10, tau 1.25, d/l 4-6 the tau 1 Lambda; the drag falls with tau, below the bar at d/l <= 6 from tau 1.25 and
+// at every d/l of the host map at tau 1.5). tau 0.52 from d/l 16: the
+// fixed-sphere study (bench/results/psm_fixed_sphere_sweep_h200.json, set
+// by_resolution; classic NT weighting, whose t is within 6 % of the rule's at
+// 0.52). d/l 16 above tau 0.52: host runs of the current table.
+// d/l 20-50 at tau other than 0.52 await the device map of
+// this table (scripts/drag_gpu.sh map). Simple cubic arrays at chi 0.5; the
+// dense array (chi 0.8685) is not mapped here (drag_map_host.md: the rule
 // misses there from tau 0.6-0.7 up).
 inline constexpr int kMapTaus = 10;
 inline constexpr double kDragMapD[8] = {4, 6, 8, 10, 16, 20, 30, 50};
@@ -123,9 +138,9 @@ inline constexpr double kDragMapError[8][kMapTaus] = {
     // 0.505   0.52    0.55    0.6     0.7     0.8     0.9     1.0     1.25    1.5
     {-6.69,  -6.80,  -6.87,  -6.74,  -6.80,  -6.85,  -6.75,  -8.29,  -21.23,  -30.35},  // d/l 4
     {-1.90,  -1.77,  -1.55,  -2.04,  -2.24,  -2.17,  -2.02,  -1.84,  -9.80,  -15.80},  // d/l 6
-    {-0.61,  -0.38,  +0.01,  -0.67,  -0.73,  -0.68,  -0.80,  -0.64,  -5.91,  -9.94},  // d/l 8
-    {+0.26,  +0.44,  +0.77,  +0.68,  +0.35,  +0.56,  +0.60,  +0.54,  -3.36,  -6.34},  // d/l 10
-    {kNo,    -0.39,  kNo,    kNo,    kNo,    kNo,    kNo,    kNo,    kNo,     kNo},  // d/l 16
+    {-0.61,  -0.38,  +0.01,  -0.67,  -0.73,  -0.68,  -0.80,  -0.64,  -1.18,  -5.51},  // d/l 8
+    {+0.26,  +0.44,  +0.77,  +0.68,  +0.35,  +0.56,  +0.60,  +0.54,  -0.07,  -2.18},  // d/l 10
+    {kNo,    -0.39,  kNo,    kNo,    kNo,    +0.45,  kNo,    +0.49,  +0.02,   -0.37},  // d/l 16
     {kNo,    -0.11,  kNo,    kNo,    kNo,    kNo,    kNo,    kNo,    kNo,     kNo},  // d/l 20
     {kNo,    +0.08,  kNo,    kNo,    kNo,    kNo,    kNo,    kNo,    kNo,     kNo},  // d/l 30
     {kNo,    +0.13,  kNo,    kNo,    kNo,    kNo,    kNo,    kNo,    kNo,     kNo},  // d/l 50
