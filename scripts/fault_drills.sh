@@ -346,7 +346,8 @@ drill_disk_full() {
   if [ "$mode" = fsize ]; then
     # Every rank but 0: no file may grow past a quarter of a snapshot piece (4 values of 8 bytes a cell).
     local kib=$(( cells * cells * cells * 32 / ranks / 4 / 1024 + 1 ))
-    "${MPIRUN[@]}" -np 1 "$exe" run "$c" --backend "$backend" --quiet --restart "$d" : \
+    # NCCL_SHM_DISABLE: NCCL's shared-memory segments are files too (under /dev/shm), which the limit would refuse.
+    "${MPIRUN[@]}" -x NCCL_SHM_DISABLE=1 -np 1 "$exe" run "$c" --backend "$backend" --quiet --restart "$d" : \
       -np $((ranks - 1)) bash -c 'trap "" XFSZ; ulimit -f '"$kib"'; exec "$@"' _ "$exe" run "$c" \
       --backend "$backend" --quiet --restart "$d" > "$work/disk.log" 2>&1 &
   else
