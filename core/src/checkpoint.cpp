@@ -62,7 +62,7 @@ void record_in_manifest(const fs::path& dir, const std::string& name) {
   if (!ok) {
     const std::string msg = "cannot record the checkpoint '" + (dir / name).string() + "' in the run manifest '" +
                             m.string() + "': " + std::strerror(err);
-    if (err == ENOSPC || err == EDQUOT) throw ResourceError(msg + "; free disk space");
+    if (err == ENOSPC || err == EDQUOT || err == EFBIG) throw ResourceError(msg + "; free disk space");
     throw Error(msg);
   }
 }
@@ -153,7 +153,7 @@ void Writer::fail(const std::string& what, int err) {
   std::string msg = "cannot write the checkpoint '" + path_ + "': " + what;
   if (err != 0) msg += ": " + std::string(std::strerror(err)) + " (errno " + std::to_string(err) + ")";
   msg += "; the previous checkpoint (if any) is kept";
-  if (err == ENOSPC || err == EDQUOT) throw ResourceError(msg + "; free disk space");
+  if (err == ENOSPC || err == EDQUOT || err == EFBIG) throw ResourceError(msg + "; free disk space");
   throw Error(msg);
 }
 

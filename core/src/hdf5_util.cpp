@@ -43,7 +43,8 @@ herr_t find_errno(unsigned, const H5E_error2_t* e, void* data) {
   H5Eclear2(H5E_DEFAULT);
   std::string msg = "HDF5: " + what + " failed for '" + path + "'";
   if (err != 0) msg += ": " + std::string(std::strerror(err)) + " (errno " + std::to_string(err) + ")";
-  if (err == ENOSPC || err == EDQUOT) throw ResourceError(msg + "; free disk space or choose another output folder");
+  if (err == ENOSPC || err == EDQUOT || err == EFBIG)
+    throw ResourceError(msg + "; free disk space or choose another output folder");
   throw Error(msg);
 }
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <limits>
@@ -414,6 +415,10 @@ std::vector<std::vector<std::byte>> Comm::exchange(std::span<const int> peers, s
 void Comm::abort(int code) const {
 #if defined(LBDEM_HAVE_MPI)
   if (size_ > 1) {
+    // One line naming the rank that ends the job: MPI_Abort's own report is the launcher's and may be lost
+    // or worded otherwise under another launcher (srun).
+    std::fprintf(stderr, "lbdem: rank %d of %d stops every rank (exit code %d)\n", rank_, size_, code);
+    std::fflush(stderr);
     MPI_Abort(MPI_COMM_WORLD, code);
     std::abort();  // MPI_Abort does not return; in case it does
   }

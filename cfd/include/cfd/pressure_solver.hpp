@@ -111,6 +111,7 @@ class PressureSolver {
   };
 
  private:
+  void init_multigrid();
   void solve_cg(const double* const af[3], const double* b, double* x);
   void solve_mg(const double* const af[3], const double* b, double* x);
   void setup_mg(const Exec& ex, const double* const af[3]);

@@ -1,0 +1,621 @@
+// Conjugate gradients preconditioned by one multigrid V-cycle (cfd/pressure_solver.hpp,
+// PressureSolverKind::Multigrid): red-black Gauss-Seidel smoothing, piecewise-constant transfers, the coarse
+// end in one kernel of one block and the iterations as CUDA graphs on the device.
+#include "cfd/pressure_solver.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+
+#if defined(__CUDACC__)
+#include <cub/block/block_reduce.cuh>
+#endif
+
+#include "pressure_common.hpp"
+
+namespace lbdem::cfd {
+namespace {
+
+// Pair dot products r.z and r.D^-1 r (host path: the same three stages).
+struct PairDot1 {
+  const double* r; const double* z; const double* diag;
+  double* part;
+  Index n, parts;
+  const double* scal;
+  LBDEM_HD void operator()(Index t) const {
+    if (scal[slot::kDone] != 0) return;
+    double s = 0, q = 0;
+    for (Index i = t; i < n; i += parts) {
+      s += r[i] * z[i];
+      q += r[i] * r[i] / diag[i];
+    }
+    part[t] = s;
+    part[parts + t] = q;
+  }
+};
+struct PairDot2 {
+  const double* in;
+  double* out;
+  Index n, parts;
+  const double* scal;
+  LBDEM_HD void operator()(Index t) const {
+    if (scal[slot::kDone] != 0) return;
+    double s = 0, q = 0;
+    for (Index i = t; i < n; i += parts) {
+      s += in[i];
+      q += in[n + i];
+    }
+    out[t] = s;
+    out[parts + t] = q;
+  }
+};
+struct PairDot3 {
+  const double* in;
+  Index n;
+  double* scal;
+  CgStage stage;
+  double tol2;
+  LBDEM_HD void operator()(Index) const {
+    if (scal[slot::kDone] != 0) return;
+    double s = 0, q = 0;
+    for (Index i = 0; i < n; ++i) {
+      s += in[i];
+      q += in[n + i];
+    }
+    cg_stage(scal, stage, s, stage == CgStage::Alpha || stage == CgStage::Bnorm ? s : q, tol2);
+  }
+};
+
+struct MgInit {  // r = b - A x
+  const double* b; const double* Ax; double* r;
+  LBDEM_HD void operator()(Index i) const { r[i] = b[i] - Ax[i]; }
+};
+struct Copy {
+  const double* from; double* to;
+  LBDEM_HD void operator()(Index i) const { to[i] = from[i]; }
+};
+struct MgStep {  // x += alpha d, r -= alpha Ad
+  double* x; double* r; const double* d; const double* Ad; const double* scal;
+  LBDEM_HD void operator()(Index i) const {
+    if (scal[slot::kDone] != 0) return;
+    const double al = scal[slot::kAlpha];
+    x[i] += al * d[i];
+    r[i] -= al * Ad[i];
+  }
+};
+
+// The operator's diagonal on one level.
+struct LevelDiag {
+  LevelView L;
+  double* dg;
+  LBDEM_HD void operator()(Index ci) const {
+    int c[3];
+    L.coords(ci, c);
+    dg[ci] = for_row(L, ci, c, [](double, Index) {});
+  }
+};
+
+// Coarse face coefficients: thread t over the coarse face boxes of axes 0, 1,
+// 2 in turn. Each is the sum of the fine coefficients on the faces it covers,
+// over the coarsening factor along its normal (the coarse cells' centres lie
+// that much further apart).
+struct CoarseFaces {
+  LevelView F;   // fine
+  int cn[3];     // coarse cells
+  int r[3];
+  double* out[3];
+  Index nf0, nf1;  // coarse face counts of axes 0 and 1
+  LBDEM_HD void operator()(Index t) const {
+    int a = 0;
+    if (t >= nf0) { t -= nf0; a = 1; if (t >= nf1) { t -= nf1; a = 2; } }
+    int m[3];
+    for (int d = 0; d < 3; ++d) m[d] = cn[d] + (d == a ? 1 : 0);
+    int I[3];
+    I[0] = static_cast<int>(t % m[0]);
+    I[1] = static_cast<int>((t / m[0]) % m[1]);
+    I[2] = static_cast<int>(t / (static_cast<Index>(m[0]) * m[1]));
+    int lo[3], hi[3];
+    for (int d = 0; d < 3; ++d) {
+      if (d == a) {
+        lo[d] = r[d] * I[d] < F.n[d] ? r[d] * I[d] : F.n[d];
+        hi[d] = lo[d] + 1;
+      } else {
+        lo[d] = r[d] * I[d];
+        hi[d] = lo[d] + r[d] < F.n[d] ? lo[d] + r[d] : F.n[d];
+      }
+    }
+    double s = 0;
+    int f[3];
+    for (f[2] = lo[2]; f[2] < hi[2]; ++f[2])
+      for (f[1] = lo[1]; f[1] < hi[1]; ++f[1])
+        for (f[0] = lo[0]; f[0] < hi[0]; ++f[0]) s += F.af[a][F.face(a, f)];
+    out[a][static_cast<Index>(I[0]) + static_cast<Index>(m[0]) * (I[1] + static_cast<Index>(m[1]) * I[2])] =
+        s / r[a];
+  }
+};
+
+// Pre-smoothing from a zero guess: red cells x = b / d, then black cells
+// x = (b + sum w x_red) / d, the red values formed in place (one launch for
+// the red and the black half-sweep).
+struct PreSmooth {
+  LevelView L;
+  const double* dg;
+  const double* b;
+  double* x;
+  const double* scal;
+  LBDEM_HD void operator()(Index ci) const {
+    if (scal[slot::kDone] != 0) return;
+    int c[3];
+    L.coords(ci, c);
+    if (is_red(c)) {
+      const double d = dg[ci];
+      x[ci] = d > 0 ? b[ci] / d : 0.0;
+      return;
+    }
+    double acc = b[ci];
+    const double* bv = b;
+    const double* dv = dg;
+    const double d = for_row(L, ci, c, [&](double w, Index j) {
+      const double dn = dv[j];
+      acc += w * (dn > 0 ? bv[j] / dn : 0.0);
+    });
+    x[ci] = d > 0 ? acc / d : 0.0;
+  }
+};
+
+// Coarse right-hand side: the sum of the fine residuals b - A x over the
+// fine cells that a coarse cell covers (restriction = transpose of the
+// piecewise-constant prolongation).
+struct Restrict {
+  LevelView F;
+  const double* bf;
+  const double* xf;
+  int cn[3];
+  int r[3];
+  double* bc;
+  const double* scal;
+  LBDEM_HD void operator()(Index t) const {
+    if (scal[slot::kDone] != 0) return;
+    int I[3];
+    I[0] = static_cast<int>(t % cn[0]);
+    I[1] = static_cast<int>((t / cn[0]) % cn[1]);
+    I[2] = static_cast<int>(t / (static_cast<Index>(cn[0]) * cn[1]));
+    int lo[3], hi[3];
+    for (int d = 0; d < 3; ++d) {
+      lo[d] = r[d] * I[d];
+      hi[d] = lo[d] + r[d] < F.n[d] ? lo[d] + r[d] : F.n[d];
+    }
+    double sum = 0;
+    int c[3];
+    for (c[2] = lo[2]; c[2] < hi[2]; ++c[2])
+      for (c[1] = lo[1]; c[1] < hi[1]; ++c[1])
+        for (c[0] = lo[0]; c[0] < hi[0]; ++c[0]) {
+          const Index ci = F.cell(c);
+          const double* xv = xf;
+          double off = 0;
+          const double d = for_row(F, ci, c, [&](double w, Index j) { off += w * xv[j]; });
+          sum += bf[ci] - (d * xf[ci] - off);
+        }
+    bc[t] = sum;
+  }
+};
+
+// Post-smoothing, black half-sweep, with the coarse correction added to the
+// red neighbours it reads (a black cell's new value does not depend on its
+// old one, and the red half-sweep after it overwrites the red cells: the
+// correction is needed nowhere else).
+struct PostBlack {
+  LevelView F;
+  const double* b;
+  double* x;
+  const double* e;  // coarse correction
+  int cn[3];
+  int r[3];
+  const double* scal;
+  LBDEM_HD void operator()(Index ci) const {
+    if (scal[slot::kDone] != 0) return;
+    int c[3];
+    F.coords(ci, c);
+    if (is_red(c)) return;
+    double acc = b[ci];
+    const LevelView& G = F;
+    const double* xv = x;
+    const double* ev = e;
+    const int r0 = r[0], r1 = r[1], r2 = r[2], c0 = cn[0], c1 = cn[1];
+    const double d = for_row(F, ci, c, [&](double w, Index j) {
+      int o[3];
+      G.coords(j, o);
+      const Index pc = o[0] / r0 + static_cast<Index>(c0) * (o[1] / r1 + static_cast<Index>(c1) * (o[2] / r2));
+      acc += w * (xv[j] + ev[pc]);
+    });
+    x[ci] = d > 0 ? acc / d : 0.0;
+  }
+};
+
+// Post-smoothing, red half-sweep.
+struct PostRed {
+  LevelView F;
+  const double* b;
+  double* x;
+  const double* scal;
+  LBDEM_HD void operator()(Index ci) const {
+    if (scal[slot::kDone] != 0) return;
+    int c[3];
+    F.coords(ci, c);
+    if (!is_red(c)) return;
+    double acc = b[ci];
+    const double* xv = x;
+    const double d = for_row(F, ci, c, [&](double w, Index j) { acc += w * xv[j]; });
+    x[ci] = d > 0 ? acc / d : 0.0;
+  }
+};
+
+// The coarsest grid (a few cells): `sweeps` symmetric Gauss-Seidel sweeps
+// (forward, then backward) from zero, in one thread.
+struct Coarsest {
+  LevelView L;
+  const double* b;
+  double* x;
+  int sweeps;
+  const double* scal;
+  LBDEM_HD void relax(Index ci) const {
+    int c[3];
+    L.coords(ci, c);
+    double acc = b[ci];
+    const double* xv = x;
+    const double d = for_row(L, ci, c, [&](double w, Index j) { acc += w * xv[j]; });
+    x[ci] = d > 0 ? acc / d : 0.0;
+  }
+  LBDEM_HD void operator()(Index) const {
+    if (scal[slot::kDone] != 0) return;
+    const Index n = L.cells();
+    for (Index i = 0; i < n; ++i) x[i] = 0;
+    for (int k = 0; k < sweeps; ++k) {
+      for (Index i = 0; i < n; ++i) relax(i);
+      for (Index i = n; i-- > 0;) relax(i);
+    }
+  }
+};
+
+// The coarse end of the V-cycle in one kernel of one block: the levels from
+// tail_ down (each stage over its cells, a barrier between stages), the
+// coarsest grid in thread 0, and back up: on grids of a few thousand cells
+// and fewer a block does in a few microseconds what would otherwise be four
+// launches per level.
+constexpr int kTailMax = 8;
+[[maybe_unused]] constexpr int kTailThreads = 512;  // (device code only)
+constexpr Index kTailCells = 2048;
+struct TailArgs {
+  int count;  // levels smoothed here before the coarsest grid
+  Index cells[kTailMax], ccells[kTailMax];
+  PreSmooth pre[kTailMax];
+  Restrict res[kTailMax];
+  PostBlack pb[kTailMax];
+  PostRed pr[kTailMax];
+  Coarsest co;
+};
+static_assert(sizeof(TailArgs) <= 4000, "kernel parameters beyond 4 KB");
+
+#if defined(__CUDACC__)
+__global__ void __launch_bounds__(kTailThreads) mg_tail_kernel(const TailArgs a) {
+  if (a.co.scal[slot::kDone] != 0) return;
+  const Index t0 = threadIdx.x, dt = blockDim.x;
+  for (int k = 0; k < a.count; ++k) {
+    for (Index i = t0; i < a.cells[k]; i += dt) a.pre[k](i);
+    __syncthreads();
+    for (Index i = t0; i < a.ccells[k]; i += dt) a.res[k](i);
+    __syncthreads();
+  }
+  if (t0 == 0) a.co(0);
+  __syncthreads();
+  for (int k = a.count - 1; k >= 0; --k) {
+    for (Index i = t0; i < a.cells[k]; i += dt) a.pb[k](i);
+    __syncthreads();
+    for (Index i = t0; i < a.cells[k]; i += dt) a.pr[k](i);
+    __syncthreads();
+  }
+}
+#endif
+
+#if defined(__CUDACC__)
+// One-launch dot products on the device: each block sums a fixed strided
+// share (cub::BlockReduce, deterministic), the last block to finish (a
+// ticket) adds the block sums in block order and runs the scalar step.
+constexpr int kDotBlock = 256;
+constexpr int kDotMaxBlocks = 256;
+
+__global__ void __launch_bounds__(kDotBlock) pair_dot_kernel(Index n, const double* x, const double* y,
+                                                              const double* diag, double* part,
+                                                              unsigned int* ticket, double* scal, CgStage stage,
+                                                              double tol2) {
+  if (scal[slot::kDone] != 0) return;
+  using BR = cub::BlockReduce<double, kDotBlock>;
+  __shared__ typename BR::TempStorage tmp;
+  __shared__ bool last;
+  double s = 0, q = 0;
+  const Index stride = static_cast<Index>(gridDim.x) * kDotBlock;
+  for (Index i = static_cast<Index>(blockIdx.x) * kDotBlock + threadIdx.x; i < n; i += stride) {
+    s += x[i] * y[i];
+    if (diag) q += x[i] * x[i] / diag[i];
+  }
+  const double bs = BR(tmp).Sum(s);
+  __syncthreads();
+  const double bq = BR(tmp).Sum(q);
+  if (threadIdx.x == 0) {
+    part[blockIdx.x] = bs;
+    part[kDotMaxBlocks + blockIdx.x] = bq;
+    __threadfence();
+    last = atomicAdd(ticket, 1u) == gridDim.x - 1;
+  }
+  __syncthreads();
+  if (!last) return;
+  __threadfence();
+  const unsigned t = threadIdx.x;
+  const double ps = t < gridDim.x ? __ldcg(part + t) : 0.0;
+  const double pq = t < gridDim.x ? __ldcg(part + kDotMaxBlocks + t) : 0.0;
+  __syncthreads();
+  const double S = BR(tmp).Sum(ps);
+  __syncthreads();
+  const double Q = BR(tmp).Sum(pq);
+  if (t == 0) {
+    cg_stage(scal, stage, S, diag ? Q : S, tol2);
+    *ticket = 0;
+  }
+}
+#endif
+
+Index face_count(const GasGridView& g, int a) {
+  Index n = 1;
+  for (int d = 0; d < 3; ++d) n *= g.n[d] + (d == a ? 1 : 0);
+  return n;
+}
+
+}  // namespace
+
+// The coarse levels of the V-cycle and the one-launch dot product's ticket (the constructor, multigrid only).
+void PressureSolver::init_multigrid() {
+  const Backend b = ex_.backend();
+  const Index nc = g_.cells();
+  const GasGridView& g = g_;
+  const auto sizes = multigrid_levels(g, std::max(1, p_.coarsest_cells));
+  dg0_ = Buffer<double>(b, nc);
+  for (std::size_t l = 1; l < sizes.size(); ++l) {
+    Level L;
+    L.g = g;
+    for (int a = 0; a < 3; ++a) {
+      L.g.n[a] = sizes[l][static_cast<std::size_t>(a)];
+      L.r[a] = sizes[l - 1][static_cast<std::size_t>(a)] == L.g.n[a] ? 1 : 2;
+    }
+    const Index n = L.g.cells();
+    for (int a = 0; a < 3; ++a) L.af[a] = Buffer<double>(b, face_count(L.g, a));
+    L.dg = Buffer<double>(b, n);
+    L.b = Buffer<double>(b, n);
+    L.x = Buffer<double>(b, n);
+    lv_.push_back(std::move(L));
+  }
+  ticket_ = Buffer<unsigned int>(b, 1);
+  ticket_.fill_zero();
+  // The first level small enough for one block, at most kTailMax above the coarsest.
+  const int nl = static_cast<int>(lv_.size());
+  tail_ = nl;
+  for (int l = nl - 1; l >= 0 && nl - l <= kTailMax; --l) {
+    const Index c = l == 0 ? nc : lv_[static_cast<std::size_t>(l - 1)].g.cells();
+    if (c > kTailCells) break;
+    tail_ = l;
+  }
+}
+
+void PressureSolver::setup_mg(const Exec& ex, const double* const af[3]) {
+  LevelView F = level_view(g_, af);
+  for_each(ex, g_.cells(), LevelDiag{F, dg0_.data()});
+  for (Level& L : lv_) {
+    CoarseFaces cf{};
+    cf.F = F;
+    for (int a = 0; a < 3; ++a) {
+      cf.cn[a] = L.g.n[a];
+      cf.r[a] = L.r[a];
+      cf.out[a] = L.af[a].data();
+    }
+    cf.nf0 = L.af[0].size();
+    cf.nf1 = L.af[1].size();
+    for_each(ex, L.af[0].size() + L.af[1].size() + L.af[2].size(), cf);
+    const double* caf[3] = {L.af[0].data(), L.af[1].data(), L.af[2].data()};
+    F = level_view(L.g, caf);
+    for_each(ex, L.g.cells(), LevelDiag{F, L.dg.data()});
+  }
+}
+
+// z = V(b): one V-cycle from a zero guess. Level l's kernels: PreSmooth,
+// Restrict (down), PostBlack, PostRed (up); the coarsest grid's in between.
+// On the device, with launch savings on, the levels from tail_ down run in
+// one kernel of one block (the same functors in the same order).
+void PressureSolver::vcycle(const Exec& ex, const double* const af[3], const double* b, double* x) {
+  const double* s = scal_.data();
+  const int nl = static_cast<int>(lv_.size());
+  auto view = [&](int l) {
+    if (l == 0) return level_view(g_, af);
+    const Level& L = lv_[static_cast<std::size_t>(l - 1)];
+    const double* caf[3] = {L.af[0].data(), L.af[1].data(), L.af[2].data()};
+    return level_view(L.g, caf);
+  };
+  auto bb = [&](int l) -> const double* { return l == 0 ? b : lv_[static_cast<std::size_t>(l - 1)].b.data(); };
+  auto xx = [&](int l) -> double* { return l == 0 ? x : lv_[static_cast<std::size_t>(l - 1)].x.data(); };
+  auto dg = [&](int l) -> const double* { return l == 0 ? dg0_.data() : lv_[static_cast<std::size_t>(l - 1)].dg.data(); };
+  auto pre = [&](int l) { return PreSmooth{view(l), dg(l), bb(l), xx(l), s}; };
+  auto restrict_ = [&](int l) {
+    const Level& C = lv_[static_cast<std::size_t>(l)];
+    return Restrict{view(l), bb(l), xx(l), {C.g.n[0], C.g.n[1], C.g.n[2]}, {C.r[0], C.r[1], C.r[2]}, C.b.data(), s};
+  };
+  auto post_black = [&](int l) {
+    const Level& C = lv_[static_cast<std::size_t>(l)];
+    return PostBlack{view(l), bb(l), xx(l), C.x.data(), {C.g.n[0], C.g.n[1], C.g.n[2]}, {C.r[0], C.r[1], C.r[2]}, s};
+  };
+  auto post_red = [&](int l) { return PostRed{view(l), bb(l), xx(l), s}; };
+  const Coarsest coarsest{view(nl), bb(nl), xx(nl), std::max(1, p_.coarse_sweeps), s};
+  auto cells = [&](int l) { return l == 0 ? g_.cells() : lv_[static_cast<std::size_t>(l - 1)].g.cells(); };
+  const int top = ex.on_device() && p_.graphs ? tail_ : nl;
+  for (int l = 0; l < top; ++l) {
+    for_each(ex, cells(l), pre(l));
+    for_each(ex, cells(l + 1), restrict_(l));
+  }
+  if (ex.on_device() && p_.graphs) {
+#if defined(__CUDACC__)
+    TailArgs t{};
+    t.count = nl - top;
+    for (int k = 0; k < t.count; ++k) {
+      t.cells[k] = cells(top + k);
+      t.ccells[k] = cells(top + k + 1);
+      t.pre[k] = pre(top + k);
+      t.res[k] = restrict_(top + k);
+      t.pb[k] = post_black(top + k);
+      t.pr[k] = post_red(top + k);
+    }
+    t.co = coarsest;
+    mg_tail_kernel<<<1, kTailThreads, 0, ex.stream()>>>(t);
+    LBDEM_CUDA_CHECK(cudaGetLastError());
+#else
+    for_each(ex, 1, coarsest);  // not reached: a device Exec needs the CUDA build
+#endif
+  } else {
+    for_each(ex, 1, coarsest);
+  }
+  for (int l = top - 1; l >= 0; --l) {
+    for_each(ex, cells(l), post_black(l));
+    for_each(ex, cells(l), post_red(l));
+  }
+}
+
+// Dot product of u and w into the scalar step; with diag also u.D^-1 u.
+void PressureSolver::dot(const Exec& ex, const double* u, const double* w, const double* diag, int stage) {
+  const Index n = g_.cells();
+  double* s = scal_.data();
+  const double tol2 = p_.tolerance * p_.tolerance;
+  const CgStage st = static_cast<CgStage>(stage);
+  if (ex.on_device()) {
+#if defined(__CUDACC__)
+    const int blocks =
+        static_cast<int>(std::max<Index>(1, std::min<Index>(kDotMaxBlocks, (n + kDotBlock - 1) / kDotBlock)));
+    pair_dot_kernel<<<blocks, kDotBlock, 0, ex.stream()>>>(n, u, w, diag, part1_.data(), ticket_.data(), s, st, tol2);
+    LBDEM_CUDA_CHECK(cudaGetLastError());
+    return;
+#endif
+  }
+  const double* dd = diag ? diag : diag_.data();
+  for_each(ex, parts1_, PairDot1{u, w, dd, part1_.data(), n, parts1_, s});
+  for_each(ex, parts2_, PairDot2{part1_.data(), part2_.data(), parts1_, parts2_, s});
+  for_each(ex, 1, PairDot3{part2_.data(), parts2_, s, st, tol2});
+}
+
+// `count` multigrid-PCG iterations (kernels only: a CUDA graph can hold them).
+void PressureSolver::iterate_mg(const Exec& ex, const double* const af[3], double* x, int count) {
+  const LevelView L = level_view(g_, af);
+  const Index n = g_.cells();
+  double* s = scal_.data();
+  for (int k = 0; k < count; ++k) {
+    for_each(ex, n, ApplyA{L, d_.data(), Ad_.data(), s});
+    dot(ex, d_.data(), Ad_.data(), nullptr, static_cast<int>(CgStage::Alpha));
+    for_each(ex, n, MgStep{x, r_.data(), d_.data(), Ad_.data(), s});
+    vcycle(ex, af, r_.data(), z_.data());
+    dot(ex, r_.data(), z_.data(), diag_.data(), static_cast<int>(CgStage::Update));
+    for_each(ex, n, CgDir{d_.data(), z_.data(), s});
+  }
+}
+
+// The set-up of the coarse levels and the start of PCG: r = b - A x (warm
+// start), z = V r, d = z (kernels only: a CUDA graph can hold them).
+void PressureSolver::start_mg(const Exec& ex, const double* const af[3], const double* b, double* x) {
+  const LevelView L = level_view(g_, af);
+  const Index n = g_.cells();
+  double* s = scal_.data();
+  for_each(ex, n, JacobiDiag{L, diag_.data()});
+  setup_mg(ex, af);
+  for_each(ex, 1, ZeroDone{s});
+  for_each(ex, n, Scale{b, diag_.data(), z_.data()});
+  dot(ex, b, z_.data(), nullptr, static_cast<int>(CgStage::Bnorm));
+  for_each(ex, n, ApplyA{L, x, Ad_.data(), s});
+  for_each(ex, n, MgInit{b, Ad_.data(), r_.data()});
+  vcycle(ex, af, r_.data(), z_.data());
+  dot(ex, r_.data(), z_.data(), diag_.data(), static_cast<int>(CgStage::Init));
+  for_each(ex, n, Copy{z_.data(), d_.data()});
+}
+
+void PressureSolver::solve_mg(const double* const af[3], const double* b, double* x) {
+  // On the device with launch savings: the start as one CUDA graph, the
+  // iterations in chunks of poll_every as another; the host asks first after
+  // the last solve's count, then every poll_every iterations.
+  const bool dev = ex_.on_device();
+  const bool fused = dev && p_.graphs;
+  const int chunk = fused ? std::max(1, p_.poll_every) : 1;
+  if (fused)
+    run_graph(0, af, b, x, 0);
+  else
+    start_mg(ex_, af, b, x);
+  double flags[2] = {0, 0};  // done, iterations
+  int it = 0;
+  int next_poll = dev ? std::max(1, expected_iterations_) : 1;
+  while (it < p_.max_iterations) {
+    if (fused)
+      run_graph(1, af, b, x, chunk);
+    else
+      iterate_mg(ex_, af, x, 1);
+    it += chunk;
+    if (it >= next_poll || it >= p_.max_iterations) {
+      scal_.copy_to_host(flags, 2, slot::kDone);
+      if (flags[0] != 0) break;
+      next_poll = it + (dev ? std::max(1, p_.poll_every) : 1);
+    }
+  }
+  expected_iterations_ = static_cast<int>(flags[1]);
+}
+
+#if defined(__CUDACC__)
+// Graph k (0: start_mg, 1: `chunk` iterations), captured on first use or when
+// the pointers it was made with change, then launched on the solver's stream.
+void PressureSolver::run_graph(int k, const double* const af[3], const double* b, double* x, int chunk) {
+  const void* key[5] = {af[0], af[1], af[2], k == 0 ? static_cast<const void*>(b) : static_cast<const void*>(x),
+                        k == 0 ? static_cast<const void*>(x)
+                               : reinterpret_cast<const void*>(static_cast<std::intptr_t>(chunk))};
+  if (!graph_exec_[k] || !std::equal(key, key + 5, graph_key_[k])) {
+    if (graph_exec_[k]) LBDEM_CUDA_CHECK(cudaGraphExecDestroy(static_cast<cudaGraphExec_t>(graph_exec_[k])));
+    graph_exec_[k] = nullptr;
+    if (!cap_stream_) {
+      cudaStream_t cs = nullptr;
+      LBDEM_CUDA_CHECK(cudaStreamCreateWithFlags(&cs, cudaStreamNonBlocking));
+      cap_stream_ = cs;
+    }
+    cudaStream_t cs = static_cast<cudaStream_t>(cap_stream_);
+    Exec cex(Backend::Cuda);
+    cex.set_stream(cs);
+    LBDEM_CUDA_CHECK(cudaStreamBeginCapture(cs, cudaStreamCaptureModeThreadLocal));
+    if (k == 0)
+      start_mg(cex, af, b, x);
+    else
+      iterate_mg(cex, af, x, chunk);
+    cudaGraph_t graph = nullptr;
+    LBDEM_CUDA_CHECK(cudaStreamEndCapture(cs, &graph));
+    cudaGraphExec_t exec = nullptr;
+    const cudaError_t e = cudaGraphInstantiate(&exec, graph, 0);
+    LBDEM_CUDA_CHECK(cudaGraphDestroy(graph));
+    LBDEM_CUDA_CHECK(e);
+    graph_exec_[k] = exec;
+    std::copy(key, key + 5, graph_key_[k]);
+  }
+  LBDEM_CUDA_CHECK(cudaGraphLaunch(static_cast<cudaGraphExec_t>(graph_exec_[k]), ex_.stream()));
+}
+void PressureSolver::release_graph() noexcept {
+  // Destructor path: nothing to report to (the device may already be gone).
+  for (void*& g : graph_exec_) {
+    if (g) (void)cudaGraphExecDestroy(static_cast<cudaGraphExec_t>(g));
+    g = nullptr;
+  }
+  if (cap_stream_) (void)cudaStreamDestroy(static_cast<cudaStream_t>(cap_stream_));
+  cap_stream_ = nullptr;
+}
+#else
+void PressureSolver::run_graph(int, const double* const*, const double*, double*, int) {
+  throw_not_compiled_for_cuda("PressureSolver graphs");
+}
+void PressureSolver::release_graph() noexcept {}
+#endif
+
+}  // namespace lbdem::cfd
