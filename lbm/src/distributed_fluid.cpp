@@ -65,6 +65,9 @@ void DistributedFluid::initialize_uniform(const std::function<std::uint8_t(long,
   const GridView gp = piece.view();
   const auto n = static_cast<std::size_t>(gp.n);
   std::vector<std::uint8_t> pf(n, halo_ ? kGhostFlag : 0);
+  // Layers in parallel (hundreds of millions of cells on a GPU's piece):
+  // `flag` is called from several threads at once.
+#pragma omp parallel for schedule(static)
   for (int z = 0; z < gp.nz; ++z)
     for (int y = 0; y < gp.ny; ++y)
       for (int x = 0; x < gp.nx; ++x) {
