@@ -102,6 +102,21 @@ dem::HostParticles random_disks(const std::array<double, 3>& lo, const std::arra
   return hp;
 }
 
+dem::HostParticles suspension_blocks(const dem::BlockPackingSpec& spec, const dem::DemDomain* domain) {
+  const dem::BlockPacking bp(spec);
+  if (!domain || !domain->decomposed()) return bp.pack_all();
+  const int me = domain->rank();
+  Vec3d lo, hi;
+  domain->piece(me, lo, hi);
+  dem::HostParticles mine =
+      bp.pack({lo.x, lo.y, lo.z}, {hi.x, hi.y, hi.z}, [&](const Vec3d& x) { return domain->owner(x) == me; });
+  if (domain->comm->any(mine.size() == 0))
+    throw ConfigError("particles.packing: blocks leaves a rank's piece without particles (" + std::to_string(bp.count()) +
+                      " particles over " + std::to_string(domain->comm->size()) +
+                      " ranks); use fewer ranks or more particles");
+  return mine;
+}
+
 void add_random_velocities(dem::HostParticles& p, int dim, double speed, std::uint64_t seed) {
   if (!(speed > 0) || p.x.empty()) return;
   // A stream of its own (seed mixed with a constant), so that the positions

@@ -5,6 +5,7 @@
 #include <limits>
 #include <cstdio>
 #include <string>
+#include <span>
 
 #include "core/error.hpp"
 #include "dem/contact.hpp"
@@ -112,7 +113,7 @@ CoupledScales coupled_scales(const lbm::LbmSetup& fluid, const dem::DemParams& d
 }
 
 CoupledScales check_coupled_setup(const lbm::LbmSetup& fluid, const dem::DemParams& dem, const dem::HostParticles& p,
-                                  const CoupledParams& cp, const CoupledLimits& lim) {
+                                  const CoupledParams& cp, const CoupledLimits& lim, const halo::Comm* comm) {
   const int dim = fluid.lattice == lbm::LatticeKind::D2Q9 ? 2 : 3;
   // 1. Consistency.
   if (cp.dem_substeps < 1)
@@ -242,6 +243,15 @@ CoupledScales check_coupled_setup(const lbm::LbmSetup& fluid, const dem::DemPara
       for (int a = 0; a < 3; ++a) weight[a] += (m - cp.fluid_density * v) * g[a] + fb[a];
       scale += std::abs(m - cp.fluid_density * v) * norm3(g) + norm3(fb);
     }
+    double solid_mass = 0;
+    for (double m : p.mass) solid_mass += m;
+    if (comm) {  // every rank's particles (each rank holds its own)
+      double v[5] = {weight[0], weight[1], weight[2], scale, solid_mass};
+      comm->sum(std::span<double>(v, 5));
+      for (int a = 0; a < 3; ++a) weight[a] = v[a];
+      scale = v[3];
+      solid_mass = v[4];
+    }
     // Fluid and particles together receive the body force on every cell
     // (PsmOptions::body_force_on_solid, which CoupledSolver turns on).
     double net[3], fix[3];
@@ -251,8 +261,7 @@ CoupledScales check_coupled_setup(const lbm::LbmSetup& fluid, const dem::DemPara
     }
     scale += norm3(fluid.body_force.data()) * total;
     if (scale > 0 && norm3(net) > lim.max_force_imbalance * scale) {
-      double mass = cp.fluid_density * total;
-      for (double m : p.mass) mass += m;
+      const double mass = cp.fluid_density * total + solid_mass;
       throw ConfigError("fluid.body_force = " + vec(fluid.body_force.data()) +
                         " does not balance the particles' net weight in this fully periodic domain: the net force " +
                         vec(net) + " accelerates the whole system by " + num(norm3(net) / mass) +

@@ -4,6 +4,7 @@
 #include <cstring>
 
 #include "core/error.hpp"
+#include "rest_state.hpp"
 
 namespace lbdem::lbm {
 
@@ -64,7 +65,9 @@ void DistributedFluid::initialize_uniform(const std::function<std::uint8_t(long,
   const GridView gp = piece.view();
   const auto n = static_cast<std::size_t>(gp.n);
   std::vector<std::uint8_t> pf(n, halo_ ? kGhostFlag : 0);
-  std::vector<double> pr(n, rho), pu(3 * n, 0.0);
+  // Layers in parallel (hundreds of millions of cells on a GPU's piece):
+  // `flag` is called from several threads at once.
+#pragma omp parallel for schedule(static)
   for (int z = 0; z < gp.nz; ++z)
     for (int y = 0; y < gp.ny; ++y)
       for (int x = 0; x < gp.nx; ++x) {
@@ -84,20 +87,27 @@ void DistributedFluid::initialize_uniform(const std::function<std::uint8_t(long,
         const std::uint8_t f = flag(w[0], w[1], w[2]);
         pf[static_cast<std::size_t>(gp.index(x, y, z))] = ghost && f == 0 ? kGhostFlag : f;
       }
-  if (halo_) {
-    // piece_fields leaves cells beyond a walled end at density 1.
-    for (int z = 0; z < gp.nz; ++z)
-      for (int y = 0; y < gp.ny; ++y)
-        for (int x = 0; x < gp.nx; ++x) {
-          const int pc[3] = {x, y, z};
-          for (int a = 0; a < 3; ++a) {
-            const auto ua = static_cast<std::size_t>(a);
-            const long w = pc[a] + piece.offset[ua] - piece.ghost_on(a);
-            if ((w < 0 || w >= whole.global[ua]) && !whole.periodic[ua]) pr[static_cast<std::size_t>(gp.index(x, y, z))] = 1.0;
-          }
-        }
+  // piece_fields leaves the ghost layers beyond a walled end at density 1:
+  // on a split closed axis, the layer below a piece that starts the grid and
+  // the layer above one that ends it.
+  std::vector<CellBox> unit;
+  for (int a = 0; halo_ && a < 3; ++a) {
+    const auto ua = static_cast<std::size_t>(a);
+    const int gw = piece.ghost_on(a);
+    if (gw == 0 || whole.periodic[ua]) continue;
+    CellBox b;
+    b.ext[0] = gp.nx;
+    b.ext[1] = gp.ny;
+    b.ext[2] = gp.nz;
+    b.ext[a] = gw;
+    if (piece.offset[ua] == 0) unit.push_back(b);
+    if (piece.offset[ua] + piece.local[ua] == whole.global[ua]) {
+      b.lo[a] = gw + static_cast<int>(piece.local[ua]);
+      unit.push_back(b);
+    }
   }
-  solver_->initialize(pf, pr, pu);
+  // Density and velocity made on the device (no host copy of either field).
+  initialize_at_rest(*solver_, pf, rho, unit);
   if (halo_) halo_->fill();
 }
 

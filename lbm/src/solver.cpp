@@ -5,6 +5,7 @@
 
 #include "core/error.hpp"
 #include "population_stride.hpp"
+#include "rest_state.hpp"
 
 namespace lbdem::lbm {
 
@@ -82,6 +83,22 @@ std::unique_ptr<LbmSolver> make_lbm_solver(const LbmSetup& s, Backend b) {
     case Precision::FP64: break;
   }
   return d2 ? make_solver_d2q9_f64(s, b) : make_solver_d3q19_f64(s, b);
+}
+
+void initialize_at_rest(LbmSolver& s, const std::vector<std::uint8_t>& flags, double rho,
+                        const std::vector<CellBox>& unit_density) {
+  if (auto* own = dynamic_cast<RestStateInit*>(&s)) {
+    own->initialize_at_rest(flags, rho, unit_density);
+    return;
+  }
+  // The fields initialize() takes, on the host.
+  const GridView g = s.setup().domain.view();
+  std::vector<double> r(static_cast<std::size_t>(g.n), rho), u(3 * static_cast<std::size_t>(g.n), 0.0);
+  for (const CellBox& b : unit_density)
+    for (int z = b.lo[2]; z < b.lo[2] + b.ext[2]; ++z)
+      for (int y = b.lo[1]; y < b.lo[1] + b.ext[1]; ++y)
+        for (int x = b.lo[0]; x < b.lo[0] + b.ext[0]; ++x) r[static_cast<std::size_t>(g.index(x, y, z))] = 1.0;
+  s.initialize(flags, r, u);
 }
 
 }  // namespace lbdem::lbm

@@ -10,6 +10,7 @@
 #include "lbm/dispatch.hpp"
 #include "lbm/solver.hpp"
 #include "population_stride.hpp"
+#include "rest_state.hpp"
 
 namespace lbdem::lbm {
 
@@ -39,8 +40,22 @@ struct ZeroPopulationsKernel {
   }
 };
 
+// Fills InitKernel's inputs for the cells of `box` (box x-fastest) with
+// density r and velocity zero: a uniform state made on the device.
+struct RestStateKernel {
+  CellBox box;
+  double* rho;
+  double* u;
+  double r;
+  LBDEM_HD void operator()(Index, int x, int y, int z) const {
+    const Index o = (x - box.lo[0]) + static_cast<Index>(box.ext[0]) * ((y - box.lo[1]) + static_cast<Index>(box.ext[1]) * (z - box.lo[2]));
+    rho[o] = r;
+    u[3 * o] = u[3 * o + 1] = u[3 * o + 2] = 0.0;
+  }
+};
+
 template <class L, class T>
-class SolverImpl final : public LbmSolver {
+class SolverImpl final : public LbmSolver, public RestStateInit {
   using R = compute_t<T>;  // the kernels' arithmetic type (lbm/storage.hpp)
 
  public:
@@ -78,25 +93,11 @@ class SolverImpl final : public LbmSolver {
     const auto n = static_cast<std::size_t>(g_.n);
     if (flags.size() != n || rho.size() != n || u.size() != 3 * n)
       throw Error("LbmSolver::initialize: field sizes do not match the grid (" + std::to_string(n) + " cells)");
-    flags_.copy_from_host(flags);
-    // Boundary handling is on when the case has boundary entries, the same
-    // on every piece of a cut grid (a piece whose storage holds no wall runs
-    // the same kernel as the whole grid). Ghost cells alone need none: the
-    // step never reflects off them and updates only owned cells.
-    has_bnd_ = s_.boundaries.count > 0;
-    for (std::uint8_t v : flags)
-      if (v != 0 && v != kGhostFlag && static_cast<int>(v) > s_.boundaries.count)
-        throw Error("LbmSolver::initialize: cell flag " + std::to_string(v) + " names no boundary entry (the case has " +
-                    std::to_string(s_.boundaries.count) + ")");
+    set_flags(flags);
     // Slab by slab over every storage cell (ghosts included) through the staging buffer.
-    const PopView<T> dst{f0_.data(), stride_};
-    CellBox all;
-    all.ext[0] = g_.nx;
-    all.ext[1] = g_.ny;
-    all.ext[2] = g_.nz;
     const Index cap = stage_.size() / 4;
     std::vector<double> hr(static_cast<std::size_t>(cap)), hu(3 * static_cast<std::size_t>(cap));
-    for (const CellBox& box : slabs_of(all, cap)) {
+    for (const CellBox& box : slabs_of(storage_box(), cap)) {
       const Index m = box.size();
       Index o = 0;
       for (int z = box.lo[2]; z < box.lo[2] + box.ext[2]; ++z)
@@ -107,14 +108,68 @@ class SolverImpl final : public LbmSolver {
         }
       backend_copy_from_host(ex_.backend(), stage_.data(), hr.data(), static_cast<std::size_t>(m) * sizeof(double));
       backend_copy_from_host(ex_.backend(), stage_.data() + cap, hu.data(), 3 * static_cast<std::size_t>(m) * sizeof(double));
-      if (s_.streaming == StreamKind::AA)
-        for_each_cell(ex_, g_, box, InitKernel<L, T, StreamKind::AA>{dst, g_, box, stage_.data(), stage_.data() + cap});
-      else
-        for_each_cell(ex_, g_, box,
-                      InitKernel<L, T, StreamKind::TwoLattice>{dst, g_, box, stage_.data(), stage_.data() + cap});
+      init_box(box, cap);
       ex_.synchronize();  // the staging buffer is reused by the next slab
     }
     t_ = 0;
+  }
+
+  void initialize_at_rest(const std::vector<std::uint8_t>& flags, double rho,
+                          const std::vector<CellBox>& unit_density) override {
+    if (flags.size() != static_cast<std::size_t>(g_.n))
+      throw Error("LbmSolver::initialize_at_rest: " + std::to_string(flags.size()) + " flags for " +
+                  std::to_string(g_.n) + " cells");
+    set_flags(flags);
+    // The inputs initialize() would upload, made in the staging buffer on the
+    // device; the fill and the equilibrium of a slab queue on one stream, so
+    // the next slab's fill waits for them without a host synchronisation.
+    const Index cap = stage_.size() / 4;
+    auto at = [&](const CellBox& region, double r) {
+      for (const CellBox& box : slabs_of(region, cap)) {
+        for_each_cell(ex_, g_, box, RestStateKernel{box, stage_.data(), stage_.data() + cap, r});
+        init_box(box, cap);
+      }
+    };
+    at(storage_box(), rho);
+    // A cell's equilibrium lands in slots that only it writes: writing the
+    // unit-density cells again leaves the state initialize() makes.
+    for (const CellBox& b : unit_density)
+      if (!b.empty() && rho != 1.0) at(b, 1.0);
+    ex_.synchronize();
+    t_ = 0;
+  }
+
+  // Flags of every storage cell, checked against the case's boundary entries.
+  void set_flags(const std::vector<std::uint8_t>& flags) {
+    flags_.copy_from_host(flags);
+    // Boundary handling is on when the case has boundary entries, the same
+    // on every piece of a cut grid (a piece whose storage holds no wall runs
+    // the same kernel as the whole grid). Ghost cells alone need none: the
+    // step never reflects off them and updates only owned cells.
+    has_bnd_ = s_.boundaries.count > 0;
+    for (std::uint8_t v : flags)
+      if (v != 0 && v != kGhostFlag && static_cast<int>(v) > s_.boundaries.count)
+        throw Error("LbmSolver::initialize: cell flag " + std::to_string(v) + " names no boundary entry (the case has " +
+                    std::to_string(s_.boundaries.count) + ")");
+  }
+
+  CellBox storage_box() const {
+    CellBox all;
+    all.ext[0] = g_.nx;
+    all.ext[1] = g_.ny;
+    all.ext[2] = g_.nz;
+    return all;
+  }
+
+  // Equilibrium populations of the cells of `box` from the staging buffer's
+  // density (first cap values) and velocity (from cap on).
+  void init_box(const CellBox& box, Index cap) {
+    const PopView<T> dst{f0_.data(), stride_};
+    if (s_.streaming == StreamKind::AA)
+      for_each_cell(ex_, g_, box, InitKernel<L, T, StreamKind::AA>{dst, g_, box, stage_.data(), stage_.data() + cap});
+    else
+      for_each_cell(ex_, g_, box,
+                    InitKernel<L, T, StreamKind::TwoLattice>{dst, g_, box, stage_.data(), stage_.data() + cap});
   }
 
   void step(long n) override {

@@ -13,6 +13,8 @@
 #include <vector>
 
 #include "core/exec.hpp"
+#include "dem/block_packing.hpp"
+#include "dem/domain.hpp"
 #include "dem/particles.hpp"
 #include "dem/system.hpp"
 #include "core/checkpoint.hpp"
@@ -39,6 +41,15 @@ namespace lbdem::cases {
 dem::HostParticles random_disks(const std::array<double, 3>& lo, const std::array<double, 3>& hi,
                                 const std::array<bool, 3>& periodic, long count, double r, double density,
                                 std::uint64_t seed, const std::string& key);
+
+// The particles of a random suspension packed in blocks (particles.packing:
+// blocks; dem/block_packing.hpp): the same set whatever the rank count, each
+// rank generating only its own. `domain` null or not decomposed: every
+// particle; else the particles whose centre lies in this rank's piece
+// (DemDomain::owner), which is what DemSystem keeps of them. Collective on
+// several ranks: throws ConfigError on every rank when a piece holds no
+// particle (the DEM sizes its cell grid from the radii it is given).
+dem::HostParticles suspension_blocks(const dem::BlockPackingSpec& spec, const dem::DemDomain* domain);
 
 // Adds to every particle's velocity a random vector of length `speed`, its
 // direction uniform on the sphere (3D) or the circle in the x-y plane (2D);

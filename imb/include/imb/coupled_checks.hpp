@@ -33,6 +33,7 @@
 #include <string>
 
 #include "dem/particles.hpp"
+#include "halo/comm.hpp"
 #include "dem/system.hpp"
 #include "imb/coupled.hpp"
 #include "lbm/solver.hpp"
@@ -88,7 +89,11 @@ CoupledScales coupled_scales(const lbm::LbmSetup& fluid, const dem::DemParams& d
                              const CoupledParams& cp);
 
 // Throws ConfigError (see the header comment); returns the scales it checked.
+// `comm`: p holds this rank's particles only (each rank its own), and the net
+// force of a fully periodic domain sums the weights over the ranks
+// (collective); null: p is every particle.
 CoupledScales check_coupled_setup(const lbm::LbmSetup& fluid, const dem::DemParams& dem, const dem::HostParticles& p,
-                                  const CoupledParams& cp, const CoupledLimits& limits = {});
+                                  const CoupledParams& cp, const CoupledLimits& limits = {},
+                                  const halo::Comm* comm = nullptr);
 
 }  // namespace lbdem::imb

@@ -28,7 +28,9 @@ class DistributedFluid {
   void initialize(const std::vector<std::uint8_t>& flags, const std::vector<double>& rho, const std::vector<double>& u);
   // The same state built on each rank for its piece alone (no whole-grid
   // field anywhere): flag(x, y, z) gives the flag of a whole-grid cell
-  // (global coordinates inside the grid), every cell at rest at density rho.
+  // (global coordinates inside the grid; called from several threads at
+  // once, so it must only read), every cell at rest at density rho; the
+  // density and velocity are made on the solver's backend.
   // Bit for bit the state initialize() makes from the whole-grid fields.
   void initialize_uniform(const std::function<std::uint8_t(long, long, long)>& flag, double rho);
   void step(long n);
