@@ -148,6 +148,8 @@ std::string quoted(const std::string& s) {
 }
 
 void Value::write(std::string& out, int indent, int depth) const {
+  // Below the top level everything goes on one line.
+  if (depth > 0) indent = -1;
   auto newline = [&](int d) {
     if (indent < 0) return;
     out += '\n';

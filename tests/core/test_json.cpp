@@ -78,6 +78,9 @@ TEST(Json, NestingAndOrderRoundTrip) {
   EXPECT_NE(text.find("\"steps\": 300"), std::string::npos) << text;
   EXPECT_NE(text.find("\"interrupted\": false"), std::string::npos) << text;
   EXPECT_NE(text.find("\"profile\": [1, 2.5, -3]"), std::string::npos) << text;
+  // A top-level member a line; what lies below it on that line.
+  EXPECT_NE(text.find("\n  \"phases_s\": {\"lbm\": 1.25, \"output\": 0.5},\n"), std::string::npos) << text;
+  EXPECT_NE(text.find("\"list\": [{\"a\": 1}, null, []]"), std::string::npos) << text;
   EXPECT_EQ(Value::parse(v.dump(-1)), v);
 }
 

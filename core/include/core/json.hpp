@@ -79,8 +79,10 @@ class Value {
   std::int64_t as_integer() const;  // integers only
   const std::string& as_string() const;
 
-  // Text: `indent` spaces per level, each member and element on its own line;
-  // an array of scalars stays on one line. indent < 0: all on one line.
+  // Text: each member of the top-level object (or element of the top-level
+  // array) on its own line, indented by `indent` spaces; the values below it
+  // each on one line (a summary reads one key a line). indent < 0: all on
+  // one line.
   std::string dump(int indent = 2) const;
   // Reads one JSON document (whitespace around it allowed); Error with the
   // offset of the first character it cannot read.
