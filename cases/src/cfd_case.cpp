@@ -64,6 +64,8 @@
 
 #include "cases/particle_output.hpp"
 #include "cases/scenes.hpp"
+#include "cases/simulation.hpp"
+#include "core/json.hpp"
 #include "cfd/coupling.hpp"
 #include "cfd/gas_monitor.hpp"
 #include "core/error.hpp"
@@ -760,24 +762,15 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
     t = step * c.gas.dt;
     gas_writer.resume(step);
     particle_writer.resume(step);
-  } else {
-    write_fields(0);
-    series_row(0);
   }
-  auto checkpoint = [&](bool stopping, bool finished = false) {
-    if (!cases::checkpoint_due(ck, comm, step, stopping, finished)) return;
-    const cases::RunValues v = run_values();
-    ck.write(step, t, [&](ckpt::Writer& w) { cases::save_bed(w, gas, dem, v); });
-  };
-  Progress prog("fluidized_bed", c.steps - first_step, 5.0, quiet);
+  // One gas step per call, a stop signal looked for after each.
+  sim::Simulation run(comm, "fluidized_bed", first_step, c.steps, sim::Stepping{.chunk = 1, .wait = [&] { ex.synchronize(); }},
+                      "coupled");
   // The end-of-run files (also when the watchdog stops the run: what was
   // averaged up to there is kept, and the diagnosis is in summary.json).
-  auto write_results = [&](bool interrupted, const std::string& diverged) {
+  auto write_results = [&](const std::string& diverged) {
     ex.synchronize();
-    const double seconds = prog.elapsed();
-    std::string quoted = diverged;
-    for (char& ch : quoted)
-      if (ch == '"' || ch == '\\' || static_cast<unsigned char>(ch) < 0x20) ch = '\'';
+    const double seconds = run.elapsed();
     if (!c.profiles.empty()) {
       std::ostringstream csv;
       csv << "quantity,height,x,value,samples\n";
@@ -791,72 +784,75 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
       io::write_text_atomically(c.outdir + "/profiles.csv", csv.str());
     }
     const double ns = std::max<long>(samples, 1);
+    auto mean = [&](double sum) { return samples ? json::Value(sum / ns) : json::Value(); };
     // The DEM's neighbour-list rebuilds and rebuild-decision reads (each a
     // host wait when the device was not there yet): the launches and host
     // synchronisations of the sub-steps besides their two kernels (cfd/NOTES.md).
     const dem::DemStats st = dem.stats();
-    std::ostringstream js;
-    js << "{\n  \"scene\": \"fluidized_bed\",\n  \"particles\": " << np << ",\n  \"gas_cells\": " << g.cells()
-       << ",\n  \"gas_steps\": " << step << ",\n  \"gas_steps_planned\": " << c.steps
-       << ",\n  \"restarted_from_step\": " << first_step
-       << ",\n  \"dem_substeps\": " << c.substeps << ",\n  \"gas_dt\": " << num(c.gas.dt)
-       << ",\n  \"time_s\": " << num(t) << ",\n  \"seconds\": " << num(seconds)
-       << ",\n  \"seconds_per_simulated_second\": "
-       << num(step > first_step ? seconds / ((step - first_step) * c.gas.dt) : 0.0)
-       << ",\n  \"particle_steps_per_second\": "
-       << num(seconds > 0 ? double(np) * c.substeps * double(step - first_step) / seconds : 0.0)
-       << ",\n  \"backend\": \"" << to_string(backend) << "\",\n  \"drag\": \"" << cfd::to_string(c.gas.drag)
-       << "\",\n  \"void_fraction\": \"" << cfd::to_string(c.gas.deposition)
-       << "\",\n  \"weight_per_area_pa\": " << num(weight_per_area) << ",\n  \"statistics_samples\": " << samples
-       << ",\n  \"mean_pressure_drop_pa\": " << (samples ? num(avg_dp / ns) : "null")
-       << ",\n  \"mean_pressure_drop_over_weight\": " << (samples ? num(avg_ratio / ns) : "null")
-       << ",\n  \"mean_bed_height_m\": " << (samples ? num(avg_height / ns) : "null")
-       << ",\n  \"max_courant\": " << num(std::max(max_courant_seen, last_courant))
-       << ",\n  \"max_mass_imbalance\": " << num(std::max(max_imbalance, last_imbalance))
-       << ",\n  \"dem_steps\": " << st.steps << ",\n  \"dem_rebuilds\": " << st.rebuilds
-       << ",\n  \"dem_report_reads\": " << st.status_reads << ",\n  \"dem_report_waits\": " << st.status_waits
-       << ",\n  \"interrupted\": " << (interrupted ? "true" : "false") << ",\n  \"diverged\": "
-       << (diverged.empty() ? std::string("null") : "\"" + quoted + "\"") << "\n}\n";
-    io::write_text_atomically(c.outdir + "/summary.json", js.str());
-    return seconds;
+    const long done = run.step() - first_step;
+    run.summary()
+        .set("particles", np)
+        .set("gas_cells", g.cells())
+        .set("gas_steps", run.step())
+        .set("gas_steps_planned", c.steps)
+        .set("dem_substeps", c.substeps)
+        .set("gas_dt", c.gas.dt)
+        .set("time_s", t)
+        .set("seconds_per_simulated_second", done > 0 ? seconds / (double(done) * c.gas.dt) : 0.0)
+        .set("particle_steps_per_second", seconds > 0 ? double(np) * c.substeps * double(done) / seconds : 0.0)
+        .set("backend", to_string(backend))
+        .set("drag", cfd::to_string(c.gas.drag))
+        .set("void_fraction", cfd::to_string(c.gas.deposition))
+        .set("weight_per_area_pa", weight_per_area)
+        .set("statistics_samples", samples)
+        .set("mean_pressure_drop_pa", mean(avg_dp))
+        .set("mean_pressure_drop_over_weight", mean(avg_ratio))
+        .set("mean_bed_height_m", mean(avg_height))
+        .set("max_courant", std::max(max_courant_seen, last_courant))
+        .set("max_mass_imbalance", std::max(max_imbalance, last_imbalance))
+        .set("dem_steps", st.steps)
+        .set("dem_rebuilds", st.rebuilds)
+        .set("dem_report_reads", st.status_reads)
+        .set("dem_report_waits", st.status_waits)
+        .set("diverged", diverged.empty() ? json::Value() : json::Value(diverged));
   };
-  bool stop = stop_requested();
-  while (step < c.steps && !stop) {
-    loop.step();
-    ++step;
-    t = step * c.gas.dt;
-    stop = stop_requested();
-    const bool last = step == c.steps || stop;
-    if (step % c.check_interval == 0 || last) {
-      try {
-        watchdog(step);
-      } catch (const DivergenceError& e) {
-        write_fields(step);  // the field the watchdog saw, for the diagnosis
-        write_results(false, e.what());
-        throw;
-      }
+  run.add("watchdog", sim::Trigger::steps_and_end(c.check_interval), [&](const sim::Event& e) {
+    try {
+      watchdog(e.step);
+    } catch (const DivergenceError& err) {
+      write_fields(e.step);  // the field the watchdog saw, for the diagnosis
+      write_results(err.what());
+      run.write_summary(c.outdir);
+      throw;
     }
-    if (c.stats_interval > 0 && step % c.stats_interval == 0 && t >= c.stats_start - 1e-12) sample();
-    if (step % c.series_interval == 0 || last) series_row(step);
-    if ((c.output_interval > 0 && step % c.output_interval == 0) || last) write_fields(step);
-    checkpoint(stop);
-    if (prog.due()) {
-      ex.synchronize();
-      prog.report(step - first_step, t, static_cast<double>(np) * c.substeps, "particle-steps/s");
+  });
+  if (c.stats_interval > 0)
+    run.add("statistics", sim::Trigger::steps(c.stats_interval), [&](const sim::Event&) {
+      if (t >= c.stats_start - 1e-12) sample();
+    });
+  run.add("series", sim::Trigger{.every_steps = c.series_interval, .at_start = true, .at_end = true},
+          [&](const sim::Event& e) { series_row(e.step); });
+  run.add("snapshot", sim::Trigger{.every_steps = c.output_interval, .at_start = true, .at_end = true},
+          [&](const sim::Event& e) { write_fields(e.step); });
+  run.add("checkpoint", sim::checkpoint_trigger(c.checkpoint), [&](const sim::Event& e) {
+    const cases::RunValues v = run_values();
+    ck.write(e.step, t, [&](ckpt::Writer& w) { cases::save_bed(w, gas, dem, v); });
+  });
+  run.progress([&](long) { return t; }, static_cast<double>(np) * c.substeps, "particle-steps/s", quiet);
+  run.run([&](long n) {
+    for (long k = 0; k < n; ++k) {
+      loop.step();
+      ++step;
+      t = step * c.gas.dt;
     }
-  }
-  const bool interrupted = step < c.steps;
-  checkpoint(false, !interrupted);
-  const double seconds = write_results(interrupted, "");
-  if (interrupted) {
-    spdlog::warn("stopped by {} at gas step {} of {} (t = {:.6g} s); output up to that step is in {}",
-                 stop_signal_name(), step, c.steps, t, c.outdir);
-    return kExitInterrupted;
-  }
+  });
+  write_results("");
+  if (run.conclude(c.outdir, t) != 0) return kExitInterrupted;
+  const double seconds = run.elapsed();
   if (!quiet)
     spdlog::info("done: {} gas steps in {} ({:.4g} s per simulated second); results: {}/gas.xdmf, "
                  "{}/particles.xdmf (ParaView), {}/series.csv, {}/summary.json",
-                 step, format_duration(seconds), step > first_step ? seconds / ((step - first_step) * c.gas.dt) : 0.0,
+                 step, format_duration(seconds), step > first_step ? seconds / (double(step - first_step) * c.gas.dt) : 0.0,
                  c.outdir, c.outdir, c.outdir, c.outdir);
   return 0;
 }

@@ -276,12 +276,6 @@ ckpt::Run open_run(const std::string& outdir, const ckpt::Policy& policy, const 
   return std::move(*run);
 }
 
-bool checkpoint_due(const ckpt::Run& run, const halo::Comm& comm, long step, bool stopping, bool finished) {
-  const bool due = run.due(step, stopping, finished);
-  // Only the wall clock differs between ranks (steps, a stop and the end are agreed).
-  return comm.distributed() && run.policy().minutes > 0 ? comm.any(due) : due;
-}
-
 // Rank 0's sink: the writer, until a write fails; then the bytes still to
 // come are dropped (the other ranks are still sending) and commit() reports.
 struct SharedWriter::State {

@@ -95,10 +95,6 @@ ckpt::Identity rank_layout(int ranks, const std::string& dims);
 ckpt::Run open_run(const std::string& outdir, const ckpt::Policy& policy, const ckpt::Identity& id,
                    const std::optional<std::string>& restart, const halo::Comm& comm);
 
-// ckpt::Run::due agreed by every rank (wall-clock minutes differ between
-// ranks). Collective when checkpoint.minutes is set.
-bool checkpoint_due(const ckpt::Run& run, const halo::Comm& comm, long step, bool stopping, bool finished = false);
-
 // One checkpoint written by every rank of `comm` (collective; every rank
 // makes the same calls in the same order). Write errors on rank 0 are
 // reported by commit() on every rank, after the others have sent their part.

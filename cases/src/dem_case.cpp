@@ -22,6 +22,7 @@
 
 #include "cases/particle_output.hpp"
 #include "cases/scenes.hpp"
+#include "cases/simulation.hpp"
 #include "checkpoint_case.hpp"
 #include "scene_checks.hpp"
 #include "core/error.hpp"
@@ -32,6 +33,7 @@
 #include "dem/init.hpp"
 #include "dem/system.hpp"
 #include "halo/comm.hpp"
+#include "halo/parallel_options.hpp"
 
 namespace lbdem {
 
@@ -51,6 +53,7 @@ struct DemCase {
   long series_interval = 0;  // time-series rows every N steps
   std::vector<std::int64_t> track;  // ids whose position/velocity go into the series
   std::array<int, 3> decomposition{0, 0, 0};  // ranks per axis ({0, 0, 0}: chosen)
+  std::string decomposition_key;              // where the case file gave it
   ckpt::Policy checkpoint;
 };
 
@@ -229,9 +232,18 @@ DemCase read_case(const Config& root, const RunOptions& opt) {
     }
     o.finish();
   }
+  // The cut: parallel.decomposition, as in every scene. The top-level
+  // `decomposition` of earlier versions still works, with a warning naming
+  // the new key.
+  c.decomposition = halo::parse_parallel(root).decomposition;
+  c.decomposition_key = "parallel.decomposition";
   if (root.has("decomposition")) {
+    if (c.decomposition[0] > 0) root.fail("decomposition", "give the cut once, as parallel.decomposition");
     const auto d = root.integers("decomposition", 3, 3, 1, 1 << 20);
     for (std::size_t k = 0; k < 3; ++k) c.decomposition[k] = static_cast<int>(d[k]);
+    c.decomposition_key = "decomposition";
+    if (halo::Comm::world().root())
+      spdlog::warn("{}: key 'decomposition' is deprecated; write it as 'parallel.decomposition'", root.source());
   }
   c.checkpoint = ckpt::read_policy(root);
   root.accept("scene");
@@ -305,7 +317,7 @@ int run_dem_case(const Config& root, const RunOptions& opt) {
   // rank 0 writes every file.
   const halo::Comm& comm = halo::Comm::world();
   const dem::DemDomain domain = comm.size() > 1 || c.decomposition[0] > 0
-                                    ? dem::decompose_box(comm, c.params, c.particles, c.decomposition)
+                                    ? dem::decompose_box(comm, c.params, c.particles, c.decomposition, c.decomposition_key)
                                     : dem::DemDomain{};
   if (opt.validate_only) return 0;
   const bool writer_rank = comm.root();
@@ -340,74 +352,50 @@ int run_dem_case(const Config& root, const RunOptions& opt) {
   std::optional<io::TimeSeries> series;
   if (writer_rank) series.emplace(cases::open_series(ck, c.outdir + "/series.csv", cols, c.series_interval));
   io::ParticleWriter* w = writer ? &*writer : nullptr;
-  long step = 0;
+  long step0 = 0;
   if (ck.restarting()) {  // the state of the checkpoint's step; its series and snapshots are kept
     cases::load_dem(ck, comm, sys, dims);
-    step = ck.restart_step();
-    if (writer) writer->resume(step);
-  } else {
-    write_particles(w, sys, 0);
-    const std::vector<double> row = series_row(sys, 0, c.track);
-    if (series) series->append(row);
+    step0 = ck.restart_step();
+    if (writer) writer->resume(step0);
   }
-  auto checkpoint = [&](bool stopping, bool finished = false) {
-    if (cases::checkpoint_due(ck, comm, step, stopping, finished)) cases::save_dem(ck, comm, step, sys.time(), sys, {});
-  };
-  Progress prog("dem", c.steps, 5.0, quiet);
   // A stop signal (core/signals.hpp) is honoured between advance() calls,
   // which end at the series and output steps and at every multiple of
-  // `poll` steps. The chunk lengths (each call ends with a closing half kick,
-  // so they shape the bits) depend on the case and the backend only, never on
-  // the wall clock or on whether a signal came: a run stopped and restarted
-  // gives the bits of one never stopped. A signal reaching any rank stops all
-  // of them at the same step.
-  const long poll = stop_poll_steps(n_particles, backend);
-  auto stop_now = [&comm] { return comm.any(stop_requested()); };
-  bool stop = stop_now();
-  while (step < c.steps && !stop) {
-    long next = std::min(c.steps, (step / c.series_interval + 1) * c.series_interval);
-    if (c.output_interval > 0) next = std::min(next, (step / c.output_interval + 1) * c.output_interval);
-    next = std::min(next, (step / poll + 1) * poll);
-    sys.advance(next - step);
-    step = next;
-    stop = stop_now();
-    const bool last = step == c.steps || stop;
-    if (step % c.series_interval == 0 || last) {
-      const std::vector<double> row = series_row(sys, step, c.track);
-      if (series) series->append(row);
-      if (comm.any(series && !std::isfinite(row[2])))
-        throw DivergenceError("scene dem: kinetic energy is " +
-                              (row.empty() ? std::string("not finite") : std::to_string(row[2])) + " at step " +
-                              std::to_string(step) + " (t = " + std::to_string(sys.time()) +
-                              " s): lower time.dt or check the material and the initial overlaps");
-    }
-    if ((c.output_interval > 0 && step % c.output_interval == 0) || last) write_particles(w, sys, step);
-    checkpoint(stop);
-    if (prog.due()) {
-      sys.synchronize();
-      prog.report(step, sys.time(), static_cast<double>(n_particles), "particle-steps/s");
-    }
-  }
-  const bool interrupted = step < c.steps;
-  checkpoint(false, !interrupted);
+  // stop_poll_steps. The chunk lengths (each call ends with a closing half
+  // kick, so they shape the bits) depend on the case and the backend only,
+  // never on the wall clock or on whether a signal came: a run stopped and
+  // restarted gives the bits of one never stopped. A signal reaching any rank
+  // stops all of them at the same step.
+  sim::Simulation loop(comm, "dem", step0, c.steps,
+                       sim::Stepping{.chunk = stop_poll_steps(n_particles, backend), .wait = [&] { sys.synchronize(); }},
+                       "dem");
+  loop.add("series", sim::Trigger{.every_steps = c.series_interval, .at_start = true, .at_end = true},
+           [&](const sim::Event& e) {
+             const std::vector<double> row = series_row(sys, e.step, c.track);
+             if (series) series->append(row);
+             if (comm.any(series && !std::isfinite(row[2])))
+               throw DivergenceError("scene dem: kinetic energy is " +
+                                     (row.empty() ? std::string("not finite") : std::to_string(row[2])) + " at step " +
+                                     std::to_string(e.step) + " (t = " + std::to_string(sys.time()) +
+                                     " s): lower time.dt or check the material and the initial overlaps");
+           });
+  loop.add("snapshot", sim::Trigger{.every_steps = c.output_interval, .at_start = true, .at_end = true},
+           [&](const sim::Event& e) { write_particles(w, sys, e.step); });
+  loop.add("checkpoint", sim::checkpoint_trigger(c.checkpoint),
+           [&](const sim::Event& e) { cases::save_dem(ck, comm, e.step, sys.time(), sys, {}); });
+  loop.progress([&](long) { return sys.time(); }, static_cast<double>(n_particles), "particle-steps/s", quiet);
+  loop.run([&](long n) { sys.advance(n); });
+  const long step = loop.step();
   const auto st = sys.stats();
-  std::ostringstream js;
-  js << "{\n  \"scene\": \"dem\",\n  \"particles\": " << n_particles << ",\n  \"steps\": " << step
-     << ",\n  \"steps_planned\": " << c.steps << ",\n  \"time_s\": " << sys.time()
-     << ",\n  \"seconds\": " << prog.elapsed() << ",\n  \"rebuilds\": " << st.rebuilds
-     << ",\n  \"backend\": \"" << to_string(backend) << "\",\n  \"interrupted\": " << (interrupted ? "true" : "false")
-     << "\n}\n";
-  if (writer_rank) io::write_text_atomically(c.outdir + "/summary.json", js.str());
-  if (interrupted) {
-    if (writer_rank)
-      spdlog::warn("stopped by {} at step {} of {} (t = {:.6g} s); output up to that step is in {}",
-                   stop_signal_name(), step, c.steps, sys.time(), c.outdir);
-    return kExitInterrupted;
-  }
+  loop.summary()
+      .set("particles", n_particles)
+      .set("time_s", sys.time())
+      .set("rebuilds", st.rebuilds)
+      .set("backend", to_string(backend));
+  if (loop.conclude(c.outdir, sys.time()) != 0) return kExitInterrupted;
   if (!quiet) {
     spdlog::info("done: {} steps in {}, {} neighbour-list rebuilds (every {:.1f} steps), {:.1f} neighbours per "
                  "particle; results: {}/particles.xdmf (ParaView), {}/series.csv",
-                 step, format_duration(prog.elapsed()), st.rebuilds,
+                 step, format_duration(loop.elapsed()), st.rebuilds,
                  st.rebuilds > 0 ? static_cast<double>(step) / st.rebuilds : 0.0, st.mean_neighbours, c.outdir,
                  c.outdir);
   }

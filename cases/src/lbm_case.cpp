@@ -11,6 +11,8 @@
 
 #include "lbm/distributed_fluid.hpp"
 #include "cases/scenes.hpp"
+#include "cases/simulation.hpp"
+#include "core/json.hpp"
 #include "checkpoint_case.hpp"
 #include "scene_checks.hpp"
 #include "core/buffer.hpp"
@@ -451,132 +453,83 @@ int run_parsed(LbmCase& c, const RunOptions& opt) {
     if (root) writer.index(step, step * U.dt, field_list);
   };
 
-  PhaseTimer phases;
-  using clk = std::chrono::steady_clock;
-  auto secs = [](clk::time_point a) { return std::chrono::duration<double>(clk::now() - a).count(); };
   auto d0 = solver->diagnostics();
-  long step = 0;
+  long step0 = 0;
   if (ck.restarting()) {  // the state of the checkpoint's step; its series and fields are kept
     d0.mass = cases::load_fluid(ck, comm, fluid.local(), s.domain, c.flags).at(0);
-    step = ck.restart_step();
-    if (root) writer.resume(step);
+    step0 = ck.restart_step();
+    if (root) writer.resume(step0);
   }
-  const long step0 = step;
-  auto checkpoint = [&](bool stopping, bool finished = false) {
-    if (cases::checkpoint_due(ck, comm, step, stopping, finished))
-      cases::save_fluid(ck, comm, step, step * U.dt, fluid.local(), {d0.mass});
-  };
-  Progress prog(c.scene, c.steps, 5.0, opt.quiet);
-  if (c.out_interval > 0 && step0 == 0) {
-    auto t = clk::now();
-    write_fields(0);
-    phases.add("output", secs(t));
-  }
-  // A stop signal (core/signals.hpp) ends the run after the step in
-  // progress on one rank; several ranks agree on stopping every
-  // poll.stride() steps, a stride adapted to a check every ~0.25 s (a signal
-  // may reach them at different steps; they must stop at the same one).
-  // Shorter solver->step() calls give the same steps as one longer call.
-  bool stop = false;
-  halo::StopPoll poll(comm);
+  // Fluid steps split into calls as the stop poll likes: shorter calls give
+  // the same steps as one longer call.
+  sim::Simulation loop(comm, c.scene, step0, c.steps, sim::Stepping{.wait = [&] { solver->synchronize(); }}, "lbm");
   // The rank of a cell the watchdog names (every rank stops at the same
   // step: the diagnostics are collective).
   auto on_rank = [&comm](int r) {
     return comm.distributed() && r >= 0 ? " on rank " + std::to_string(r) + " of " + std::to_string(comm.size())
                                         : std::string();
   };
-  while (step < c.steps && !stop) {
-    long next = std::min(c.steps, (step / c.diag_interval + 1) * c.diag_interval);
-    if (c.out_interval > 0) next = std::min(next, (step / c.out_interval + 1) * c.out_interval);
-    auto t = clk::now();
-    while (step < next && !stop) {
-      const long n = std::min(next - step, poll.until_check());
-      solver->step(n);
-      step += n;
-      if (comm.distributed()) solver->synchronize();  // (the poll times the steps done)
-      stop = poll.after_steps(n);
+  loop.add("diagnostics", sim::Trigger::steps_and_end(c.diag_interval), [&](const sim::Event& e) {
+    const long step = e.step;
+    const auto d = solver->diagnostics();
+    const double vmax = U.to_si_velocity(d.max_speed);
+    const double ma = d.max_speed * std::sqrt(3.0);
+    if (root) series->append({static_cast<double>(step), step * U.dt, (d.mass - d0.mass) / d0.mass, d.momentum[0],
+                   d.momentum[1], d.momentum[2], vmax, ma});
+    if (!d.finite) {
+      throw DivergenceError("diverged at step " + std::to_string(step) + " (t = " + std::to_string(step * U.dt) +
+                            " s): non-finite density or velocity at cell (" +
+                            std::to_string(d.nonfinite_cell[0]) + ", " + std::to_string(d.nonfinite_cell[1]) + ", " +
+                            std::to_string(d.nonfinite_cell[2]) + ")" + on_rank(fluid.nonfinite_rank()) +
+                            ". Output up to the last good step is kept in " +
+                            c.outdir + ". Lower the Mach number (smaller tau/dt), raise tau, or use collision.model: trt");
     }
-    solver->synchronize();
-    phases.add("lbm", secs(t));
-    if (step % c.diag_interval == 0 || step == c.steps || stop) {
-      t = clk::now();
-      const auto d = solver->diagnostics();
-      const double vmax = U.to_si_velocity(d.max_speed);
-      const double ma = d.max_speed * std::sqrt(3.0);
-      if (root) series->append({static_cast<double>(step), step * U.dt, (d.mass - d0.mass) / d0.mass, d.momentum[0],
-                     d.momentum[1], d.momentum[2], vmax, ma});
-      phases.add("diagnostics", secs(t));
-      if (!d.finite) {
-        throw DivergenceError("diverged at step " + std::to_string(step) + " (t = " + std::to_string(step * U.dt) +
-                              " s): non-finite density or velocity at cell (" +
-                              std::to_string(d.nonfinite_cell[0]) + ", " + std::to_string(d.nonfinite_cell[1]) + ", " +
-                              std::to_string(d.nonfinite_cell[2]) + ")" + on_rank(fluid.nonfinite_rank()) +
-                              ". Output up to the last good step is kept in " +
-                              c.outdir + ". Lower the Mach number (smaller tau/dt), raise tau, or use collision.model: trt");
-      }
-      if (ma > c.max_mach) {
-        throw DivergenceError("stopped at step " + std::to_string(step) + ": lattice Mach number " + std::to_string(ma) +
-                              " (|u| = " + std::to_string(vmax) + " m/s) at cell (" + std::to_string(d.max_speed_cell[0]) +
-                              ", " + std::to_string(d.max_speed_cell[1]) + ", " + std::to_string(d.max_speed_cell[2]) +
-                              ")" + on_rank(fluid.max_speed_rank()) + " exceeds diagnostics.max_mach = " + std::to_string(c.max_mach) +
-                              ". Output up to the last good step is kept in " + c.outdir +
-                              ". Any one of: lower the driving (the scene's velocity or body_acceleration); a "
-                              "smaller time step (collision.tau or time.dt); a finer grid (domain.spacing, with "
-                              "more domain.cells)");
-      }
+    if (ma > c.max_mach) {
+      throw DivergenceError("stopped at step " + std::to_string(step) + ": lattice Mach number " + std::to_string(ma) +
+                            " (|u| = " + std::to_string(vmax) + " m/s) at cell (" + std::to_string(d.max_speed_cell[0]) +
+                            ", " + std::to_string(d.max_speed_cell[1]) + ", " + std::to_string(d.max_speed_cell[2]) +
+                            ")" + on_rank(fluid.max_speed_rank()) + " exceeds diagnostics.max_mach = " + std::to_string(c.max_mach) +
+                            ". Output up to the last good step is kept in " + c.outdir +
+                            ". Any one of: lower the driving (the scene's velocity or body_acceleration); a "
+                            "smaller time step (collision.tau or time.dt); a finer grid (domain.spacing, with "
+                            "more domain.cells)");
     }
-    if (c.out_interval > 0 && step % c.out_interval == 0) {
-      t = clk::now();
-      write_fields(step);
-      phases.add("output", secs(t));
-    }
-    checkpoint(stop);
-    if (prog.due()) prog.report(step, step * U.dt, fluid_cells / 1e6, "MLUPS");
-  }
-  // Final state always written (also when a stop signal ended the loop early).
-  const bool interrupted = step < c.steps;
-  checkpoint(false, !interrupted);
-  if (c.out_interval == 0 || step % c.out_interval != 0) {
-    auto t = clk::now();
-    write_fields(step);
-    phases.add("output", secs(t));
-  }
+  }, true);
+  // Fields every output.interval steps (and at step 0), and the final state
+  // always (also when a stop signal ended the loop early).
+  loop.add("output", sim::Trigger{.every_steps = c.out_interval, .at_start = c.out_interval > 0, .at_end = true},
+           [&](const sim::Event& e) { write_fields(e.step); }, true);
+  loop.add("checkpoint", sim::checkpoint_trigger(c.checkpoint), [&](const sim::Event& e) {
+    cases::save_fluid(ck, comm, e.step, e.step * U.dt, fluid.local(), {d0.mass});
+  });
+  loop.progress([&](long st) { return st * U.dt; }, fluid_cells / 1e6, "MLUPS", opt.quiet);
+  loop.run([&](long n) { solver->step(n); });
+  const long step = loop.step();
   solver->macroscopic(rho, u);  // lattice units again for the verification
   const auto checks = c.verify && root ? c.verify(step, rho, u) : std::vector<Verification>{};
   const std::size_t memory = solver->memory_bytes();
 
-  const double lbm_s = phases.phases().count("lbm") ? phases.phases().at("lbm") : 0;
+  const double lbm_s = loop.phase("lbm");
   const double mlups = lbm_s > 0 ? fluid_cells * static_cast<double>(step - step0) / lbm_s / 1e6 : 0;
-  std::ostringstream js;
-  js << "{\n  \"scene\": \"" << c.scene << "\",\n  \"lattice\": \"" << to_string(s.lattice) << "\",\n  \"collision\": \""
-     << to_string(s.collision) << "\",\n  \"precision\": \"" << to_string(s.precision) << "\",\n  \"streaming\": \""
-     << to_string(s.streaming) << "\",\n  \"backend\": \"" << to_string(backend) << "\",\n  \"steps\": " << step
-     << ",\n  \"steps_planned\": " << c.steps << ",\n  \"interrupted\": " << (interrupted ? "true" : "false")
-     << ",\n  \"dx_m\": " << U.dx << ",\n  \"dt_s\": " << U.dt << ",\n  \"tau\": " << U.tau
-     << ",\n  \"ranks\": " << comm.size() << ",\n  \"decomposition\": \"" << fluid.decomposition().describe()
-     << "\",\n  \"mlups\": " << mlups << ",\n  \"memory_bytes\": " << memory << ",\n  \"phases_s\": {";
-  bool first = true;
-  for (auto& [k, v] : phases.phases()) {
-    js << (first ? "" : ", ") << "\"" << k << "\": " << v;
-    first = false;
-  }
-  js << "},\n  \"verification\": {";
-  first = true;
-  for (auto& v : checks) {
-    js << (first ? "" : ", ") << "\"" << v.name << "\": " << v.value;
-    first = false;
-  }
-  js << "}\n}\n";
-  if (root) io::write_text_atomically(c.outdir + "/summary.json", js.str());
-  if (interrupted) {
-    if (root)
-      spdlog::warn("stopped by {} at step {} of {} (t = {:.6g} s); output up to that step is in {}", stop_signal_name(),
-                 step, c.steps, step * U.dt, c.outdir);
-    return kExitInterrupted;
-  }
+  json::Value& js = loop.summary();
+  js.set("lattice", to_string(s.lattice))
+      .set("collision", to_string(s.collision))
+      .set("precision", to_string(s.precision))
+      .set("streaming", to_string(s.streaming))
+      .set("backend", to_string(backend))
+      .set("dx_m", U.dx)
+      .set("dt_s", U.dt)
+      .set("tau", U.tau)
+      .set("decomposition", fluid.decomposition().describe())
+      .set("mlups", mlups)
+      .set("memory_bytes", memory);
+  json::Value& ver = js["verification"] = json::Value::object();
+  for (auto& v : checks) ver.set(v.name, v.value);
+  if (loop.conclude(c.outdir, step * U.dt) != 0) return kExitInterrupted;
   if (!opt.quiet) {
-    spdlog::info("done: {} steps in {} ({:.1f} MLUPS), memory {:.1f} MiB", step, format_duration(prog.elapsed()), mlups,
+    spdlog::info("done: {} steps in {} ({:.1f} MLUPS), memory {:.1f} MiB", step, format_duration(loop.elapsed()), mlups,
                  memory / 1048576.0);
+    const PhaseTimer& phases = loop.phases();
     for (auto& [k, v] : phases.phases())
       spdlog::info("  phase {:<12} {:8.3f} s ({:.1f}%)", k, v, 100.0 * v / std::max(1e-12, phases.total()));
     for (auto& v : checks) spdlog::info("  check {} = {:.6e}  ({})", v.name, v.value, v.note);

@@ -204,12 +204,6 @@ int main(int argc, char** argv) {
       opt.restart = ckpt::resolve(restart);
       if (!opt.output) opt.output = std::filesystem::path(*opt.restart).parent_path().string();
       if (opt.output->empty()) opt.output = ".";
-      const std::string scene = cfg.text("scene");
-      const auto fluid = lbm_scene_names();
-      if (scene != "particles" && scene != "dem" && scene != "fluidized_bed" &&
-          std::find(fluid.begin(), fluid.end(), scene) == fluid.end())
-        throw ConfigError("--restart: scene '" + scene + "' does not write checkpoints; scenes that do: particles, "
-                          "dem, fluidized_bed and the fluid scenes");
     }
     if (*check) {
       // Parse and check everything (keys, ranges, units, memory), then stop

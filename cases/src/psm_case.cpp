@@ -42,6 +42,8 @@
 #include "cases/suspension.hpp"
 #include "core/units.hpp"
 #include "cases/scenes.hpp"
+#include "cases/simulation.hpp"
+#include "core/json.hpp"
 #include "checkpoint_case.hpp"
 #include "scene_checks.hpp"
 #include "core/async_writer.hpp"
@@ -195,6 +197,10 @@ imb::PsmSettings psm_settings(const Config& root, const imb::DragErrorQuery& q, 
 
 // ------------------------------------------------------------ fixed sphere
 int run_fixed_sphere_case(const Config& root, const RunOptions& opt) {
+  // The drag of a steady state: a run is redone, never continued.
+  if (opt.restart)
+    throw ConfigError("--restart: scene 'fixed_sphere' does not write checkpoints (it runs to a steady state); run "
+                      "it again instead");
   require_lattice_units(root);
   imb::FixedSphereSpec s;
   const Config g = root.section("geometry");
@@ -271,16 +277,26 @@ int run_fixed_sphere_case(const Config& root, const RunOptions& opt) {
                  s.dim, s.diameter, s.chi, s.tau, to_string(s.collision), s.magic, imb::to_string(s.method),
                  to_string(backend));
   const auto r = imb::run_fixed_sphere(s, backend);
-  std::ostringstream js;
-  js.precision(17);  // K to the last digit: runs are compared across rank counts and settings
-  js << "{\n  \"scene\": \"fixed_sphere\",\n  \"dim\": " << s.dim << ",\n  \"diameter\": " << s.diameter
-     << ",\n  \"chi\": " << s.chi << ",\n  \"tau\": " << s.tau << ",\n  \"magic\": " << s.magic
-     << ",\n  \"K\": " << r.K << ",\n  \"K_reference\": " << r.K_ref << ",\n  \"relative_error\": " << r.rel_error
-     << ",\n  \"re_p\": " << r.re_p << ",\n  \"steps\": " << r.steps << ",\n  \"converged\": "
-     << (r.converged ? "true" : "false") << ",\n  \"seconds\": " << r.seconds << ",\n  \"mlups\": " << r.mlups
-     << ",\n  \"interrupted\": " << (r.interrupted ? "true" : "false") << ",\n  \"ranks\": " << comm.size()
-     << ",\n  \"psm\": " << imb::psm_settings_json(psm) << "\n}\n";
-  if (comm.root()) io::write_text_atomically(outdir + "/summary.json", js.str());
+  // Numbers to the last bit (K is compared across rank counts and settings).
+  json::Value js = json::Value::object();
+  js.set("scene", "fixed_sphere")
+      .set("dim", s.dim)
+      .set("diameter", s.diameter)
+      .set("chi", s.chi)
+      .set("tau", s.tau)
+      .set("magic", s.magic)
+      .set("K", r.K)
+      .set("K_reference", r.K_ref)
+      .set("relative_error", r.rel_error)
+      .set("re_p", r.re_p)
+      .set("steps", r.steps)
+      .set("converged", r.converged)
+      .set("seconds", r.seconds)
+      .set("mlups", r.mlups)
+      .set("interrupted", r.interrupted)
+      .set("ranks", comm.size())
+      .set("psm", json::Value::parse(imb::psm_settings_json(psm)));
+  if (comm.root()) io::write_text_atomically(outdir + "/summary.json", js.dump());
   if (r.interrupted) {
     spdlog::warn("stopped by {} at step {} before the drag converged; K so far in {}/summary.json", stop_signal_name(),
                  r.steps, outdir);
@@ -694,62 +710,75 @@ double last_slip_along_gravity(const ParticlesCase& c, const cases::SuspensionSa
   return -(s.slip[0] * g[0] + s.slip[1] * g[1] + s.slip[2] * g[2]) / gn;
 }
 
-std::string json_vec(const std::array<double, 3>& v) {
-  std::ostringstream o;
-  o.precision(17);
-  o << "[" << v[0] << ", " << v[1] << ", " << v[2] << "]";
-  return o.str();
-}
+json::Value json_vec(const std::array<double, 3>& v) { return json::Value::array_of(std::vector<double>(v.begin(), v.end())); }
 
 // summary.json of a particle scene: the run, its units and conversion
-// factors, the lattice parameters it ran with (17 digits: a physical-unit case
-// and its lattice-unit twin compare exactly), the statistics against Wen-Yu.
-std::string particles_summary(const ParticlesCase& c, const cases::ParticleSeries& series, Index particles, long step,
-                              long job_steps, double secs, double cells, Backend backend, bool interrupted) {
+// factors, the lattice parameters it ran with (numbers to the last bit: a
+// physical-unit case and its lattice-unit twin compare exactly), the
+// statistics against Wen-Yu.
+void particles_summary(json::Value& js, const ParticlesCase& c, const cases::ParticleSeries& series, Index particles,
+                       long job_steps, double secs, double cells, Backend backend) {
   const Units& U = c.units;
   const auto& n = c.setup.domain.global;
   const double wy = wen_yu_prediction(c);
   const double v_si = U.dx / U.dt;  // m/s per cell per step
   const auto& last = series.last();
-  std::ostringstream js;
-  js.precision(17);
-  js << "{\n  \"scene\": \"particles\",\n  \"particles\": " << particles << ",\n  \"steps\": " << step
-     << ",\n  \"steps_planned\": " << c.steps << ",\n  \"restarted_from_step\": " << step - job_steps
-     << ",\n  \"seconds\": " << secs << ",\n  \"coupled_mlups\": "
-     << cells * double(job_steps) / std::max(secs, 1e-12) / 1e6 << ",\n  \"backend\": \"" << to_string(backend)
-     << "\",\n  \"interrupted\": " << (interrupted ? "true" : "false");
-  js << ",\n  \"units\": \"" << (c.physical ? "physical" : "lattice") << "\""
-     << ",\n  \"conversion\": {\"dx_m\": " << U.dx << ", \"dt_s\": " << U.dt << ", \"dm_kg\": " << U.dm()
-     << ", \"note\": \"series.csv, fields and particle positions are in lattice units: length x dx_m, time x dt_s, "
-        "mass x dm_kg, velocity x dx_m/dt_s, force x dm_kg dx_m/dt_s^2; the series' time column and the snapshots' "
-        "times are in seconds in a physical-unit scene\"}";
-  js << ",\n  \"lattice\": {\"cells\": [" << n[0] << ", " << n[1] << ", " << n[2] << "], \"tau\": " << c.setup.tau
-     << ", \"nu\": " << (c.setup.tau - 0.5) / 3.0 << ", \"diameter\": " << c.diameter
-     << ", \"density_ratio\": " << c.density_ratio << ", \"gravity\": " << json_vec(c.coupling.gravity)
-     << ", \"body_force\": " << json_vec(c.setup.body_force) << ", \"stiffness\": " << c.dem.material.stiffness
-     << ", \"wall_stiffness\": " << c.dem.material.wall_stiffness << ", \"dem_substeps\": " << c.coupling.dem_substeps
-     << ", \"solid_fraction\": " << c.solid_fraction << ", \"particle_count\": " << c.particles.size() << "}";
-  js << ",\n  \"statistics\": {\"seconds\": " << series.seconds()
-     << ", \"fraction_of_run\": " << series.seconds() / std::max(secs, 1e-12)
-     << ", \"averaged_from_step\": " << c.steps / 2 << ", \"averaged_samples\": " << series.averaged_samples()
-     << ", \"mean_slip\": " << series.mean_slip() << ", \"mean_drag_over_weight\": " << series.mean_drag_over_weight()
-     << ", \"wen_yu_slip\": " << wy << ", \"slip_over_wen_yu\": " << (wy > 0 ? series.mean_slip() / wy : 0.0)
-     << ", \"mean_slip_m_per_s\": " << series.mean_slip() * v_si << ", \"wen_yu_slip_m_per_s\": " << wy * v_si
-     << ", \"last_slip\": " << json_vec(last.slip) << ", \"last_granular_temperature\": " << last.granular_temperature
-     << ", \"note\": \"slip: fluid velocity over the fluid volume minus the mean particle velocity, along -gravity, "
-        "lattice units (cells per step) unless _m_per_s; Wen-Yu: the slip at which the Wen & Yu (1966) drag of a "
-        "homogeneous suspension at this solid fraction balances the mean net weight\"}";
+  js.set("particles", particles)
+      .set("seconds", secs)
+      .set("coupled_mlups", cells * double(job_steps) / std::max(secs, 1e-12) / 1e6)
+      .set("backend", to_string(backend))
+      .set("units", c.physical ? "physical" : "lattice");
+  js["conversion"]
+      .set("dx_m", U.dx)
+      .set("dt_s", U.dt)
+      .set("dm_kg", U.dm())
+      .set("note",
+           "series.csv, fields and particle positions are in lattice units: length x dx_m, time x dt_s, mass x dm_kg, "
+           "velocity x dx_m/dt_s, force x dm_kg dx_m/dt_s^2; the series' time column and the snapshots' times are in "
+           "seconds in a physical-unit scene");
+  js["lattice"]
+      .set("cells", json::Value::array_of(std::vector<long>{n[0], n[1], n[2]}))
+      .set("tau", c.setup.tau)
+      .set("nu", (c.setup.tau - 0.5) / 3.0)
+      .set("diameter", c.diameter)
+      .set("density_ratio", c.density_ratio)
+      .set("gravity", json_vec(c.coupling.gravity))
+      .set("body_force", json_vec(c.setup.body_force))
+      .set("stiffness", c.dem.material.stiffness)
+      .set("wall_stiffness", c.dem.material.wall_stiffness)
+      .set("dem_substeps", c.coupling.dem_substeps)
+      .set("solid_fraction", c.solid_fraction)
+      .set("particle_count", c.particles.size());
+  js["statistics"]
+      .set("seconds", series.seconds())
+      .set("fraction_of_run", series.seconds() / std::max(secs, 1e-12))
+      .set("averaged_from_step", c.steps / 2)
+      .set("averaged_samples", series.averaged_samples())
+      .set("mean_slip", series.mean_slip())
+      .set("mean_drag_over_weight", series.mean_drag_over_weight())
+      .set("wen_yu_slip", wy)
+      .set("slip_over_wen_yu", wy > 0 ? series.mean_slip() / wy : 0.0)
+      .set("mean_slip_m_per_s", series.mean_slip() * v_si)
+      .set("wen_yu_slip_m_per_s", wy * v_si)
+      .set("last_slip", json_vec(last.slip))
+      .set("last_granular_temperature", last.granular_temperature)
+      .set("note",
+           "slip: fluid velocity over the fluid volume minus the mean particle velocity, along -gravity, lattice units "
+           "(cells per step) unless _m_per_s; Wen-Yu: the slip at which the Wen & Yu (1966) drag of a homogeneous "
+           "suspension at this solid fraction balances the mean net weight");
   if (const double ref = periodic_settling_reference(c); ref > 0) {
     const double w = last_slip_along_gravity(c, last);
-    js << ",\n  \"reference\": {\"what\": \"terminal slip of one sphere in a periodic cube: Stokes drag of a "
-          "simple cubic array, Sangani & Acrivos (1982) Eq. 60\", \"chi\": "
-       << c.diameter / double(n[0]) << ", \"slip\": " << ref << ", \"measured_slip\": " << w
-       << ", \"relative_error\": " << (w - ref) / ref << ", \"re_p\": " << w * c.diameter / ((c.setup.tau - 0.5) / 3.0)
-       << "}";
+    js["reference"]
+        .set("what",
+             "terminal slip of one sphere in a periodic cube: Stokes drag of a simple cubic array, Sangani & Acrivos "
+             "(1982) Eq. 60")
+        .set("chi", c.diameter / double(n[0]))
+        .set("slip", ref)
+        .set("measured_slip", w)
+        .set("relative_error", (w - ref) / ref)
+        .set("re_p", w * c.diameter / ((c.setup.tau - 0.5) / 3.0));
   }
-  js << ",\n  \"psm\": " << imb::psm_settings_json(c.psm);
-  js << "\n}\n";
-  return js.str();
+  js.set("psm", json::Value::parse(imb::psm_settings_json(c.psm)));
 }
 
 // summary.json "timing": per phase of the coupled step the total seconds of
@@ -758,9 +787,9 @@ std::string particles_summary(const ParticlesCase& c, const cases::ParticleSerie
 // transport, part of fluid_psm), the set-up phases alike, the snapshot
 // output's share, and the particles per rank at the worst series row.
 // Collective.
-std::string timing_json(imb::CoupledSolver& cs, lbm::DistributedFluid& dfluid, const halo::Comm& comm,
-                        const std::array<double, 4>& setup, double loop_secs, double output_secs, long snapshots,
-                        double ppr_max, double ppr_mean, long ppr_step) {
+void timing_json(json::Value& js, imb::CoupledSolver& cs, lbm::DistributedFluid& dfluid, const halo::Comm& comm,
+                 const std::array<double, 4>& setup, double loop_secs, double output_secs, long snapshots,
+                 double ppr_max, double ppr_mean, long ppr_step) {
   PhaseClock& clock = cs.phase_clock();
   clock.collect();
   std::vector<double> t = clock.totals();
@@ -786,38 +815,35 @@ std::string timing_json(imb::CoupledSolver& cs, lbm::DistributedFluid& dfluid, c
     for (double& v : mean) v /= comm.size();
   }
   const std::size_t nphase = clock.names().size() + 1;
-  std::ostringstream o;
-  o.precision(6);
-  auto pair = [&](std::size_t i) {
-    std::ostringstream p;
-    p.precision(6);
-    p << "{\"max\": " << mx[i] << ", \"mean\": " << mean[i] << "}";
-    return p.str();
-  };
-  o << ",\n  \"timing\": {\"phases\": {";
-  for (std::size_t i = 0; i < nphase; ++i) o << (i ? ", " : "") << "\"" << names[i] << "\": " << pair(i);
-  o << "}, \"setup\": {";
+  auto pair = [&](std::size_t i) { return json::Value::object().set("max", mx[i]).set("mean", mean[i]); };
+  json::Value& tj = js["timing"];
+  for (std::size_t i = 0; i < nphase; ++i) tj["phases"].set(names[i], pair(i));
   double setup_max = 0;
   for (std::size_t i = nphase; i < nphase + 4; ++i) {
-    o << (i > nphase ? ", " : "") << "\"" << names[i] << "\": " << pair(i);
+    tj["setup"].set(names[i], pair(i));
     setup_max += mx[i];
   }
-  o << "}, \"setup_seconds\": " << setup_max << ", \"loop_seconds\": " << mx[nphase + 6]
-    << ", \"phase_sum_seconds\": " << mx[nphase + 5]
-    << ", \"output_seconds\": " << pair(nphase + 4) << ", \"snapshots\": " << snapshots
-    << ", \"output_fraction_of_run\": " << mx[nphase + 4] / std::max(mx[nphase + 6], 1e-12)
-    << ", \"steps_timed\": " << clock.steps()
-    << ", \"note\": \"seconds per rank summed over the run, max and mean over the ranks; phases of the coupled step: "
-       "fluid_psm (fluid + PSM step, halo exchange included), force_reduction (ghost forces to their owners), dem "
-       "(the DEM sub-steps, migration and ghost rebuilds included), ghost_sync (ghost velocities), map (particles to "
-       "cells); exposed_communication is the part of fluid_psm waiting for the halo; on the device the phases are "
-       "sampled every 16th step with events; setup_seconds sums the set-up phases' maxima; output_fraction_of_run: "
-       "the snapshots' wall time over loop_seconds (which includes those inside the loop); loop_seconds and "
-       "phase_sum_seconds (the phases of a rank together): max over the ranks\"}";
-  o << ",\n  \"particles_per_rank\": {\"max\": " << ppr_max << ", \"mean\": " << ppr_mean
-    << ", \"imbalance\": " << (ppr_mean > 0 ? ppr_max / ppr_mean : 0.0) << ", \"step\": " << ppr_step
-    << ", \"note\": \"owned particles per rank at the series row with the largest max / mean\"}";
-  return o.str();
+  tj.set("setup_seconds", setup_max)
+      .set("loop_seconds", mx[nphase + 6])
+      .set("phase_sum_seconds", mx[nphase + 5])
+      .set("output_seconds", pair(nphase + 4))
+      .set("snapshots", snapshots)
+      .set("output_fraction_of_run", mx[nphase + 4] / std::max(mx[nphase + 6], 1e-12))
+      .set("steps_timed", clock.steps())
+      .set("note",
+           "seconds per rank summed over the run, max and mean over the ranks; phases of the coupled step: fluid_psm "
+           "(fluid + PSM step, halo exchange included), force_reduction (ghost forces to their owners), dem (the DEM "
+           "sub-steps, migration and ghost rebuilds included), ghost_sync (ghost velocities), map (particles to "
+           "cells); exposed_communication is the part of fluid_psm waiting for the halo; on the device the phases are "
+           "sampled every 16th step with events; setup_seconds sums the set-up phases' maxima; "
+           "output_fraction_of_run: the snapshots' wall time over loop_seconds (which includes those inside the "
+           "loop); loop_seconds and phase_sum_seconds (the phases of a rank together): max over the ranks");
+  js["particles_per_rank"]
+      .set("max", ppr_max)
+      .set("mean", ppr_mean)
+      .set("imbalance", ppr_mean > 0 ? ppr_max / ppr_mean : 0.0)
+      .set("step", ppr_step)
+      .set("note", "owned particles per rank at the series row with the largest max / mean");
 }
 
 // The components of every rank's memory use (a rank without particles may
@@ -976,24 +1002,51 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
   gwo->set_float32(c.fields_fp32);
   const std::vector<io::SlabField> field_list{
       {"density", 1, "lattice"}, {"velocity", 3, "lattice (cells per step)"}, {"solid_fraction", 1, "1"}};
-  // Background output (output.background, one rank): the writer thread owns
-  // every HDF5 call from here on; declared after the writers, so it finishes
-  // its jobs before they go.
+  // Background output (output.background): each rank copies its piece to
+  // host memory and its writer thread writes it while the run goes on; the
+  // thread owns every HDF5 call of the rank from here on. Declared after the
+  // writers, so it finishes its jobs before they go. On several ranks the
+  // particle counts are gathered when the copy is taken (collective), and
+  // rank 0 indexes a step once every rank has finished its pieces: at the
+  // next snapshot or at the end, after each rank's wait and a barrier (the
+  // index never names an unfinished file).
   std::optional<io::BackgroundWriter> bg;
-  if (c.async_output && !ranks) bg.emplace();
+  if (c.async_output) bg.emplace();
   struct Snapshot {
     long step = 0;
+    double time = 0;
     dem::HostParticles particles;
     std::vector<double> force, rho, u, eps;
+    std::vector<long> counts;         // particles per rank (rank 0)
+    std::vector<std::pair<std::string, int>> names;  // the particle fields written (set by the job)
+  };
+  std::shared_ptr<Snapshot> unindexed;  // several ranks: written, not yet indexed
+  // The index of `snap`'s step, on rank 0's writer thread after its pieces.
+  auto index_job = [&](std::shared_ptr<Snapshot> snap) {
+    bg->submit([snap, &pw = *pwo, &gw = *gwo, &field_list] {
+      gw.index(snap->step, snap->time, field_list);
+      pw.index(snap->step, snap->time, snap->counts, snap->names);
+    });
+  };
+  // Every rank's pieces of the last background snapshot on disk, then its
+  // index (collective on several ranks).
+  auto finish_background = [&] {
+    if (!bg) return;
+    bg->wait();
+    if (!ranks || !unindexed) return;
+    comm.barrier();
+    if (writer) {
+      index_job(unindexed);
+      bg->wait();
+    }
+    unindexed.reset();
   };
   // Fields leave the device slab by slab through the staging buffers the
   // solver and the coupling reserved at start: output allocates no device memory.
-  // Wall time the run spends on output and checkpoints (summary.json: their
-  // share of the run), measured around each call on the host.
-  double output_secs = 0, checkpoint_secs = 0;
   long snapshots = 0;
   auto write_output_now = [&](long step) {
     const double t = double(step) * c.units.dt;
+    if (bg) finish_background();  // one host copy of the piece at a time
     if (writer) {  // every piece named in the manifest before any rank creates one
       gwo->record(step);
       pwo->record(step);
@@ -1002,37 +1055,57 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
     io::PieceParticleWriter& pw = *pwo;
     io::PieceGridWriter& gw = *gwo;
     if (bg) {
-      // The previous snapshot is written by now (one host copy of the grid at
-      // a time); this one is copied out slab by slab and handed to the thread.
-      bg->wait();
+      // This rank's owned box copied out slab by slab (x fastest, the order
+      // of the writer's slabs) and handed to the thread.
       auto snap = std::make_shared<Snapshot>();
       snap->step = step;
+      snap->time = t;
       snap->force = cs.hydro_force_host();
       snap->particles = dem.download();
-      snap->rho.resize(N);
-      snap->u.resize(3 * N);
-      snap->eps.resize(N);
-      const GridView g = c.setup.domain.view();
-      for (const CellBox& b : slabs_of(c.setup.domain.owned(), fluid->output_slab_cells())) {
-        // A slab of whole layers, whole rows or one row piece of the whole grid: contiguous in storage.
-        const auto c0 = static_cast<std::size_t>(g.index(b.lo[0], b.lo[1], b.lo[2]));
+      const CellBox own = fluid->setup().domain.owned();
+      const auto M = static_cast<std::size_t>(own.size());
+      snap->rho.resize(M);
+      snap->u.resize(3 * M);
+      snap->eps.resize(M);
+      // Where a slab starts in the owned box, x fastest: slabs are whole
+      // layers, whole rows or one row piece of it, so each is contiguous there.
+      auto offset = [own](const CellBox& b) {
+        return static_cast<std::size_t>(
+            ((Index(b.lo[2] - own.lo[2]) * own.ext[1]) + (b.lo[1] - own.lo[1])) * own.ext[0] + (b.lo[0] - own.lo[0]));
+      };
+      const Index slab = fluid->output_slab_cells();
+      for (const CellBox& b : slabs_of(own, slab)) {
+        const std::size_t c0 = offset(b);
         fluid->macroscopic_box(b, snap->rho.data() + c0, snap->u.data() + 3 * c0);
         cs.solid_fraction_box(b, snap->eps.data() + c0);
       }
-      bg->submit([snap, &pw, &gw, &field_list, t, g, slab = fluid->output_slab_cells()] {
-        const auto names = cases::write_particle_piece(pw, snap->step, t, snap->particles,
-                                                       {{"hydrodynamic_force", 3, snap->force.data()}});
-        // The same slabs as above: each contiguous in the host copy.
-        gw.write_piece(snap->step, t, field_list, slab, [&](const CellBox& b, const std::vector<double*>& out) {
-          const auto c0 = static_cast<std::size_t>(g.index(b.lo[0], b.lo[1], b.lo[2]));
+      snap->counts = {static_cast<long>(snap->particles.size())};
+      if (ranks) {
+        const long mine = snap->counts[0];
+        const auto all = comm.gather(std::as_bytes(std::span<const long>(&mine, 1)), 0);
+        snap->counts.clear();
+        for (const auto& bytes : all) {
+          long v = 0;
+          std::memcpy(&v, bytes.data(), sizeof v);
+          snap->counts.push_back(v);
+        }
+      }
+      bg->submit([snap, &pw, &gw, &field_list, offset, slab, one = !ranks] {
+        snap->names = cases::write_particle_piece(pw, snap->step, snap->time, snap->particles,
+                                                  {{"hydrodynamic_force", 3, snap->force.data()}});
+        gw.write_piece(snap->step, snap->time, field_list, slab, [&](const CellBox& b, const std::vector<double*>& out) {
+          const std::size_t c0 = offset(b);
           const auto m = static_cast<std::size_t>(b.size());
           std::copy_n(snap->rho.data() + c0, m, out[0]);
           std::copy_n(snap->u.data() + 3 * c0, 3 * m, out[1]);
           std::copy_n(snap->eps.data() + c0, m, out[2]);
         });
-        gw.index(snap->step, t, field_list);
-        pw.index(snap->step, t, {static_cast<long>(snap->particles.size())}, names);
+        if (one) {  // one rank: its own pieces are all there is
+          gw.index(snap->step, snap->time, field_list);
+          pw.index(snap->step, snap->time, snap->counts, snap->names);
+        }
       });
+      if (ranks) unindexed = snap;
       return;
     }
     const auto hf = cs.hydro_force_host();
@@ -1060,9 +1133,7 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
     }
   };
   auto write_output = [&](long step) {
-    const auto w0 = std::chrono::steady_clock::now();
     write_output_now(step);
-    output_secs += std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
     ++snapshots;
   };
   // A restart keeps the series rows up to its checkpoint and the series' accumulators.
@@ -1072,23 +1143,16 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
                                ranks ? std::function<lbm::LbmDiagnostics()>([&dfluid] { return dfluid.diagnostics(); })
                                      : std::function<lbm::LbmDiagnostics()>());
   series.average_from(c.steps / 2);  // the mean slip of summary.json: the run's second half
-  long step = 0;
+  long step0 = 0;
   if (ck.restarting()) {  // the state of the checkpoint's step; its series and snapshots are kept
     series.restore(cases::load_coupled(ck, comm, *fluid, c.setup.domain, flags, dem, cs,
                                        dfluid.decomposition().describe()));
-    step = ck.restart_step();
+    step0 = ck.restart_step();
     if (writer) {
-      pwo->resume(step);
-      gwo->resume(step);
+      pwo->resume(step0);
+      gwo->resume(step0);
     }
   }
-  const long step0 = step;
-  auto checkpoint = [&](bool stopping, bool finished = false) {
-    if (!cases::checkpoint_due(ck, comm, step, stopping, finished)) return;
-    const auto w0 = std::chrono::steady_clock::now();
-    cases::save_coupled(ck, comm, step, double(step) * c.units.dt, *fluid, dem, cs, series.state());
-    checkpoint_secs += std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
-  };
   // Particles per rank at the series rows: the row with the largest max / mean.
   double ppr_max = 0, ppr_mean = 0;
   long ppr_step = 0;
@@ -1119,44 +1183,35 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
                             "viscous fluid settles the particles slower); a finer grid (a larger particles.diameter "
                             "in cells for the same particle)");
   };
-  if (step0 == 0 && c.output_interval > 0) write_output(0);
-  if (step0 == 0) series_row(0);
-  Progress prog("particles", c.steps, 5.0, quiet);
-  using clk = std::chrono::steady_clock;
-  const auto t0 = clk::now();
-  // One coupled step per advance() call (the same steps as one longer call):
-  // a stop signal (core/signals.hpp) ends the run after the step in progress.
-  // On several ranks they agree on stopping every poll.stride() steps,
-  // adapted to a check every ~0.25 s (halo/stop_poll.hpp).
-  halo::StopPoll poll(comm, 0.25, [&] { fluid->synchronize(); });
-  auto stopping = [&] { return poll.stopping(); };
-  while (step < c.steps && !stopping()) {
-    long next = std::min(c.steps, (step / c.series_interval + 1) * c.series_interval);
-    if (c.output_interval > 0) next = std::min(next, (step / c.output_interval + 1) * c.output_interval);
-    for (; step < next && !stopping(); ++step) {
-      cs.advance(1);
-      poll.after_steps(1);
-    }
-    if (step % c.series_interval == 0 || step == c.steps || stopping()) series_row(step);
-    if (c.output_interval > 0 && step % c.output_interval == 0) write_output(step);
-    checkpoint(stopping());
-    if (prog.due()) {
-      fluid->synchronize();
-      prog.report(step, double(step) * c.units.dt, double(N) / 1e6, "MLUPS (coupled)");
-    }
-  }
+  // Coupled steps split into calls as the stop poll likes (the same steps as
+  // one longer call): a stop signal (core/signals.hpp) ends the run after the
+  // step in progress; several ranks agree every ~0.25 s (halo/stop_poll.hpp).
+  sim::Simulation loop(comm, "particles", step0, c.steps, sim::Stepping{.wait = [&] { fluid->synchronize(); }},
+                       "coupled");
+  loop.add("series", sim::Trigger{.every_steps = c.series_interval, .at_start = true, .at_end = true},
+           [&](const sim::Event& e) { series_row(e.step); });
+  // Snapshots every output.interval steps (and at step 0); at the end with output.final.
+  loop.add("output",
+           sim::Trigger{.every_steps = c.output_interval, .at_start = c.output_interval > 0, .at_end = c.final_output},
+           [&](const sim::Event& e) { write_output(e.step); }, true);
+  loop.add("checkpoint", sim::checkpoint_trigger(c.checkpoint), [&](const sim::Event& e) {
+    cases::save_coupled(ck, comm, e.step, double(e.step) * c.units.dt, *fluid, dem, cs, series.state());
+  }, true);
+  loop.progress([&](long st) { return double(st) * c.units.dt; }, double(N) / 1e6, "MLUPS (coupled)", quiet);
+  loop.run([&](long k) { cs.advance(k); });
+  const long step = loop.step();
   fluid->synchronize();
   cs.check_overflow();
-  const double secs = std::chrono::duration<double>(clk::now() - t0).count();
-  if (c.final_output && (c.output_interval == 0 || step % c.output_interval != 0)) write_output(step);
-  checkpoint(false, step == c.steps);
-  if (bg) {  // every snapshot on disk (a write failure surfaces here) before the summary
+  const double secs = loop.elapsed();
+  double output_secs = loop.phase("output");
+  const double checkpoint_secs = loop.phase("checkpoint");
+  if (bg) {  // every snapshot on disk and indexed (a write failure surfaces here) before the summary
     const auto w0 = std::chrono::steady_clock::now();
-    bg->wait();
+    finish_background();
     output_secs += std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
   }
-  const bool interrupted = step < c.steps;
-  std::string js = particles_summary(c, series, dem.global_size(), step, step - step0, secs, double(N), backend, interrupted);
+  json::Value& js = loop.summary();
+  particles_summary(js, c, series, dem.global_size(), step - step0, secs, double(N), backend);
   {
     // Device memory held by the fluid and the coupling (their buffers), by
     // component (on several ranks: summed over the ranks, per component).
@@ -1183,32 +1238,27 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
       out_buffer = comm.max(out_buffer);
       piece_cells = comm.max(piece_cells);
     }
-    std::ostringstream mj;
-    mj << ",\n  \"memory_bytes\": {";
-    for (std::size_t i = 0; i < held.items.size(); ++i)
-      mj << (i ? ", " : "") << "\"" << held.items[i].name << "\": " << held.items[i].bytes;
-    mj << "},\n  \"memory_bytes_per_cell\": " << double(held.total()) / double(N)
-       << ",\n  \"dem_rebuilds\": " << dem.stats().rebuilds << ",\n  \"ranks\": " << comm.size()
-       << ",\n  \"output\": {\"snapshots\": " << snapshots << ", \"seconds\": " << output_secs
-       << ", \"background\": " << (bg ? "true" : "false") << ", \"largest_host_buffer_values\": " << out_buffer
-       << ", \"largest_piece_cells\": " << piece_cells << ", \"stepping_seconds\": " << secs
-       << ", \"fraction_of_stepping\": " << output_secs / std::max(secs, 1e-12)
-       << ", \"checkpoints\": " << ck.checkpoints_written() << ", \"checkpoint_seconds\": " << checkpoint_secs
-       << ", \"note\": \"wall time in snapshot output (device copies and, unless background, the HDF5 writes) and "
-          "in checkpoint writes; stepping_seconds includes the snapshots and checkpoints taken inside the loop\"}";
-    if (ranks) mj << ",\n  \"decomposition\": \"" << dfluid.decomposition().describe() << "\"";
-    mj << timing_json(cs, dfluid, comm, {packing_secs, distribution_secs, fluid_init_secs, first_map_secs}, secs,
-                      output_secs, snapshots, ppr_max, ppr_mean, ppr_step);
-    mj << "\n}\n";
-    js = js.substr(0, js.rfind("\n}")) + mj.str();
+    json::Value& mem = js["memory_bytes"] = json::Value::object();
+    for (const auto& it : held.items) mem.set(it.name, it.bytes);
+    js.set("memory_bytes_per_cell", double(held.total()) / double(N)).set("dem_rebuilds", dem.stats().rebuilds);
+    js["output"]
+        .set("snapshots", snapshots)
+        .set("seconds", output_secs)
+        .set("background", bool(bg))
+        .set("largest_host_buffer_values", out_buffer)
+        .set("largest_piece_cells", piece_cells)
+        .set("stepping_seconds", secs)
+        .set("fraction_of_stepping", output_secs / std::max(secs, 1e-12))
+        .set("checkpoints", ck.checkpoints_written())
+        .set("checkpoint_seconds", checkpoint_secs)
+        .set("note",
+             "wall time in snapshot output (device copies and, unless background, the HDF5 writes) and in checkpoint "
+             "writes; stepping_seconds includes the snapshots and checkpoints taken inside the loop");
+    if (ranks) js.set("decomposition", dfluid.decomposition().describe());
+    timing_json(js, cs, dfluid, comm, {packing_secs, distribution_secs, fluid_init_secs, first_map_secs}, secs,
+                output_secs, snapshots, ppr_max, ppr_mean, ppr_step);
   }
-  if (writer) io::write_text_atomically(c.outdir + "/summary.json", js);
-  if (interrupted) {
-    if (writer)
-      spdlog::warn("stopped by {} at step {} of {}; output up to that step is in {}", stop_signal_name(), step, c.steps,
-                 c.outdir);
-    return kExitInterrupted;
-  }
+  if (loop.conclude(c.outdir, double(step) * c.units.dt) != 0) return kExitInterrupted;
   if (!quiet) {
     spdlog::info("done: {} coupled steps in {:.1f} s ({:.1f} MLUPS coupled); statistics {:.2f}% of it; results: "
                  "{}/fields.xdmf, {}/particles.xdmf (ParaView), {}/series.csv (lattice units; summary.json "

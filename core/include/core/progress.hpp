@@ -9,7 +9,9 @@ namespace lbdem {
 
 class Progress {
  public:
-  Progress(std::string label, long total_steps, double interval_s, bool quiet);
+  // `first_step`: where the run starts (a restart's step): rates and the ETA
+  // count the steps from there.
+  Progress(std::string label, long total_steps, double interval_s, bool quiet, long first_step = 0);
   // Cheap: reads the clock; logs only when the interval has passed. Returns
   // true when it logged (callers synchronise the device before, if needed).
   bool due() const;
@@ -22,7 +24,7 @@ class Progress {
   double interval_;
   bool quiet_;
   std::chrono::steady_clock::time_point start_, last_;
-  long last_step_ = 0;
+  long first_step_ = 0, last_step_ = 0;
 };
 
 // Accumulates wall time per named phase.
