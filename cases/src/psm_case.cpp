@@ -316,7 +316,11 @@ int run_fixed_sphere_case(const Config& root, const RunOptions& opt) {
 struct ParticlesCase {
   lbm::LbmSetup setup;
   dem::DemParams dem;
-  dem::HostParticles particles;
+  dem::HostParticles particles;  // this rank's with particles.packing: blocks, else every particle
+  // particles.packing: blocks (dem/block_packing.hpp): packed per rank once
+  // the decomposition is known; particle_count is over all ranks.
+  std::optional<dem::BlockPackingSpec> blocks;
+  long particle_count = 0;
   imb::CoupledParams coupling;
   bool balance = false;
   double density_ratio = 1;
@@ -505,7 +509,28 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
     rs.r_min = rs.r_max = r;
     rs.density = rho_s;
     rs.seed = seed;
-    if (dim == 3) {
+    // particles.packing: lattice (the default: one lattice over the box, every
+    // rank packs every particle) or blocks (dem/block_packing.hpp: the same
+    // particles whatever the rank count, each rank packing only its own).
+    const bool blocks = pc.choice("packing", "lattice", {"lattice", "blocks"}) == "blocks";
+    if (blocks) {
+      if (dim == 3) cases::check_particles_random(root, pc, s, rs.lo, rs.hi, rs.periodic, rs.solid_fraction, r, opt);
+      else cases::check_particles_memory(root, s, double(count), opt);
+      dem::BlockPackingSpec bs;
+      bs.dim = dim;
+      bs.lo = rs.lo;
+      bs.hi = rs.hi;
+      bs.periodic = rs.periodic;
+      bs.count = count;
+      bs.radius = r;
+      bs.density = rho_s;
+      bs.speed = random_speed;
+      bs.velocity = v0l;
+      bs.angular_velocity = w0l;
+      bs.seed = seed;
+      bs.displace = !opt.validate_only;
+      c.blocks = bs;
+    } else if (dim == 3) {
       cases::check_particles_random(root, pc, s, rs.lo, rs.hi, rs.periodic, rs.solid_fraction, r, opt);
       rs.displace = !opt.validate_only;  // lbdem check: lattice sites (dem/init.hpp)
       c.particles = dem::random_packing(rs);
@@ -533,6 +558,7 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
       const double ri = c.particles.r[static_cast<std::size_t>(i)];
       vol += dim == 3 ? 4.0 / 3.0 * M_PI * ri * ri * ri : M_PI * ri * ri;
     }
+    if (c.blocks) vol = double(c.blocks->count) * (dim == 3 ? 4.0 / 3.0 * M_PI * r * r * r : M_PI * r * r);
     for (int a = 0; a < dim; ++a) box *= double(cells[static_cast<std::size_t>(a)]);
     c.solid_fraction = vol / box;
   }
@@ -616,15 +642,48 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
   root.finish();
   if (opt.steps) c.steps = *opt.steps;
   if (opt.output) c.outdir = *opt.output;
-  if (c.particles.size() == 0) throw ConfigError("particles: no particles given");
+  const halo::Comm& world = halo::Comm::world();
+  const bool split = c.blocks && world.distributed();  // each rank holds its own particles
+  if (c.blocks) {
+    // This rank's piece, as run_particles_case cuts the grid and the DEM box.
+    std::optional<dem::DemDomain> dom;
+    if (split)
+      dom = dem::domain_from_decomposition(
+          world, halo::decompose(s.domain, world.size(), c.parallel.decomposition, "parallel.decomposition"), p);
+    c.particles = cases::suspension_blocks(*c.blocks, dom ? &*dom : nullptr);
+    if (dim == 2)  // disks one cell deep, as above
+      for (std::size_t i = 0; i < c.particles.mass.size(); ++i) c.particles.mass[i] *= 0.75 / c.particles.r[i];
+  }
+  c.particle_count = c.blocks ? c.blocks->count : static_cast<long>(c.particles.size());
+  if (c.particle_count == 0) throw ConfigError("particles: no particles given");
   if (c.balance) {
     const double V = double(ext[0]) * ext[1] * ext[2];
-    s.body_force = imb::balancing_body_force(c.particles, dim, c.coupling.gravity, 1.0, V);
+    if (c.blocks) {
+      // Every particle of a block packing has one radius and mass: the
+      // count times one particle's share, the same on every rank.
+      dem::HostParticles one;
+      one.add(c.particles.x[0], c.particles.r[0], 0.0);
+      one.mass[0] = c.particles.mass[0];
+      const auto f1 = imb::balancing_body_force(one, dim, c.coupling.gravity, 1.0, V);
+      for (std::size_t a = 0; a < 3; ++a) s.body_force[a] = f1[a] * double(c.particle_count);
+    } else {
+      s.body_force = imb::balancing_body_force(c.particles, dim, c.coupling.gravity, 1.0, V);
+    }
   }
   // Refuse up front what would blow up (Mach, cell Reynolds number, light
   // particles, DEM sub-steps, unbalanced weight), naming the key to change.
-  cases::check_particles_scene(root, s, p, c.particles, c.coupling.gravity, c.balance, c.coupling.dem_substeps, c.steps, opt);
-  imb::check_coupled_setup(s, p, c.particles, c.coupling);
+  // With each rank's own particles, every rank refuses if one does.
+  std::string refused;
+  try {
+    cases::check_particles_scene(root, s, p, c.particles, c.coupling.gravity, c.balance, c.coupling.dem_substeps, c.steps, opt);
+    imb::check_coupled_setup(s, p, c.particles, c.coupling, {}, split ? &world : nullptr);
+  } catch (const ConfigError& e) {
+    if (!split) throw;
+    refused = e.what();
+  }
+  if (split && world.any(!refused.empty()))
+    throw ConfigError(refused.empty() ? root.source() + ": another rank's particles were refused (its message above)"
+                                      : refused);
   {
     // 16-bit storage (lbm/storage_checks.hpp). The flow's scale: the largest
     // particle diameter (the flow around a particle sets the slowest local relaxation).
@@ -748,7 +807,7 @@ void particles_summary(json::Value& js, const ParticlesCase& c, const cases::Par
       .set("wall_stiffness", c.dem.material.wall_stiffness)
       .set("dem_substeps", c.coupling.dem_substeps)
       .set("solid_fraction", c.solid_fraction)
-      .set("particle_count", c.particles.size());
+      .set("particle_count", c.particle_count);
   js["statistics"]
       .set("seconds", series.seconds())
       .set("fraction_of_run", series.seconds() / std::max(secs, 1e-12))
@@ -937,7 +996,7 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
     std::printf("%s: device memory (%s, %s, %s pipeline), %.4g cells, %lld particles:\n%s", root.source().c_str(),
                 to_string(backend), lbm::to_string(c.setup.precision),
                 imb::to_string(imb::resolve_pipeline(c.coupling.psm, c.coupling.slots)), cells,
-                static_cast<long long>(c.particles.size()), cases::memory_table(planned, cells).c_str());
+                static_cast<long long>(c.particle_count), cases::memory_table(planned, cells).c_str());
     return 0;
   }
   const bool quiet = opt.quiet || !writer;
@@ -945,7 +1004,7 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
   // touched (rank 0 reads it; a checkpoint of any rank count restarts here).
   ckpt::Run ck = cases::open_run(
       c.outdir, c.checkpoint,
-      cases::fluid_identity("particles", c.setup).add("particles", std::to_string(c.particles.size())), opt.restart,
+      cases::fluid_identity("particles", c.setup).add("particles", std::to_string(c.particle_count)), opt.restart,
       comm);
   cases::prepare_output_on_writer(ck, writer, comm, opt.overwrite, c.outdir);
   // The fluid: the whole grid on one rank, this rank's piece (with its halo
@@ -988,7 +1047,7 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
   if (!quiet)
     spdlog::info("scene particles: {} particles (d = {} cells, rho_s/rho_f = {}), grid {}x{}x{}, tau = {}, {} DEM "
                  "sub-steps, backend {}, weight balance {}, {} fractions, {} pipeline; output in {}",
-                 c.particles.size(), 2 * c.particles.r[0], c.density_ratio, n[0], n[1], n[2], c.setup.tau,
+                 c.particle_count, 2 * c.particles.r[0], c.density_ratio, n[0], n[1], n[2], c.setup.tau,
                  c.coupling.dem_substeps, to_string(backend), c.balance ? "on" : "off",
                  imb::to_string(c.coupling.psm.map.method), imb::to_string(cs.coupling().pipeline()), c.outdir);
   // Snapshots in pieces (core/piece_output.hpp): every rank writes its owned
@@ -1265,7 +1324,7 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
                  "gives dx, dt, dm)",
                  step - step0, secs, double(N) * (step - step0) / std::max(secs, 1e-12) / 1e6,
                  100 * series.seconds() / std::max(secs, 1e-12), c.outdir, c.outdir, c.outdir);
-    if (c.particles.size() > cases::ParticleSeries::kTrackedMax && series.averaged_samples() > 0)
+    if (c.particle_count > cases::ParticleSeries::kTrackedMax && series.averaged_samples() > 0)
       spdlog::info("mean slip over steps {}..{}: {:.4g} cells/step ({:.4g} x the Wen-Yu homogeneous slip {:.4g}); "
                    "drag / net weight {:.4f}",
                    c.steps / 2, step, series.mean_slip(), series.mean_slip() / wen_yu_prediction(c),
