@@ -22,10 +22,8 @@
 #                   restart ends bit for bit in the straight run's checkpoint. Reports how many kills caught a
 #                   temporary in the folder (a write in progress)
 #   ckpt_cadence    checkpoint.interval 100 with the default diagnostics interval (1000): the checkpoints seen while
-#                   the run goes (four polled, within 40 s) include a step that is not a multiple of 1000. Fails at the time of
-#                   writing: the fluid scenes' loop (cases/src/lbm_case.cpp) ends its step chunks only at the
-#                   diagnostics and output intervals and checks the checkpoint's due there, so a checkpoint comes
-#                   every lcm(interval, chunk ends) steps (here every 1000)
+#                   the run goes (four polled, within 40 s) include a step that is not a multiple of 1000: the fluid
+#                   scenes end a step chunk at every multiple of checkpoint.interval
 #   oom_rank        the last rank short of memory: cpu: that rank alone runs with `--memory 16MiB` (the cap a
 #                   scheduler's per-process limit sets) below what its piece needs; cuda: a helper process holds
 #                   all but 1 GiB of that rank's GPU. Exit code 4 within 30 s, the refusal names the memory and the rank
