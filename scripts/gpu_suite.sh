@@ -66,11 +66,12 @@ for ((i = 1; i <= repeats; ++i)); do
     ${LBDEM_SUITE_ARGS:-} > "$log" 2>&1
   rc=$?
   last=$((SECONDS - t0))
-  line=$(grep -E 'tests passed, [0-9]+ tests? failed out of [0-9]+' "$log" | tail -1)
+  # -a: a test that prints a NUL byte makes the log "binary", and grep would print no line of it
+  line=$(grep -aE 'tests passed, [0-9]+ tests? failed out of [0-9]+' "$log" | tail -1)
   failed=$(sed -E -n 's/.* ([0-9]+) tests? failed out of ([0-9]+).*/\1/p' <<< "$line")
   total=$(sed -E -n 's/.* failed out of ([0-9]+).*/\1/p' <<< "$line")
   failed=${failed:-0}; total=${total:-0}
-  names=$(sed -n '/The following tests FAILED:/,$p' "$log" | sed -E -n 's/^[[:space:]]+[0-9]+ - ([^ ]+) .*/\1/p')
+  names=$(sed -n '/The following tests FAILED:/,$p' "$log" | tr -d '\000' | sed -E -n 's/^[[:space:]]+[0-9]+ - ([^ ]+) .*/\1/p')
   arr="["
   while read -r n; do [ -n "$n" ] && arr+="\"$n\", " && echo "pass $i: $n" >> "$fails"; done <<< "$names"
   arr="${arr%, }]"
