@@ -499,11 +499,7 @@ int run_parsed(LbmCase& c, const RunOptions& opt) {
   // always (also when a stop signal ended the loop early).
   loop.add("output", sim::Trigger{.every_steps = c.out_interval, .at_start = c.out_interval > 0, .at_end = true},
            [&](const sim::Event& e) { write_fields(e.step); }, true);
-  // A fluid step does not depend on where the loop's chunks end: the
-  // checkpoint interval may end chunks (aligned), so it is kept exactly.
-  sim::Trigger ckpt_when = sim::checkpoint_trigger(c.checkpoint);
-  ckpt_when.aligned = true;
-  loop.add("checkpoint", ckpt_when, [&](const sim::Event& e) {
+  loop.add("checkpoint", sim::checkpoint_trigger(c.checkpoint), [&](const sim::Event& e) {
     cases::save_fluid(ck, comm, e.step, e.step * U.dt, fluid.local(), {d0.mass});
   });
   loop.progress([&](long st) { return st * U.dt; }, fluid_cells / 1e6, "MLUPS", opt.quiet);

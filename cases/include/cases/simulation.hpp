@@ -82,8 +82,8 @@ struct Stepping {
 };
 
 // A checkpoint policy (case file `checkpoint:`) as a trigger: every
-// `interval` steps where the loop stops anyway (not aligned: a checkpoint
-// never changes how a scene splits its steps), every `minutes` of wall time
+// `interval` steps exactly (aligned; a scene whose answer depends on where
+// its chunks end, as DEM's, sets aligned false), every `minutes` of wall time
 // (agreed by every rank), at a stop signal (`on_signal`), and at the end of a
 // finished run when either cadence is set (so that a longer run can go on).
 Trigger checkpoint_trigger(const ckpt::Policy& p);
