@@ -85,7 +85,10 @@ __global__ void __launch_bounds__(Kern::kCells, MinBlocks) psm_fused_kernel(Kern
   // 3. Collide and store; a warp without a solid lane takes the plain collision.
   const bool plain = !__any_sync(0xffffffffu, s.m > 0);
   R rho = R(1), u[3] = {R(0), R(0), R(0)};
-  if (fluid) k.collide_store(cell, nb, f, s, plain, rho, u);
+  // The neighbour offsets are formed again for the store rather than kept
+  // from the load: nine fewer values live across steps 2 and 3, which keeps
+  // the odd-parity kernel within its 64 registers without spilling.
+  if (fluid) k.collide_store(cell, lbm::neighbours_at<typename Kern::Lattice>(k.g, x, y, z), f, s, plain, rho, u);
   if (nc == 0) return;  // block-uniform
   // 4. Force and torque per candidate: exchange tree per warp (warp_sum6_exchange), warps in order.
   for (int c0 = 0; c0 < nc; c0 += Kern::kForceChunk) {

@@ -66,6 +66,7 @@ struct FusedSolid {
 template <class L, class T, lbm::StreamKind S, int Parity, bool Bnd, bool Force, PsmVariant V, class Frac>
 struct PsmFusedKernel : PsmLatticeFields<T> {
   using R = lbm::compute_t<T>;
+  using Lattice = L;
   static constexpr int Dim = L::D;
   static constexpr int kQ = L::Q;
   static constexpr bool kBnd = Bnd;
