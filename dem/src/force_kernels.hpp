@@ -44,7 +44,11 @@ LBDEM_HD LBDEM_FORCEINLINE void particle_forces(const State& s, Index i, const R
 }
 
 // Particle-parallel: particle i sums all its contacts over its full list.
-// Deterministic: fixed summation order, no atomics.
+// Deterministic: fixed summation order, no atomics. The next partner's index
+// and position are read before this contact's history is written (neither
+// array is written by this kernel, so the values are those of a read after
+// it): the device overlaps their memory latency with this contact's work
+// instead of waiting for them at the top of each iteration.
 template <bool Friction>
 struct ForceParticle {
   State s;
@@ -53,13 +57,23 @@ struct ForceParticle {
     const Real4 v = s.vpr[i];
     Real4 w{0, 0, 0, 0};
     if constexpr (Friction) w = s.wpr[i];
+    const int cnt = s.ncount[i];
+    int j = 0;
+    Real4 pj{0, 0, 0, 0};
+    if (cnt > 0) {
+      j = s.nbr[i];
+      pj = s.pos[j];
+    }
     Vec3d F, T;
     particle_forces<Friction>(s, i, p, v, w, F, T);
-    const int cnt = s.ncount[i];
     for (int q = 0; q < cnt; ++q) {
       const Index slot = q * s.n + i;
-      const int j = s.nbr[slot];
-      const Real4 pj = s.pos[j];
+      int j_next = 0;
+      Real4 p_next{0, 0, 0, 0};
+      if (q + 1 < cnt) {
+        j_next = s.nbr[slot + s.n];
+        p_next = s.pos[j_next];
+      }
       const Vec3d d = s.box.min_image(xyz(pj) - xyz(p));
       const double rs = p.w + pj.w;
       const double d2 = dot(d, d);
@@ -84,6 +98,8 @@ struct ForceParticle {
         const Vec3d h = s.hist[slot];
         if (h.x != 0.0 || h.y != 0.0 || h.z != 0.0) s.hist[slot] = Vec3d{};
       }
+      j = j_next;
+      pj = p_next;
     }
     s.frc[i] = Real4{F.x, F.y, F.z, 0.0};
     if constexpr (Friction) s.trq[i] = Real4{T.x, T.y, T.z, 0.0};
