@@ -1,6 +1,9 @@
 #!/usr/bin/env bash
 # Speed of the two beds of issue 28 on one GPU, the pressure solve's device loop on and off, and where a gas step's
 # time goes (~4-5 min after the build, one GPU, one run after another):
+#   0. the GPU tests of what this touches (TESTS=0 leaves them out; ~1-2 min): cfd_tests' pressure tests on both
+#      backends (the device loop against the host-polled loop and kernel-by-kernel launches, bitwise, converged
+#      and cut by the iteration limit), dem_tests' GPU-against-host and sub-step graph tests
 #   1. Mueller's bed at 0.9 m/s (cases/fluidized_bed_muller_u09.yaml), MULLER_STEPS gas steps, twice: the host-polled
 #      pressure loop (LBDEM_PRESSURE_DEVICE_LOOP=0, the step as before) and the device loop (the default); statistics
 #      from 0.3 s (the bed has settled) so that both report a mean pressure drop over the bed weight
@@ -8,14 +11,19 @@
 #      (statistics from 0.1 s)
 #   3. each bed again for PHASE_STEPS gas steps with LBDEM_STEP_PHASES=1 (a synchronisation after the gas step and
 #      after the DEM sub-steps: the wall time of each, per gas step)
-#   4. where nsys exists: Mueller's bed for NSYS_STEPS gas steps under `nsys profile`, the GPU time per kernel
+#   4. with BASE_BUILD set (a `cuda` build folder of the code before, e.g. of main): Mueller's bed for BASE_STEPS gas
+#      steps with it and with BUILD_DIR, the final checkpoint (past its header, which names the build, and its
+#      checksum), series and profiles compared byte for byte: this code's reordered reads in the DEM's force loop
+#      and the device loop of the pressure solve must leave every bit as it was
+#   5. where nsys exists: Mueller's bed for NSYS_STEPS gas steps under `nsys profile`, the GPU time per kernel
 #      (cuda_gpu_kern_sum) and per API call (cuda_api_sum), the top lines printed
 #
 #   scripts/bed_speed_gpu.sh BUILD_DIR
-#     BUILD_DIR  a build folder of the `cuda` preset (configured and built here if needed: lbdem)
+#     BUILD_DIR  a build folder of the `cuda` preset (configured and built here if needed: lbdem, cfd_tests,
+#                dem_tests)
 #   env  MULLER_STEPS (default 8000: 1.2 s simulated, ~40 s at 32 s per simulated s), LINK_STEPS (default 14000:
 #        0.42 s simulated, ~40 s at 95 s per simulated s), PHASE_STEPS (default 2000), NSYS_STEPS (default 600),
-#        GPU (default 0)
+#        GPU (default 0), BASE_BUILD (default none: step 4 left out; built here if needed), BASE_STEPS (default 1000)
 # Output under $OUT/bed_speed: speed.jsonl (one JSON line per run: seconds per simulated second, simulated time,
 # mean pressure drop over bed weight, per gas step the DEM's rebuilds, report reads and waits; a line per bed
 # "match": whether the two paths' final checkpoint, series and profiles are the same bytes), phases.jsonl (ms per
@@ -32,7 +40,7 @@ g="${GPU:-0}"
 lbdem_env
 out="$OUT/bed_speed"
 mkdir -p "$out"
-lbdem_build "$build" lbdem || exit 1
+if [ "${TESTS:-1}" = 1 ]; then lbdem_build "$build" lbdem cfd_tests dem_tests || exit 1; else lbdem_build "$build" lbdem || exit 1; fi
 build="$(realpath "$build")"
 exe="$build/cases/lbdem"
 [ "$(gpu_count)" -ge 1 ] || { echo "no GPU"; exit 1; }
@@ -93,6 +101,15 @@ phases() {
 }
 
 t0=$SECONDS
+if [ "${TESTS:-1}" = 1 ]; then
+  CUDA_VISIBLE_DEVICES="$g" timeout 300 "$build/tests/cfd/cfd_tests" --gtest_filter='*Pressure.*:PressureLoop.*' \
+    > "$out/cfd_tests.log" 2>&1
+  echo "cfd_tests (pressure) exit $?"
+  CUDA_VISIBLE_DEVICES="$g" timeout 300 "$build/tests/dem/dem_tests" --gtest_filter='DemCrossBackend.*:*SubstepGraphs*' \
+    > "$out/dem_tests.log" 2>&1
+  echo "dem_tests (GPU against host, sub-step graphs) exit $?"
+  grep -a -E "^\[  (PASSED|FAILED) |^\[  FAILED  \]" "$out/cfd_tests.log" "$out/dem_tests.log"
+fi
 ym="$(yaml fluidized_bed_muller_u09.yaml u09 "$muller_steps" 0.3)"
 bed u09_polled 0 "$ym"
 bed u09_device_loop 1 "$ym"
@@ -103,6 +120,24 @@ bed link_device_loop 1 "$yl"
 match link link_polled link_device_loop
 phases u09_phases "$(yaml fluidized_bed_muller_u09.yaml u09_p "$phase_steps" 0.3)"
 phases link_phases "$(yaml fluidized_bed_link_spout.yaml link_p "$phase_steps" 0.1)"
+if [ -n "${BASE_BUILD:-}" ]; then
+  lbdem_build "$BASE_BUILD" lbdem || exit 1
+  yb="$(yaml fluidized_bed_muller_u09.yaml u09_b "${BASE_STEPS:-1000}" 0.0)"
+  for v in base:"$(realpath "$BASE_BUILD")/cases/lbdem" this:"$exe"; do
+    CUDA_VISIBLE_DEVICES="$g" timeout -s TERM -k 30 120 "${v#*:}" run "$yb" --backend cuda --output "$out/u09_${v%%:*}" \
+      --overwrite --quiet > "$out/u09_${v%%:*}.log" 2>&1
+    echo "u09_${v%%:*} exit $?"
+  done
+  # The checkpoint past its first 4 KB (the header, which names the build, is shorter) and before its 8-byte
+  # checksum.
+  body() { local n; n=$(stat -c %s "$1"); tail -c +4097 "$1" | head -c $((n - 4104)); }
+  same=true diff=""
+  cmp -s <(body "$out/u09_base/checkpoint.lbdem") <(body "$out/u09_this/checkpoint.lbdem") || { same=false; diff+="checkpoint "; }
+  for f in series.csv profiles.csv; do cmp -s "$out/u09_base/$f" "$out/u09_this/$f" || { same=false; diff+="$f "; }; done
+  json_line "$out/speed.jsonl" run=u09_against_base match="base vs this" bitwise="$same" differ="${diff:-none}"
+  tail -1 "$out/speed.jsonl"
+  clean u09_base; clean u09_this
+fi
 if command -v nsys > /dev/null 2>&1; then
   yn="$(yaml fluidized_bed_muller_u09.yaml u09_n "$nsys_steps" 0.3)"
   CUDA_VISIBLE_DEVICES="$g" timeout -s TERM -k 30 180 nsys profile -t cuda --force-overwrite true \

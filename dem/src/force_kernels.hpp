@@ -19,18 +19,26 @@ LBDEM_HD LBDEM_FORCEINLINE void particle_forces(const State& s, Index i, const R
     F += xyz(s.extf[i]);
     T += xyz(s.extt[i]);
   }
+  // Friction: wall k's history is read one wall ahead, before wall k - 1's is
+  // written (another row of whist: the same values), so the reads overlap.
+  Vec3d wh{};
+  if constexpr (Friction)
+    if (s.walls.count > 0) wh = s.whist[i];
   for (int k = 0; k < s.walls.count; ++k) {
     const Wall& wl = s.walls.w[k];
     const double h = dot(xyz(p) - wl.point, wl.normal);
     const double delta = p.w - h;
     Vec3d* xi = Friction ? &s.whist[k * s.n + i] : nullptr;
+    Vec3d wh_next{};
+    if constexpr (Friction)
+      if (k + 1 < s.walls.count) wh_next = s.whist[(k + 1) * s.n + i];
     if (delta > 0.0) {
       const Vec3d nv = -wl.normal;  // towards the wall
       Vec3d vrel = xyz(v);
       Vec3d hist{}, ft{};
       if constexpr (Friction) {
         vrel += cross(xyz(w) * p.w, nv);
-        hist = *xi;
+        hist = wh;
       }
       F += contact_force<Friction>(s.pw, nv, delta, m, vrel, hist, s.dt, ft);
       if constexpr (Friction) {
@@ -38,8 +46,9 @@ LBDEM_HD LBDEM_FORCEINLINE void particle_forces(const State& s, Index i, const R
         *xi = hist;
       }
     } else if constexpr (Friction) {
-      if (xi->x != 0.0 || xi->y != 0.0 || xi->z != 0.0) *xi = Vec3d{};
+      if (wh.x != 0.0 || wh.y != 0.0 || wh.z != 0.0) *xi = Vec3d{};
     }
+    wh = wh_next;
   }
 }
 
