@@ -541,8 +541,10 @@ void PressureSolver::start_mg(const Exec& ex, const double* const af[3], const d
 
 void PressureSolver::solve_mg(const double* const af[3], const double* b, double* x) {
   // On the device with launch savings: the start as one CUDA graph, the
-  // iterations in chunks of poll_every as another; the host asks first after
-  // the last solve's count, then every poll_every iterations.
+  // iterations in chunks of poll_every as another; with the device loop that
+  // graph repeats its chunk on the device until keep_iterating() says stop
+  // (no host read); else the host asks first after the last solve's count,
+  // then every poll_every iterations.
   const bool dev = ex_.on_device();
   const bool fused = dev && p_.graphs;
   const int chunk = fused ? std::max(1, p_.poll_every) : 1;
@@ -550,6 +552,10 @@ void PressureSolver::solve_mg(const double* const af[3], const double* b, double
     run_graph(0, af, b, x, 0);
   else
     start_mg(ex_, af, b, x);
+  if (device_loop_) {
+    run_graph(2, af, b, x, chunk);
+    return;
+  }
   double flags[2] = {0, 0};  // done, iterations
   int it = 0;
   int next_poll = dev ? std::max(1, expected_iterations_) : 1;
@@ -561,7 +567,7 @@ void PressureSolver::solve_mg(const double* const af[3], const double* b, double
     it += chunk;
     if (it >= next_poll || it >= p_.max_iterations) {
       scal_.copy_to_host(flags, 2, slot::kDone);
-      if (flags[0] != 0) break;
+      if (!keep_iterating(flags[0], flags[1], p_.max_iterations)) break;
       next_poll = it + (dev ? std::max(1, p_.poll_every) : 1);
     }
   }
@@ -569,8 +575,16 @@ void PressureSolver::solve_mg(const double* const af[3], const double* b, double
 }
 
 #if defined(__CUDACC__)
-// Graph k (0: start_mg, 1: `chunk` iterations), captured on first use or when
-// the pointers it was made with change, then launched on the solver's stream.
+// The device loop's test after each chunk: run the body again while the
+// solve goes on (cudaGraphSetConditional sets the WHILE node's condition).
+__global__ void mg_while_kernel(cudaGraphConditionalHandle h, const double* scal, int max_iterations) {
+  cudaGraphSetConditional(h, keep_iterating(scal[slot::kDone], scal[slot::kIterations], max_iterations) ? 1u : 0u);
+}
+
+// Graph k (0: start_mg, 1: `chunk` iterations, 2: `chunk` iterations and the
+// test, repeated by a WHILE node whose condition starts at 1 on every launch),
+// captured on first use or when the pointers it was made with change, then
+// launched on the solver's stream.
 void PressureSolver::run_graph(int k, const double* const af[3], const double* b, double* x, int chunk) {
   const void* key[5] = {af[0], af[1], af[2], k == 0 ? static_cast<const void*>(b) : static_cast<const void*>(x),
                         k == 0 ? static_cast<const void*>(x)
@@ -586,13 +600,42 @@ void PressureSolver::run_graph(int k, const double* const af[3], const double* b
     cudaStream_t cs = static_cast<cudaStream_t>(cap_stream_);
     Exec cex(Backend::Cuda);
     cex.set_stream(cs);
-    LBDEM_CUDA_CHECK(cudaStreamBeginCapture(cs, cudaStreamCaptureModeThreadLocal));
-    if (k == 0)
-      start_mg(cex, af, b, x);
-    else
-      iterate_mg(cex, af, x, chunk);
     cudaGraph_t graph = nullptr;
-    LBDEM_CUDA_CHECK(cudaStreamEndCapture(cs, &graph));
+    if (k == 2) {
+      LBDEM_CUDA_CHECK(cudaGraphCreate(&graph, 0));
+      cudaGraphConditionalHandle h{};
+      cudaGraphNodeParams np{};
+      cudaGraphNode_t node = nullptr;
+      cudaError_t e = cudaGraphConditionalHandleCreate(&h, graph, 1, cudaGraphCondAssignDefault);
+      if (e == cudaSuccess) {
+        np.type = cudaGraphNodeTypeConditional;
+        np.conditional.handle = h;
+        np.conditional.type = cudaGraphCondTypeWhile;
+        np.conditional.size = 1;
+        e = cudaGraphAddNode(&node, graph, nullptr, nullptr, 0, &np);
+      }
+      if (e == cudaSuccess)
+        e = cudaStreamBeginCaptureToGraph(cs, np.conditional.phGraph_out[0], nullptr, nullptr, 0,
+                                          cudaStreamCaptureModeThreadLocal);
+      if (e != cudaSuccess) {
+        (void)cudaGraphDestroy(graph);
+        LBDEM_CUDA_CHECK(e);
+      }
+      iterate_mg(cex, af, x, chunk);
+      mg_while_kernel<<<1, 1, 0, cs>>>(h, scal_.data(), p_.max_iterations);
+      LBDEM_CUDA_CHECK(cudaGetLastError());
+      cudaGraph_t body = nullptr;
+      e = cudaStreamEndCapture(cs, &body);  // the body graph, owned by the conditional node
+      if (e != cudaSuccess) (void)cudaGraphDestroy(graph);
+      LBDEM_CUDA_CHECK(e);
+    } else {
+      LBDEM_CUDA_CHECK(cudaStreamBeginCapture(cs, cudaStreamCaptureModeThreadLocal));
+      if (k == 0)
+        start_mg(cex, af, b, x);
+      else
+        iterate_mg(cex, af, x, chunk);
+      LBDEM_CUDA_CHECK(cudaStreamEndCapture(cs, &graph));
+    }
     cudaGraphExec_t exec = nullptr;
     const cudaError_t e = cudaGraphInstantiate(&exec, graph, 0);
     LBDEM_CUDA_CHECK(cudaGraphDestroy(graph));

@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
+#include <cstring>
 
 #include "pressure_common.hpp"
 
@@ -69,6 +71,9 @@ PressureSolver::PressureSolver(const Exec& ex, const GasGridView& g, const Press
   scal_ = Buffer<double>(b, slot::kCount);
   scal_.fill_zero();
   if (p_.kind == PressureSolverKind::Multigrid) init_multigrid();
+  const char* env = std::getenv("LBDEM_PRESSURE_DEVICE_LOOP");
+  device_loop_ = p_.kind == PressureSolverKind::Multigrid && ex.on_device() && p_.graphs && p_.device_loop &&
+                 p_.max_iterations >= 1 && !(env && std::strcmp(env, "0") == 0);
 }
 
 PressureSolver::~PressureSolver() { release_graph(); }

@@ -19,18 +19,26 @@ LBDEM_HD LBDEM_FORCEINLINE void particle_forces(const State& s, Index i, const R
     F += xyz(s.extf[i]);
     T += xyz(s.extt[i]);
   }
+  // Friction: wall k's history is read one wall ahead, before wall k - 1's is
+  // written (another row of whist: the same values), so the reads overlap.
+  Vec3d wh{};
+  if constexpr (Friction)
+    if (s.walls.count > 0) wh = s.whist[i];
   for (int k = 0; k < s.walls.count; ++k) {
     const Wall& wl = s.walls.w[k];
     const double h = dot(xyz(p) - wl.point, wl.normal);
     const double delta = p.w - h;
     Vec3d* xi = Friction ? &s.whist[k * s.n + i] : nullptr;
+    Vec3d wh_next{};
+    if constexpr (Friction)
+      if (k + 1 < s.walls.count) wh_next = s.whist[(k + 1) * s.n + i];
     if (delta > 0.0) {
       const Vec3d nv = -wl.normal;  // towards the wall
       Vec3d vrel = xyz(v);
       Vec3d hist{}, ft{};
       if constexpr (Friction) {
         vrel += cross(xyz(w) * p.w, nv);
-        hist = *xi;
+        hist = wh;
       }
       F += contact_force<Friction>(s.pw, nv, delta, m, vrel, hist, s.dt, ft);
       if constexpr (Friction) {
@@ -38,13 +46,18 @@ LBDEM_HD LBDEM_FORCEINLINE void particle_forces(const State& s, Index i, const R
         *xi = hist;
       }
     } else if constexpr (Friction) {
-      if (xi->x != 0.0 || xi->y != 0.0 || xi->z != 0.0) *xi = Vec3d{};
+      if (wh.x != 0.0 || wh.y != 0.0 || wh.z != 0.0) *xi = Vec3d{};
     }
+    wh = wh_next;
   }
 }
 
 // Particle-parallel: particle i sums all its contacts over its full list.
-// Deterministic: fixed summation order, no atomics.
+// Deterministic: fixed summation order, no atomics. The next partner's index
+// and position are read before this contact's history is written (neither
+// array is written by this kernel, so the values are those of a read after
+// it): the device overlaps their memory latency with this contact's work
+// instead of waiting for them at the top of each iteration.
 template <bool Friction>
 struct ForceParticle {
   State s;
@@ -53,13 +66,23 @@ struct ForceParticle {
     const Real4 v = s.vpr[i];
     Real4 w{0, 0, 0, 0};
     if constexpr (Friction) w = s.wpr[i];
+    const int cnt = s.ncount[i];
+    int j = 0;
+    Real4 pj{0, 0, 0, 0};
+    if (cnt > 0) {
+      j = s.nbr[i];
+      pj = s.pos[j];
+    }
     Vec3d F, T;
     particle_forces<Friction>(s, i, p, v, w, F, T);
-    const int cnt = s.ncount[i];
     for (int q = 0; q < cnt; ++q) {
       const Index slot = q * s.n + i;
-      const int j = s.nbr[slot];
-      const Real4 pj = s.pos[j];
+      int j_next = 0;
+      Real4 p_next{0, 0, 0, 0};
+      if (q + 1 < cnt) {
+        j_next = s.nbr[slot + s.n];
+        p_next = s.pos[j_next];
+      }
       const Vec3d d = s.box.min_image(xyz(pj) - xyz(p));
       const double rs = p.w + pj.w;
       const double d2 = dot(d, d);
@@ -84,6 +107,8 @@ struct ForceParticle {
         const Vec3d h = s.hist[slot];
         if (h.x != 0.0 || h.y != 0.0 || h.z != 0.0) s.hist[slot] = Vec3d{};
       }
+      j = j_next;
+      pj = p_next;
     }
     s.frc[i] = Real4{F.x, F.y, F.z, 0.0};
     if constexpr (Friction) s.trq[i] = Real4{T.x, T.y, T.z, 0.0};

@@ -12,7 +12,10 @@
 //  * The gas solver with either solver on a bed of moving particles gives the
 //    same pressure to 1e-10 of its range after several steps.
 //  * On the device, the CUDA graphs and the one-block coarse levels give the
-//    same bits as launching every kernel on its own.
+//    same bits as launching every kernel on its own, and so does the loop of
+//    iterations on the device (no host poll) against the host-polled one,
+//    converged or stopped by the iteration limit; the test that ends both
+//    loops (keep_iterating) is checked on every backend.
 //  * Bad input names the key.
 #include <gtest/gtest.h>
 
@@ -92,12 +95,14 @@ struct Result {
   CgReport rep;
 };
 
-Result solve(const Exec& ex, System& s, PressureSolverKind kind, double tol, bool graphs = true) {
+Result solve(const Exec& ex, System& s, PressureSolverKind kind, double tol, bool graphs = true,
+             bool device_loop = true, int max_iterations = 5000) {
   PressureSolverParams p;
   p.kind = kind;
   p.graphs = graphs;
+  p.device_loop = device_loop;
   p.tolerance = tol;
-  p.max_iterations = 5000;
+  p.max_iterations = max_iterations;
   p.poll_every = 5;
   PressureSolver ps(ex, s.g, p);
   const double* af[3] = {s.coef(0), s.coef(1), s.coef(2)};
@@ -175,6 +180,30 @@ TEST_P(Pressure, LaunchSavingsGiveTheSameBits) {
   ASSERT_TRUE(fused.rep.converged);
   EXPECT_EQ(fused.rep.iterations, plain.rep.iterations);
   EXPECT_EQ(fused.x, plain.x);
+  // The host-polled loop of graphs (polls every poll_every = 5 iterations,
+  // past convergence by up to 4 no-op iterations) against the device loop.
+  const Result polled = solve(ex, s, PressureSolverKind::Multigrid, 1e-12, true, false);
+  EXPECT_EQ(polled.rep.iterations, fused.rep.iterations);
+  EXPECT_EQ(polled.x, fused.x);
+  // Stopped by the limit before converging (3, not a multiple of poll_every:
+  // on the device both loops run one whole chunk of 5), both ways the same
+  // bits and count.
+  const Result cut_dev = solve(ex, s, PressureSolverKind::Multigrid, 1e-12, true, true, 3);
+  const Result cut_host = solve(ex, s, PressureSolverKind::Multigrid, 1e-12, true, false, 3);
+  EXPECT_FALSE(cut_dev.rep.converged);
+  EXPECT_EQ(cut_dev.rep.iterations, cut_host.rep.iterations);
+  EXPECT_EQ(cut_dev.x, cut_host.x);
+}
+
+// The test after each chunk of iterations, shared by the host-polled loop and
+// the device loop: on while not converged and below the limit.
+TEST(PressureLoop, KeepIteratingStopsAtConvergenceOrTheLimit) {
+  EXPECT_TRUE(keep_iterating(0, 0, 1));
+  EXPECT_TRUE(keep_iterating(0, 9, 10));
+  EXPECT_FALSE(keep_iterating(0, 10, 10));
+  EXPECT_FALSE(keep_iterating(0, 12, 10));
+  EXPECT_FALSE(keep_iterating(1, 3, 10));
+  EXPECT_FALSE(keep_iterating(1, 0, 10));
 }
 
 TEST(PressureLevels, CoarsensEachAxisThatAllows) {

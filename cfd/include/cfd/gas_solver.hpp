@@ -80,7 +80,9 @@ struct GasParams {
   int cg_max_iterations = 2000;
   double cg_tolerance = 1e-10;  // on sqrt(r^T D^-1 r / b^T D^-1 b)
   // How often (iterations) the host asks the device whether CG has converged
-  // (one small copy each; multigrid asks first at the last solve's count);
+  // (one small copy each; multigrid asks first at the last solve's count;
+  // multigrid on the GPU with the graphs never asks: it repeats this many
+  // iterations on the device until converged, PressureSolverParams::device_loop);
   // iterations after convergence are skipped on the device either way.
   int cg_poll_every = 25;
   // Multigrid on the GPU: the iterations between two polls as one CUDA graph.

@@ -32,13 +32,17 @@
 // the choice changes the cost and not what "converged" means.
 //
 // All scalars stay on the device; iterations after convergence are skipped
-// there by a flag that the host reads every `poll_every` iterations.
+// there by a flag. The host reads that flag every `poll_every` iterations, or
+// (multigrid on the device, `device_loop`) never: a CUDA graph's WHILE node
+// repeats `poll_every` iterations until the flag or the iteration limit
+// stops it, so a solve needs no host synchronisation.
 #include <array>
 #include <string>
 #include <vector>
 
 #include "cfd/gas_grid.hpp"
 #include "core/buffer.hpp"
+#include "core/hd.hpp"
 
 namespace lbdem::cfd {
 
@@ -68,7 +72,23 @@ struct PressureSolverParams {
   // by one), and the V-cycle's levels of at most 2048 cells in one kernel of
   // one block. Off: every kernel launched on its own (the same arithmetic).
   bool graphs = true;
+  // Multigrid on the device with `graphs`: the iterations' loop on the device
+  // (a conditional WHILE node around a chunk of `poll_every` iterations, CUDA
+  // 12.4+), no host read per solve. The iterations and their bits are those of
+  // the host-polled loop: both stop at the first chunk end where
+  // keep_iterating() is false, and the chunks the host loop runs past
+  // convergence change nothing (every kernel returns at once once the solve is
+  // done). The environment variable LBDEM_PRESSURE_DEVICE_LOOP=0 turns it off
+  // (the host-polled loop, for comparison).
+  bool device_loop = true;
 };
+
+// Whether the multigrid CG goes on after a chunk of iterations, from the
+// solver's device-held flag `done` (1 once converged) and the iterations
+// taken: the test of the host-polled loop and of the device loop alike.
+LBDEM_HD inline bool keep_iterating(double done, double iterations, int max_iterations) {
+  return done == 0 && iterations < static_cast<double>(max_iterations);
+}
 
 struct CgReport {
   int iterations = 0;
@@ -135,11 +155,13 @@ class PressureSolver {
   int expected_iterations_ = 0;
   int tail_ = 0;  // the first level of the V-cycle's one-block kernel (device)
   // The device's CUDA graphs (0: the start of a solve, 1: `poll_every`
-  // iterations), the stream they were captured on, and the pointers each was
-  // captured with (unused by a build without CUDA).
-  [[maybe_unused]] void* graph_exec_[2] = {nullptr, nullptr};
+  // iterations, 2: those iterations in a device-side loop), the stream they
+  // were captured on, and the pointers each was captured with (unused by a
+  // build without CUDA).
+  [[maybe_unused]] void* graph_exec_[3] = {nullptr, nullptr, nullptr};
   [[maybe_unused]] void* cap_stream_ = nullptr;
-  [[maybe_unused]] const void* graph_key_[2][5] = {};
+  [[maybe_unused]] const void* graph_key_[3][5] = {};
+  bool device_loop_ = false;  // device_loop in effect (multigrid, CUDA, graphs, not turned off)
 };
 
 }  // namespace lbdem::cfd
