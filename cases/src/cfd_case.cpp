@@ -21,7 +21,7 @@
 //   material    stiffness [N/m], restitution, friction, wall_*, tangential_*
 //   dem         substeps, dt [s] (rounded down to divide gas.dt), or steps_per_collision (default 50);
 //               skin [m], force_path
-//   time        end_time [s] or steps (gas steps)
+//   time        end [s] or steps (gas steps)
 //   output      directory, interval (gas steps between field and particle snapshots; 0: first and last),
 //               series_interval, track (particle ids)
 //   statistics  start [s], interval (gas steps), profiles [{quantity: void_fraction |
@@ -183,23 +183,10 @@ CfdCase read_case(const Config& root, const RunOptions& opt) {
     c.gas.gravity = p.gravity;
     ph.finish();
   }
-  {
-    const Config m = root.section("material");
-    dem::Material& mat = p.material;
-    mat.stiffness = m.positive("stiffness");
-    mat.restitution = m.number_in("restitution", 1e-6, 1.0, "restitution coefficient e in (0, 1]");
-    mat.wall_stiffness = m.positive("wall_stiffness", mat.stiffness);
-    mat.wall_restitution =
-        m.number_in("wall_restitution", mat.restitution, 1e-6, 1.0, "restitution coefficient e in (0, 1]");
-    mat.friction = m.number_in("friction", 0.0, 0.0, 10.0);
-    mat.wall_friction = m.number_in("wall_friction", mat.friction, 0.0, 10.0);
-    mat.tangential_stiffness_ratio = m.number_in("tangential_stiffness_ratio", 2.0 / 7.0, 1e-6, 10.0);
-    mat.tangential_damping_ratio = m.number_in("tangential_damping_ratio", 0.5, 0.0, 10.0);
-    p.friction = mat.friction > 0 || mat.wall_friction > 0;
-    m.finish();
-  }
+  dem::read_material(root.section("material"), p, dem::FrictionFrom::Values);
   p.external_forcing = true;
-  c.particles = dem::read_particles(root.section("particles"), p, {.density = std::nullopt, .validate_only = opt.validate_only});
+  c.particles = dem::read_particles(root.section("particles"), p,
+                                    {.density = std::nullopt, .validate_only = opt.validate_only});
   double rmin = 1e300, rmax = 0;
   for (double r : c.particles.r) {
     rmin = std::min(rmin, r);

@@ -91,24 +91,7 @@ DemCase read_case(const Config& root, const RunOptions& opt) {
     p.friction = ph.boolean("friction", false);
     ph.finish();
   }
-  {
-    const Config m = root.section("material");
-    dem::Material& mat = p.material;
-    mat.stiffness = m.positive("stiffness");
-    mat.restitution = m.number_in("restitution", 1e-6, 1.0, "restitution coefficient e in (0, 1]");
-    mat.wall_stiffness = m.positive("wall_stiffness", mat.stiffness);
-    mat.wall_restitution = m.number_in("wall_restitution", mat.restitution, 1e-6, 1.0, "restitution coefficient e in (0, 1]");
-    if (p.friction) {
-      mat.friction = m.number_in("friction", 0.0, 10.0);
-      mat.wall_friction = m.number_in("wall_friction", mat.friction, 0.0, 10.0);
-      mat.tangential_stiffness_ratio = m.number_in("tangential_stiffness_ratio", 2.0 / 7.0, 1e-6, 10.0);
-      mat.tangential_damping_ratio = m.number_in("tangential_damping_ratio", 0.5, 0.0, 10.0);
-    } else {
-      for (const char* k : {"friction", "wall_friction", "tangential_stiffness_ratio", "tangential_damping_ratio"})
-        if (m.has(k)) m.fail(k, "is only used with physics.friction: true");
-    }
-    m.finish();
-  }
+  dem::read_material(root.section("material"), p, dem::FrictionFrom::Physics);
   c.particles =
       dem::read_particles(root.section("particles"), p, {.density = 2600.0, .validate_only = opt.validate_only});
   double rmin = 1e300;

@@ -2,7 +2,9 @@
 #include "core/run_checks.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cstdio>
+#include <utility>
 
 #include "core/buffer.hpp"
 #include "core/error.hpp"
@@ -87,6 +89,27 @@ void check_plan(const Config& root, bool force, double steps, double cell_update
                       ": at least " + num(secs / kMaxPlannedSeconds) +
                       " years of wall time even at the fastest speed this code reaches on one GPU; check those keys "
                       "(and the values they follow from), or pass --force to start it anyway");
+}
+
+std::size_t parse_memory_size(const std::string& text) {
+  std::size_t used = 0;
+  double v = 0;
+  try {
+    v = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  std::string unit = text.substr(used);
+  for (auto& ch : unit) ch = static_cast<char>(std::toupper(static_cast<unsigned char>(ch)));
+  static const std::pair<const char*, double> units[] = {
+      {"", 1},           {"B", 1},          {"K", 0x1p10},     {"KIB", 0x1p10}, {"KB", 1e3}, {"M", 0x1p20},
+      {"MIB", 0x1p20},   {"MB", 1e6},       {"G", 0x1p30},     {"GIB", 0x1p30}, {"GB", 1e9}, {"T", 0x1p40},
+      {"TIB", 0x1p40},   {"TB", 1e12}};
+  for (const auto& [name, scale] : units)
+    if (used > 0 && unit == name && v * scale >= 1 && v * scale < 0x1p60)
+      return static_cast<std::size_t>(v * scale);
+  throw ConfigError("--memory = '" + text + "': give a positive size such as 80GiB, 512M or 141GB (K/M/G/T and "
+                    "KiB/MiB/GiB/TiB are powers of 1024, KB/MB/GB/TB powers of 1000)");
 }
 
 }  // namespace lbdem

@@ -116,4 +116,25 @@ HostParticles read_particles(const Config& pc, const DemParams& p, const Particl
   return hp;
 }
 
+void read_material(const Config& m, DemParams& p, FrictionFrom friction) {
+  Material& mat = p.material;
+  mat.stiffness = m.positive("stiffness");
+  mat.restitution = m.number_in("restitution", 1e-6, 1.0, "restitution coefficient e in (0, 1]");
+  mat.wall_stiffness = m.positive("wall_stiffness", mat.stiffness);
+  mat.wall_restitution =
+      m.number_in("wall_restitution", mat.restitution, 1e-6, 1.0, "restitution coefficient e in (0, 1]");
+  if (friction == FrictionFrom::Physics && !p.friction) {
+    for (const char* k : {"friction", "wall_friction", "tangential_stiffness_ratio", "tangential_damping_ratio"})
+      if (m.has(k)) m.fail(k, "is only used with physics.friction: true");
+  } else {
+    mat.friction = friction == FrictionFrom::Physics ? m.number_in("friction", 0.0, 10.0)
+                                                     : m.number_in("friction", 0.0, 0.0, 10.0);
+    mat.wall_friction = m.number_in("wall_friction", mat.friction, 0.0, 10.0);
+    mat.tangential_stiffness_ratio = m.number_in("tangential_stiffness_ratio", 2.0 / 7.0, 1e-6, 10.0);
+    mat.tangential_damping_ratio = m.number_in("tangential_damping_ratio", 0.5, 0.0, 10.0);
+    if (friction == FrictionFrom::Values) p.friction = mat.friction > 0 || mat.wall_friction > 0;
+  }
+  m.finish();
+}
+
 }  // namespace lbdem::dem

@@ -43,6 +43,12 @@ std::string memory_table(const MemoryUse& m, double cells);
 void check_memory(const Config& root, Backend b, double device_bytes, double host_bytes, const std::string& key,
                   const std::string& what, const std::string& fix);
 
+// A memory size as a user writes it: a number with an optional unit, K/M/G/T
+// (or KiB/MiB/GiB/TiB) in powers of 1024, KB/MB/GB/TB in powers of 1000, B or
+// none for bytes.
+// (--memory; ConfigError naming it otherwise)
+std::size_t parse_memory_size(const std::string& text);
+
 // ----------------------------------------------------------------- the plan
 // Fastest rates this code reaches on one GPU of the largest kind (H100/H200),
 // and the least wall time of one step (kernel launches): a planned run that

@@ -1,6 +1,7 @@
 #pragma once
-// The reader of a case file's `particles` section in physical units, shared by
-// the scenes that build a DEM system from it (dem, fluidized_bed):
+// The readers of a case file's `particles` and `material` sections in physical
+// units, shared by the scenes that build a DEM system from them (dem,
+// fluidized_bed). `particles`:
 //   init: list       list: [{position, radius, velocity, angular_velocity, density}, ...]
 //   init: csv | hdf5 file (relative to the case file), as dem/init.hpp reads it
 //   init: lattice    count [nx, ny, nz], origin, spacing, radius
@@ -26,5 +27,16 @@ struct ParticleReading {
 
 // The particles of section `pc` in the box of `p` (lo, hi, periodic axes).
 HostParticles read_particles(const Config& pc, const DemParams& p, const ParticleReading& o);
+
+// Where a scene's contacts get their friction: Physics: the scene's own
+// switch (DemParams::friction, physics.friction) is already set; the friction
+// keys are required with it and refused without it. Values: friction is on
+// where material.friction or material.wall_friction is above 0 (default 0).
+enum class FrictionFrom { Physics, Values };
+
+// The `material` section (SI units): stiffness, restitution, their wall
+// values (default: the particles'), friction and the tangential spring and
+// damping ratios (Yu et al. 2024 contact law, dem/contact.hpp).
+void read_material(const Config& m, DemParams& p, FrictionFrom friction);
 
 }  // namespace lbdem::dem
