@@ -45,14 +45,14 @@ export LBDEM_COMMIT="${LBDEM_COMMIT:-$(git -C "$here" rev-parse --short HEAD 2>/
 export OMP_WAIT_POLICY=passive
 { echo "commit $LBDEM_COMMIT"; nvidia-smi --query-gpu=name,memory.total --format=csv 2>&1; nproc; } > "$out/env.txt"
 
-# scene NAME CASE END START: runs CASE with time.end_time END and statistics.start START (a copy of the
+# scene NAME CASE END START: runs CASE with time.end END and statistics.start START (a copy of the
 # case file with those values) into $out/NAME, under a SIGTERM at $limit s (the scene stops at the end
 # of its current step and writes its final output, exit code 5).
 scene() {
   local name="$1" case="$2" end="$3" start="$4" tmp rc graphs_expr="s/^//"
   [ -n "${GRAPHS:-}" ] && graphs_expr="s/^  pressure_solver: {\(.*\)}\$/  pressure_solver: {\1, graphs: $GRAPHS}/"
   tmp="$out/$name.yaml"
-  sed -e "s/^time: {end_time: [0-9.e+-]*}/time: {end_time: $end}/" -e "s/^  start: [0-9.e+-]*$/  start: $start/" \
+  sed -e "s/^time: {end: [0-9.e+-]*}/time: {end: $end}/" -e "s/^  start: [0-9.e+-]*$/  start: $start/" \
     -e "${GAS_DT:+s/^  dt: [0-9.e+-]*/  dt: $GAS_DT/}" \
     -e "${SOLVER:+s/^  pressure_solver: {type: [a-z]*/  pressure_solver: {type: $SOLVER/}" \
     -e "$graphs_expr" "$here/cases/$case" > "$tmp"
@@ -74,7 +74,7 @@ scene() {
 speed_run() {
   local name="$1" case="$2" solver="$3" end="$4" d="$out/speed/$1_$3"
   mkdir -p "$d"
-  sed -e "s/^time: {end_time: [0-9.e+-]*}/time: {steps: 1000}/" -e "s/series_interval: [0-9]*/series_interval: 1/" \
+  sed -e "s/^time: {end: [0-9.e+-]*}/time: {steps: 1000}/" -e "s/series_interval: [0-9]*/series_interval: 1/" \
     -e "s/^  pressure_solver: {type: [a-z]*/  pressure_solver: {type: $solver/" "$here/cases/$case" > "$d/case.yaml"
   timeout -s TERM -k 30 240 "$lbdem" run "$d/case.yaml" --backend cuda --output "$d/run" --overwrite > "$d/log.txt" 2>&1
   local secs iters dt

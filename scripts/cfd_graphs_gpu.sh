@@ -50,7 +50,7 @@ lanes="${LANES:-0 1 2 3}"
 # checkpoint at the end; further sed expressions change more.
 yaml() {
   local case="$1" name="$2" n="$3"; shift 3
-  sed -e "s/^time: {end_time: [0-9.e+-]*}/time: {steps: $n}/" \
+  sed -e "s/^time: {end: [0-9.e+-]*}/time: {steps: $n}/" \
     -e "s/^output: {directory: \([^,]*\), interval: [0-9]*/output: {directory: \1, interval: 0/" "$@" \
     "$LBDEM_ROOT/cases/$case" > "$out/$name.yaml"
   echo "checkpoint: {interval: 100000000}" >> "$out/$name.yaml"

@@ -32,7 +32,7 @@ ngpu="$(gpu_count)"
 # run NAME CASE GPU: CASE for $steps gas steps, snapshots only at the first and last step.
 run() {
   local name="$1" case="$2" gpu="$3" yaml="$out/$1.yaml"
-  sed -e "s/^time: {end_time: [0-9.e+-]*}/time: {steps: $steps}/" \
+  sed -e "s/^time: {end: [0-9.e+-]*}/time: {steps: $steps}/" \
     -e "s/^output: {directory: \([^,]*\), interval: [0-9]*/output: {directory: \1, interval: 0/" \
     "$LBDEM_ROOT/cases/$case" > "$yaml"
   CUDA_VISIBLE_DEVICES="$gpu" timeout -s TERM -k 30 420 "$exe" run "$yaml" --backend cuda --output "$out/$name" \

@@ -22,7 +22,7 @@ echo "velocity,pressure_drop,pressure_drop_over_weight,bed_height,weight_per_are
 for u in "${speeds[@]}"; do
   c="$out/u_$u.yaml"
   sed -e "s/z_lo: {type: inlet, velocity: [0-9.e+-]*}/z_lo: {type: inlet, velocity: $u}/" \
-      -e "s/^time: {end_time: [0-9.e+-]*}/time: {end_time: ${END:-1.3}}/" \
+      -e "s/^time: {end: [0-9.e+-]*}/time: {end: ${END:-1.3}}/" \
       -e "s/^statistics: {start: [0-9.e+-]*,/statistics: {start: ${START:-0.3},/" \
       "$here/cases/fluidized_bed_small.yaml" > "$c"
   if ! "$lbdem" run "$c" --backend "${BACKEND:-auto}" --output "$out/u_$u" --overwrite --quiet > "$out/u_$u.log" 2>&1; then

@@ -43,7 +43,7 @@ ngpu="$(gpu_count)"
 run() {
   local name="$1" case="$2" gpu="$3"; shift 3
   local yaml="$out/$name.yaml" mode=(--overwrite)
-  sed -e "s/^time: {end_time: [0-9.e+-]*}/time: {end_time: $end}/" -e "s/^  start: [0-9.e+-]*$/  start: $start/" \
+  sed -e "s/^time: {end: [0-9.e+-]*}/time: {end: $end}/" -e "s/^  start: [0-9.e+-]*$/  start: $start/" \
     -e "s/interval: 5000, series_interval/interval: 0, series_interval/" "$@" "$LBDEM_ROOT/cases/$case" > "$yaml"
   if [ "${RESUME:-0}" = 1 ] && [ -f "$out/$name/checkpoint.lbdem" ]; then mode=(--restart "$out/$name"); fi
   CUDA_VISIBLE_DEVICES="$gpu" timeout -s TERM -k 30 "$limit" "$exe" run "$yaml" --backend cuda \

@@ -21,7 +21,7 @@
 //   material    stiffness [N/m], restitution, friction, wall_*, tangential_*
 //   dem         substeps, dt [s] (rounded down to divide gas.dt), or steps_per_collision (default 50);
 //               skin [m], force_path
-//   time        end_time [s] or steps (gas steps)
+//   time        end [s] or steps (gas steps)
 //   output      directory, interval (gas steps between field and particle snapshots; 0: first and last),
 //               series_interval, track (particle ids)
 //   statistics  start [s], interval (gas steps), profiles [{quantity: void_fraction |
@@ -62,9 +62,10 @@
 #include <optional>
 #include <sstream>
 
-#include "cases/particle_output.hpp"
+#include "dem/particle_output.hpp"
 #include "cases/scenes.hpp"
-#include "cases/simulation.hpp"
+#include "halo/simulation.hpp"
+#include "core/run_length.hpp"
 #include "core/json.hpp"
 #include "cfd/coupling.hpp"
 #include "cfd/gas_monitor.hpp"
@@ -75,7 +76,9 @@
 #include "dem/init.hpp"
 #include "dem/system.hpp"
 #include "halo/comm.hpp"
-#include "checkpoint_case.hpp"
+#include "cfd/checkpoint.hpp"
+#include "cfd/gas_reader.hpp"
+#include "dem/particle_reader.hpp"
 #include "scene_checks.hpp"
 
 namespace lbdem {
@@ -85,7 +88,6 @@ namespace {
 using cfd::FaceKind;
 
 constexpr double kPi = 3.14159265358979323846;
-const char* const kFaceNames[6] = {"x_lo", "x_hi", "y_lo", "y_hi", "z_lo", "z_hi"};
 
 std::string num(double v) {
   char b[64];
@@ -133,197 +135,16 @@ const cases::KeyMap& gas_keys() {
 
 void read_gas(const Config& root, const RunOptions& opt, CfdCase& c, const std::array<double, 3>& lo,
               const std::array<double, 3>& hi) {
-  const Config gs = root.section("gas");
-  cfd::GasParams& p = c.gas;
-  p.rho = gs.positive("density");
-  p.mu = gs.positive("viscosity");
-  const double h = gs.positive("cell_size");
-  double cells = 1;
-  for (int a = 0; a < 3; ++a) {
-    const double L = hi[static_cast<std::size_t>(a)] - lo[static_cast<std::size_t>(a)];
-    const double n = std::round(L / h);
-    if (!(n >= 1) || !(n < 1e9) || std::fabs(n * h - L) > 1e-6 * L)
-      gs.fail("cell_size", "cubic cells must fill the box: the box is " + num(L) + " m along " +
-                               std::string(1, "xyz"[a]) + " (domain.lo, domain.hi), " + num(L / h) +
-                               " cells of this size; choose a size that divides every side");
-    c.grid.n[a] = static_cast<int>(n);
-    c.grid.origin[a] = lo[static_cast<std::size_t>(a)];
-    cells *= n;
-  }
-  c.grid.h = h;
-  // Device memory of the gas: 3 x 3 face arrays, ~20 cell arrays and the
-  // fixed-point accumulators, in doubles.
-  cases::check_memory(root, cases::planned_backend(opt), cells * 8 * 36, cells * 8 * 8,
-                      gs.full_key("cell_size"), num(cells) + " gas cells", "use larger cells");
-  p.dt = gs.positive("dt");
-  p.drag = cfd::parse_drag_law(gs.full_key("drag"),
-                               gs.choice("drag", "gidaspow", {"gidaspow", "wen_yu", "di_felice", "beetstra", "tenneti"}));
-  p.deposition = cfd::parse_deposition(gs.full_key("void_fraction"),
-                                       gs.choice("void_fraction", "linear", {"centroid", "linear", "quadratic"}));
-  p.min_gas_fraction = gs.number_in("min_gas_fraction", 0.2, 0.01, 0.99,
-                                    "floor of the gas fraction used by the gas equations and the drag");
-  c.initial_velocity = vec3(gs.numbers("initial_velocity", {0, 0, 0}, 3, 3));
-  for (int a = 0; a < 3; ++a)
-    if (!std::isfinite(c.initial_velocity[a]) || std::fabs(c.initial_velocity[a]) * p.dt > 0.5 * h)
-      gs.fail("initial_velocity", "each component must be finite with |u| gas.dt / gas.cell_size <= 1/2");
-  {
-    const Config b = gs.section("boundaries");
-    for (int s = 0; s < 6; ++s) {
-      cfd::FaceBC& f = p.faces[static_cast<std::size_t>(s)];
-      const std::string name = kFaceNames[s];
-      if (!b.has(name)) {
-        f.kind = FaceKind::NoSlipWall;
-        continue;
-      }
-      const Config fc = b.section(name);
-      f.kind = cfd::parse_face_kind(fc.full_key("type"),
-                                    fc.choice("type", {"periodic", "no_slip", "free_slip", "inlet", "outlet"}));
-      if (f.kind == FaceKind::Inlet) {
-        f.inflow = fc.number_in("velocity", 0.0, 1e4, "superficial speed into the domain [m/s]");
-        if (const auto pc = fc.optional_section("patch")) {
-          f.patch = true;
-          const auto plo = pc->numbers("lo", 2, 2), phi = pc->numbers("hi", 2, 2);
-          int t = 0;
-          for (int a = 0; a < 3; ++a) {
-            if (a == s / 2) continue;
-            const auto k = static_cast<std::size_t>(a);
-            if (!(plo[static_cast<std::size_t>(t)] < phi[static_cast<std::size_t>(t)]) ||
-                plo[static_cast<std::size_t>(t)] < lo[k] || phi[static_cast<std::size_t>(t)] > hi[k])
-              pc->fail("hi", "the patch [lo, hi] along the face's two other axes (x, y, z order) must be a non-empty "
-                             "rectangle inside the face (domain.lo, domain.hi)");
-            f.patch_lo[t] = plo[static_cast<std::size_t>(t)];
-            f.patch_hi[t] = phi[static_cast<std::size_t>(t)];
-            ++t;
-          }
-          f.patch_inflow = pc->number_in("velocity", 0.0, 1e4, "superficial speed into the domain [m/s]");
-          // The patch must cover at least one face centre, or it has no effect.
-          int covered = 1;
-          t = 0;
-          for (int a = 0; a < 3; ++a) {
-            if (a == s / 2) continue;
-            int m = 0;
-            for (int i = 0; i < c.grid.n[a] && i < 1000000; ++i) {
-              const double x = lo[static_cast<std::size_t>(a)] + (i + 0.5) * h;
-              if (x >= f.patch_lo[t] && x <= f.patch_hi[t]) ++m;
-            }
-            covered *= m;
-            ++t;
-          }
-          if (covered == 0)
-            pc->fail("hi", "the patch covers no gas-cell face centre (cells of " + num(h) +
-                               " m, gas.cell_size): make it larger or the cells smaller");
-          pc->finish();
-        }
-      } else if (f.kind == FaceKind::Outlet) {
-        f.pressure = fc.number_in("pressure", 0.0, -1e9, 1e9, "gauge pressure at the outlet [Pa]");
-      }
-      fc.finish();
-    }
-    b.finish();
-    for (int a = 0; a < 3; ++a) {
-      const bool plo = p.faces[static_cast<std::size_t>(2 * a)].kind == FaceKind::Periodic;
-      const bool phi = p.faces[static_cast<std::size_t>(2 * a + 1)].kind == FaceKind::Periodic;
-      if (plo != phi)
-        b.fail(plo ? kFaceNames[2 * a + 1] : kFaceNames[2 * a],
-               std::string("a periodic axis needs both faces periodic (") + kFaceNames[2 * a] + " and " +
-                   kFaceNames[2 * a + 1] + ")");
-      c.grid.periodic[a] = plo;
-    }
-  }
-  if (const auto ps = gs.optional_section("pressure_solver")) {
-    p.pressure_solver = cfd::parse_pressure_solver(ps->full_key("type"), ps->choice("type", "cg", {"cg", "multigrid"}));
-    p.cg_tolerance = ps->number_in("tolerance", 1e-10, 1e-15, 1e-2,
-                                   "sqrt(r^T D^-1 r / b^T D^-1 b), D the diagonal: the same measure for cg and multigrid");
-    p.cg_max_iterations = static_cast<int>(ps->integer_in("max_iterations", 2000, 1, 1000000));
-    p.cg_poll_every = static_cast<int>(ps->integer_in("poll_every", 25, 1, 100000));
-    p.pressure_graphs = ps->boolean("graphs", true);
-    ps->finish();
-  }
-  gs.finish();
+  cfd::GasSection g;
+  cfd::read_gas(root.section("gas"), lo, hi, cases::planned_backend(opt), g);
+  c.grid = g.grid;
+  c.gas = g.gas;
+  c.initial_velocity = g.initial_velocity;
   try {
-    cfd::validate(p, c.grid, "gas");
+    cfd::validate(c.gas, c.grid, "gas");
   } catch (const ConfigError& e) {
     throw ConfigError(root.source() + ": " + cases::user_keys(e.what(), gas_keys()));
   }
-}
-
-// Mean r^3 of radii uniform in [a, b].
-double mean_r3(double a, double b) { return b > a ? (b * b * b * b - a * a * a * a) / (4 * (b - a)) : a * a * a; }
-
-dem::HostParticles read_particles(const Config& pc, const dem::DemParams& p, bool validate_only) {
-  const std::string init = pc.choice("init", {"list", "csv", "hdf5", "lattice", "random"});
-  const double rho = pc.positive("density");
-  dem::HostParticles hp;
-  if (init == "list") {
-    const auto items = pc.sequence("list");
-    if (items.empty()) pc.fail("list", "needs at least one particle");
-    for (const Config& it : items) {
-      const Vec3d x = vec3(it.numbers("position", 3, 3));
-      const double r = it.positive("radius");
-      const Vec3d v = vec3(it.numbers("velocity", {0, 0, 0}, 3, 3));
-      const double d = it.positive("density", rho);
-      hp.add(x, r, d, v, {0, 0, 0});
-      it.finish();
-    }
-  } else if (init == "csv" || init == "hdf5") {
-    std::filesystem::path f = pc.text("file");
-    if (f.is_relative() && std::filesystem::exists(pc.source()))
-      f = std::filesystem::path(pc.source()).parent_path() / f;
-    hp = init == "csv" ? dem::read_particles_csv(f.string(), rho) : dem::read_particles_h5(f.string(), rho);
-  } else if (init == "lattice") {
-    const auto cnt = pc.integers("count", 3, 3, 1, 100000000);
-    const Vec3d origin = vec3(pc.numbers("origin", 3, 3));
-    const Vec3d spacing = vec3(pc.numbers("spacing", 3, 3));
-    const double r = pc.positive("radius");
-    cases::check_dem_particle_count(pc, double(cnt[0]) * double(cnt[1]) * double(cnt[2]), "count");
-    hp = dem::lattice_particles(origin, {cnt[0], cnt[1], cnt[2]}, spacing, r, rho);
-  } else {
-    dem::RandomPackingSpec s;
-    s.lo = p.lo;
-    s.hi = p.hi;
-    s.periodic = p.periodic;
-    // A region of the box (the lower part of a bed) may be filled instead.
-    for (const bool upper : {false, true}) {
-      const std::string key = upper ? "region_hi" : "region_lo";
-      if (!pc.has(key)) continue;
-      const auto v = pc.numbers(key, 3, 3);
-      for (std::size_t k = 0; k < 3; ++k) {
-        if (!(v[k] >= p.lo[k] && v[k] <= p.hi[k])) pc.fail(key, "each component must lie in [domain.lo, domain.hi]");
-        (upper ? s.hi : s.lo)[k] = v[k];
-      }
-    }
-    for (std::size_t k = 0; k < 3; ++k) {
-      if (!(s.hi[k] > s.lo[k])) pc.fail("region_hi", "must exceed particles.region_lo (and domain.lo) on every axis");
-      if (s.lo[k] > p.lo[k] || s.hi[k] < p.hi[k]) s.periodic[k] = false;
-    }
-    const auto r = pc.numbers("radius", 1, 2);
-    s.r_min = r[0];
-    s.r_max = r.size() > 1 ? r[1] : r[0];
-    if (!(s.r_min > 0 && s.r_max >= s.r_min)) pc.fail("radius", "needs 0 < r_min <= r_max");
-    const double vol = (s.hi[0] - s.lo[0]) * (s.hi[1] - s.lo[1]) * (s.hi[2] - s.lo[2]);
-    if (pc.has("count") == pc.has("solid_fraction"))
-      pc.fail("count", "give either particles.count or particles.solid_fraction (of the region), not both or neither");
-    if (pc.has("count")) {
-      const double n = static_cast<double>(pc.integer_in("count", 1, 1000000000));
-      s.solid_fraction = n * 4.0 / 3.0 * kPi * mean_r3(s.r_min, s.r_max) / vol;
-      if (!(s.solid_fraction <= 0.7))
-        pc.fail("count", "fills the region to a solid fraction of " + num(s.solid_fraction) +
-                             "; a random packing reaches at most ~0.7: enlarge particles.region_hi or use fewer");
-    } else {
-      s.solid_fraction = pc.number_in("solid_fraction", 1e-6, 0.7, "random packing reaches at most ~0.7 on a lattice");
-    }
-    s.density = rho;
-    s.seed = static_cast<std::uint64_t>(pc.integer_in("seed", 1, 0, std::numeric_limits<long>::max()));
-    s.mc_sweeps = static_cast<int>(pc.integer_in("mc_sweeps", 0, 0, 1000));
-    cases::check_random_fill(pc, s.lo, s.hi, s.periodic, s.r_max, "particles.region_lo, particles.region_hi");
-    cases::check_dem_particle_count(pc, cases::random_packing_count(s.lo, s.hi, s.solid_fraction, s.r_min),
-                                    pc.has("count") ? "count" : "solid_fraction");
-    s.displace = !validate_only;  // lbdem check: lattice sites (dem/init.hpp)
-    hp = dem::random_packing(s);
-  }
-  pc.finish();
-  if (hp.size() == 0) pc.fail("init", "produced no particles");
-  return hp;
 }
 
 CfdCase read_case(const Config& root, const RunOptions& opt) {
@@ -362,23 +183,10 @@ CfdCase read_case(const Config& root, const RunOptions& opt) {
     c.gas.gravity = p.gravity;
     ph.finish();
   }
-  {
-    const Config m = root.section("material");
-    dem::Material& mat = p.material;
-    mat.stiffness = m.positive("stiffness");
-    mat.restitution = m.number_in("restitution", 1e-6, 1.0, "restitution coefficient e in (0, 1]");
-    mat.wall_stiffness = m.positive("wall_stiffness", mat.stiffness);
-    mat.wall_restitution =
-        m.number_in("wall_restitution", mat.restitution, 1e-6, 1.0, "restitution coefficient e in (0, 1]");
-    mat.friction = m.number_in("friction", 0.0, 0.0, 10.0);
-    mat.wall_friction = m.number_in("wall_friction", mat.friction, 0.0, 10.0);
-    mat.tangential_stiffness_ratio = m.number_in("tangential_stiffness_ratio", 2.0 / 7.0, 1e-6, 10.0);
-    mat.tangential_damping_ratio = m.number_in("tangential_damping_ratio", 0.5, 0.0, 10.0);
-    p.friction = mat.friction > 0 || mat.wall_friction > 0;
-    m.finish();
-  }
+  dem::read_material(root.section("material"), p, dem::FrictionFrom::Values);
   p.external_forcing = true;
-  c.particles = read_particles(root.section("particles"), p, opt.validate_only);
+  c.particles = dem::read_particles(root.section("particles"), p,
+                                    {.density = std::nullopt, .validate_only = opt.validate_only});
   double rmin = 1e300, rmax = 0;
   for (double r : c.particles.r) {
     rmin = std::min(rmin, r);
@@ -430,15 +238,14 @@ CfdCase read_case(const Config& root, const RunOptions& opt) {
   }
   {
     const Config t = root.section("time");
-    if (t.has("steps") == t.has("end_time")) t.fail("end_time", "give either time.steps or time.end_time");
+    const RunLength len = read_run_length(t, 0, std::numeric_limits<long>::max());
     double planned = 0;
     std::string key = "time.steps";
-    if (t.has("end_time")) {
-      const double te = t.positive("end_time");
-      planned = std::ceil(te / c.gas.dt - 1e-9);
-      key = "time.end_time = " + num(te) + " s with gas.dt = " + num(c.gas.dt) + " s";
+    if (len.end) {
+      planned = std::ceil(*len.end / c.gas.dt - 1e-9);
+      key = t.full_key(len.end_key) + " = " + num(*len.end) + " s with gas.dt = " + num(c.gas.dt) + " s";
     } else {
-      planned = static_cast<double>(t.integer_in("steps", 0, std::numeric_limits<long>::max()));
+      planned = static_cast<double>(*len.steps);
     }
     t.finish();
     if (opt.steps) {
@@ -446,7 +253,7 @@ CfdCase read_case(const Config& root, const RunOptions& opt) {
       key = "--steps";
     }
     const double np = static_cast<double>(c.particles.size());
-    cases::check_plan(root, opt, planned, static_cast<double>(c.grid.cells()), np * c.substeps,
+    check_plan(root, opt.force, planned, static_cast<double>(c.grid.cells()), np * c.substeps,
                       key + " (x dem.substeps DEM steps)");
     c.steps = static_cast<long>(planned);
   }
@@ -492,12 +299,12 @@ CfdCase read_case(const Config& root, const RunOptions& opt) {
       throw ConfigError(root.source() + ": output.track: particle id " + std::to_string(id) + " does not exist (ids 0.." +
                         std::to_string(c.particles.size() - 1) + ")");
   // The particles against the box, its closed faces and each other; memory.
-  const cases::ParticleBox box = cases::particle_box(p, 3, "domain.lo, domain.hi", "gas.boundaries (closed faces)");
-  cases::check_particles_in_box(root, c.particles, box);
-  cases::check_particle_overlaps(root, c.particles, box);
+  const dem::ParticleBox box = dem::particle_box(p, 3, "domain.lo, domain.hi", "gas.boundaries (closed faces)");
+  dem::check_particles_in_box(root, c.particles, box);
+  dem::check_particle_overlaps(root, c.particles, box);
   const double n = static_cast<double>(c.particles.size());
-  cases::check_memory(root, cases::planned_backend(opt), n * cases::kDemDeviceBytesPerParticle,
-                      n * cases::kDemHostBytesPerParticle, "particles", num(n) + " particles", "use fewer particles");
+  check_memory(root, cases::planned_backend(opt), n * dem::kDemDeviceBytesPerParticle,
+                      n * dem::kDemHostBytesPerParticle, "particles", num(n) + " particles", "use fewer particles");
   return c;
 }
 
@@ -520,7 +327,7 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
   const Backend backend = resolve_backend(opt.backend);
   // A restart checks its checkpoint against this case before any output is touched.
   const cfd::GasGridView& g0 = c.grid;
-  ckpt::Run ck = cases::open_run(
+  ckpt::Run ck = halo::open_run(
       c.outdir, c.checkpoint,
       ckpt::Identity{}
           .add("scene", "fluidized_bed")
@@ -532,7 +339,7 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
           .add("friction", c.dem.friction ? "on" : "off")
           .add("force_path", dem::to_string(c.dem.path)),
       opt.restart, comm);
-  cases::prepare_output_on_writer(ck, true, comm, opt.overwrite, c.outdir);
+  halo::prepare_output_on_writer(ck, true, comm, opt.overwrite, c.outdir);
   const Exec ex(backend);
   dem::DemSystem dem(ex, c.dem, c.particles);
   cfd::GasSolver gas(ex, c.grid, c.gas);
@@ -576,7 +383,7 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
                                 "max_courant", "cg_iterations"};
   for (std::int64_t id : c.track)
     for (const char* q : {"x", "y", "z", "vx", "vy", "vz"}) cols.push_back(std::string(q) + "_" + std::to_string(id));
-  io::TimeSeries series = cases::open_series(ck, c.outdir + "/series.csv", cols, c.series_interval);
+  io::TimeSeries series = halo::open_series(ck, c.outdir + "/series.csv", cols, c.series_interval);
 
   double t = 0;
   auto measure_bed = [&](const dem::HostParticles& hp, const cfd::GasMeasures& m, double p_second) {
@@ -654,7 +461,7 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
                                {"pressure", 1, pres_host.data(), "Pa"},
                                {"velocity", 3, vel.data(), "m/s"}});
     const dem::HostParticles hp = dem.gather();
-    cases::write_particle_snapshot(particle_writer, step, t, hp);
+    dem::write_particle_snapshot(particle_writer, step, t, hp);
   };
   // Time averages: the bed's pressure drop and height, and the profiles.
   double avg_dp = 0, avg_ratio = 0, avg_height = 0;
@@ -731,7 +538,7 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
 
   // The run values of a checkpoint: the statistics accumulators (see the file comment).
   auto run_values = [&]() {
-    cases::RunValues v{avg_dp, avg_ratio, avg_height, static_cast<double>(samples), max_courant_seen, max_imbalance};
+    halo::RunValues v{avg_dp, avg_ratio, avg_height, static_cast<double>(samples), max_courant_seen, max_imbalance};
     for (const Profile& pr : c.profiles) {
       v.insert(v.end(), pr.sum.begin(), pr.sum.end());
       v.insert(v.end(), pr.count.begin(), pr.count.end());
@@ -740,7 +547,7 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
   };
   long step = 0, first_step = 0;
   if (ck.restarting()) {  // the state of the checkpoint's step; its series and snapshots are kept
-    const cases::RunValues v = cases::load_bed(ck.reader(), gas, dem);
+    const halo::RunValues v = cfd::load_bed(ck.reader(), gas, dem);
     const std::size_t want = run_values().size();
     if (v.size() != want)
       throw ConfigError("--restart: the checkpoint holds " + std::to_string(v.size()) +
@@ -835,8 +642,8 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
   run.add("snapshot", sim::Trigger{.every_steps = c.output_interval, .at_start = true, .at_end = true},
           [&](const sim::Event& e) { write_fields(e.step); });
   run.add("checkpoint", sim::checkpoint_trigger(c.checkpoint), [&](const sim::Event& e) {
-    const cases::RunValues v = run_values();
-    ck.write(e.step, t, [&](ckpt::Writer& w) { cases::save_bed(w, gas, dem, v); });
+    const halo::RunValues v = run_values();
+    ck.write(e.step, t, [&](ckpt::Writer& w) { cfd::save_bed(w, gas, dem, v); });
   });
   run.progress([&](long) { return t; }, static_cast<double>(np) * c.substeps, "particle-steps/s", quiet);
   run.run([&](long n) {

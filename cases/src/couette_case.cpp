@@ -10,7 +10,7 @@
 // wall is Ladd's moving-wall rule.
 //
 // The scene is the example of a scene on the one time loop
-// (cases/simulation.hpp): parse, set up, step, verify and its summary fields
+// (halo/simulation.hpp): parse, set up, step, verify and its summary fields
 // in this file, one line in cases/src/registry.cpp.
 #include <spdlog/spdlog.h>
 
@@ -18,8 +18,9 @@
 #include <optional>
 
 #include "cases/scenes.hpp"
-#include "cases/simulation.hpp"
-#include "checkpoint_case.hpp"
+#include "halo/simulation.hpp"
+#include "lbm/checkpoint.hpp"
+#include "core/run_length.hpp"
 #include "core/memory_use.hpp"
 #include "core/signals.hpp"
 #include "core/piece_output.hpp"
@@ -71,10 +72,9 @@ int run_couette_case(const Config& root, const RunOptions& opt) {
   const double U_si = sc.positive("wall_velocity");
   sc.finish();
   const Config time = root.section("time");
-  if (time.has("steps") == time.has("end")) time.fail("steps", "give exactly one of 'time.steps' or 'time.end' (seconds)");
-  const std::optional<long> steps_given =
-      time.has("steps") ? std::optional<long>(time.integer_in("steps", 1, 1000000000000L)) : std::nullopt;
-  const double t_end = time.has("end") ? time.positive("end") : 0.0;
+  const RunLength len = read_run_length(time, 1, 1000000000000L);
+  const std::optional<long> steps_given = len.steps;
+  const double t_end = len.end.value_or(0.0);
   time.finish();
   const auto out = root.optional_section("output");
   std::string outdir = out ? out->text("directory", "runs/couette") : "runs/couette";
@@ -114,14 +114,14 @@ int run_couette_case(const Config& root, const RunOptions& opt) {
   lbm::DistributedFluid fluid(s, backend, parallel, comm);
 
   // ---- set up: each rank its piece, at rest; a restart its checkpoint.
-  ckpt::Run ck = cases::open_run(outdir, policy, cases::fluid_identity("couette", s), opt.restart, comm);
+  ckpt::Run ck = halo::open_run(outdir, policy, lbm::fluid_identity("couette", s), opt.restart, comm);
   if (comm.root()) ck.prepare_output(opt.overwrite);
-  if (comm.distributed()) ck.set_layout(cases::rank_layout(comm.size(), fluid.decomposition().describe()));
+  if (comm.distributed()) ck.set_layout(halo::rank_layout(comm.size(), fluid.decomposition().describe()));
   fluid.initialize_uniform([&](long, long y, long) -> std::uint8_t { return y == 0 ? 1 : y == H + 1 ? 2 : 0; }, 1.0);
   lbm::LbmSolver& ls = fluid.local();
   long step0 = 0;
   if (ck.restarting()) {
-    cases::load_fluid(ck, comm, ls, s.domain, {});
+    lbm::load_fluid(ck, comm, ls, s.domain, {});
     step0 = ck.restart_step();
   }
   io::PieceGridWriter writer(outdir, "fields", s.domain, fluid.piece_boxes(), comm.rank(), ls.setup().domain.owned());
@@ -150,7 +150,7 @@ int run_couette_case(const Config& root, const RunOptions& opt) {
              if (comm.root()) writer.index(e.step, e.step * units.dt, fields);
            }, true);
   loop.add("checkpoint", sim::checkpoint_trigger(policy), [&](const sim::Event& e) {
-    cases::save_fluid(ck, comm, e.step, e.step * units.dt, ls, {});
+    lbm::save_fluid(ck, comm, e.step, e.step * units.dt, ls, {});
   });
   loop.progress([&](long st) { return st * units.dt; }, double(n[0] * H * n[2]) / 1e6, "MLUPS", opt.quiet);
   loop.run([&](long k) { fluid.step(k); });

@@ -20,11 +20,13 @@
 #include <random>
 #include <sstream>
 
-#include "cases/particle_output.hpp"
+#include "dem/particle_output.hpp"
 #include "cases/scenes.hpp"
-#include "cases/simulation.hpp"
-#include "checkpoint_case.hpp"
+#include "halo/simulation.hpp"
+#include "dem/checkpoint.hpp"
+#include "dem/particle_reader.hpp"
 #include "scene_checks.hpp"
+#include "core/run_length.hpp"
 #include "core/error.hpp"
 #include "core/output.hpp"
 #include "core/progress.hpp"
@@ -56,77 +58,6 @@ struct DemCase {
   std::string decomposition_key;              // where the case file gave it
   ckpt::Policy checkpoint;
 };
-
-HostParticles read_particles(const Config& pc, const DemParams& p, std::uint64_t& seed_out, bool validate_only) {
-  const std::string init = pc.choice("init", {"list", "csv", "hdf5", "lattice", "random"});
-  const double rho = pc.positive("density", 2600.0);
-  HostParticles hp;
-  if (init == "list") {
-    const auto items = pc.sequence("list");
-    if (items.empty()) pc.fail("list", "needs at least one particle");
-    for (const Config& it : items) {
-      const Vec3d x = vec3(it.numbers("position", 3, 3));
-      const double r = it.positive("radius");
-      const Vec3d v = vec3(it.numbers("velocity", {0, 0, 0}, 3, 3));
-      const Vec3d w = vec3(it.numbers("angular_velocity", {0, 0, 0}, 3, 3));
-      const double d = it.positive("density", rho);
-      hp.add(x, r, d, v, w);
-      it.finish();
-    }
-  } else if (init == "csv" || init == "hdf5") {
-    std::filesystem::path f = pc.text("file");
-    if (f.is_relative() && std::filesystem::exists(pc.source()))
-      f = std::filesystem::path(pc.source()).parent_path() / f;
-    hp = init == "csv" ? dem::read_particles_csv(f.string(), rho) : dem::read_particles_h5(f.string(), rho);
-  } else if (init == "lattice") {
-    const auto cnt = pc.integers("count", 3, 3, 1, 100000000);
-    const Vec3d origin = vec3(pc.numbers("origin", 3, 3));
-    const Vec3d spacing = vec3(pc.numbers("spacing", 3, 3));
-    const double r = pc.positive("radius");
-    cases::check_dem_particle_count(pc, double(cnt[0]) * double(cnt[1]) * double(cnt[2]), "count");
-    hp = dem::lattice_particles(origin, {cnt[0], cnt[1], cnt[2]}, spacing, r, rho);
-  } else {
-    dem::RandomPackingSpec s;
-    s.lo = p.lo;
-    s.hi = p.hi;
-    s.periodic = p.periodic;
-    // A sub-region (e.g. the lower part of a tall box) may be filled instead.
-    if (pc.has("region_hi")) {
-      const auto hi = pc.numbers("region_hi", 3, 3);
-      for (int k = 0; k < 3; ++k) {
-        if (!(hi[k] > p.lo[k] && hi[k] <= p.hi[k]))
-          pc.fail("region_hi", "each component must lie in (domain.lo, domain.hi]");
-        if (hi[k] < p.hi[k]) s.periodic[k] = false;
-        s.hi[k] = hi[k];
-      }
-    }
-    s.solid_fraction = pc.number_in("solid_fraction", 1e-6, 0.7, "random packing reaches at most ~0.7 on a lattice");
-    const auto r = pc.numbers("radius", 1, 2);
-    s.r_min = r[0];
-    s.r_max = r.size() > 1 ? r[1] : r[0];
-    if (!(s.r_min > 0 && s.r_max >= s.r_min)) pc.fail("radius", "needs 0 < r_min <= r_max");
-    s.density = rho;
-    s.seed = static_cast<std::uint64_t>(pc.integer_in("seed", 1, 0, std::numeric_limits<long>::max()));
-    s.mc_sweeps = static_cast<int>(pc.integer_in("mc_sweeps", 0, 0, 1000));
-    cases::check_dem_random_packing(pc, s.lo, s.hi, s.periodic, s.solid_fraction, s.r_max);
-    s.displace = !validate_only;
-    hp = dem::random_packing(s);
-  }
-  // Random initial velocities (zero mean), for granular-gas scenes; a
-  // validation (lbdem check) reads the keys and draws none.
-  const double vrms = pc.number_in("velocity_rms", 0.0, 0.0, 1e6);
-  seed_out = static_cast<std::uint64_t>(pc.integer_in("velocity_seed", 7, 0, std::numeric_limits<long>::max()));
-  if (vrms > 0 && hp.size() > 0 && !validate_only) {
-    std::mt19937_64 rng(seed_out);
-    std::normal_distribution<double> N(0, vrms / std::sqrt(3.0));
-    Vec3d mean{};
-    for (auto& v : hp.v) { v = {N(rng), N(rng), N(rng)}; mean += v; }
-    for (auto& v : hp.v) v -= mean * (1.0 / static_cast<double>(hp.size()));
-  }
-  pc.finish();
-  if (hp.size() == 0) pc.fail("init", "produced no particles");
-  return hp;
-}
 
 DemCase read_case(const Config& root, const RunOptions& opt) {
   DemCase c;
@@ -160,26 +91,9 @@ DemCase read_case(const Config& root, const RunOptions& opt) {
     p.friction = ph.boolean("friction", false);
     ph.finish();
   }
-  {
-    const Config m = root.section("material");
-    dem::Material& mat = p.material;
-    mat.stiffness = m.positive("stiffness");
-    mat.restitution = m.number_in("restitution", 1e-6, 1.0, "restitution coefficient e in (0, 1]");
-    mat.wall_stiffness = m.positive("wall_stiffness", mat.stiffness);
-    mat.wall_restitution = m.number_in("wall_restitution", mat.restitution, 1e-6, 1.0, "restitution coefficient e in (0, 1]");
-    if (p.friction) {
-      mat.friction = m.number_in("friction", 0.0, 10.0);
-      mat.wall_friction = m.number_in("wall_friction", mat.friction, 0.0, 10.0);
-      mat.tangential_stiffness_ratio = m.number_in("tangential_stiffness_ratio", 2.0 / 7.0, 1e-6, 10.0);
-      mat.tangential_damping_ratio = m.number_in("tangential_damping_ratio", 0.5, 0.0, 10.0);
-    } else {
-      for (const char* k : {"friction", "wall_friction", "tangential_stiffness_ratio", "tangential_damping_ratio"})
-        if (m.has(k)) m.fail(k, "is only used with physics.friction: true");
-    }
-    m.finish();
-  }
-  std::uint64_t vseed = 0;
-  c.particles = read_particles(root.section("particles"), p, vseed, opt.validate_only);
+  dem::read_material(root.section("material"), p, dem::FrictionFrom::Physics);
+  c.particles =
+      dem::read_particles(root.section("particles"), p, {.density = 2600.0, .validate_only = opt.validate_only});
   double rmin = 1e300;
   for (double r : c.particles.r) rmin = std::min(rmin, r);
   {
@@ -217,9 +131,8 @@ DemCase read_case(const Config& root, const RunOptions& opt) {
       p.dt = tc / spc;
     }
     dem::check_time_step(p, c.particles, t.full_key(t.has("dt") ? "dt" : "steps_per_collision"));
-    if (t.has("steps") && t.has("end_time")) t.fail("end_time", "give either time.steps or time.end_time, not both");
-    if (t.has("end_time")) c.steps = cases::saturating_steps(std::ceil(t.positive("end_time") / p.dt - 1e-9));
-    else c.steps = t.integer_in("steps", 0, std::numeric_limits<long>::max());
+    const RunLength len = read_run_length(t, 0, std::numeric_limits<long>::max());
+    c.steps = len.end ? saturating_steps(std::ceil(*len.end / p.dt - 1e-9)) : *len.steps;
     t.finish();
   }
   {
@@ -263,8 +176,8 @@ DemCase read_case(const Config& root, const RunOptions& opt) {
 void write_particles(io::ParticleWriter* w, const dem::DemSystem& sys, long step) {
   const HostParticles h = sys.gather();
   if (!w) return;
-  const std::vector<double> frc = cases::interleave(h.f);
-  cases::write_particle_snapshot(*w, step, sys.time(), h, {{"force", 3, frc.data()}});
+  const std::vector<double> frc = dem::interleave(h.f);
+  dem::write_particle_snapshot(*w, step, sys.time(), h, {{"force", 3, frc.data()}});
 }
 
 // A series row from every rank's particles (collective; the row on rank 0).
@@ -322,7 +235,7 @@ int run_dem_case(const Config& root, const RunOptions& opt) {
   if (opt.validate_only) return 0;
   const bool writer_rank = comm.root();
   // A checkpoint of any rank count restarts here (rank 0 reads it).
-  ckpt::Run ck = cases::open_run(c.outdir, c.checkpoint,
+  ckpt::Run ck = halo::open_run(c.outdir, c.checkpoint,
                                  ckpt::Identity{}
                                      .add("scene", "dem")
                                      .add("particles", std::to_string(c.particles.size()))
@@ -330,8 +243,8 @@ int run_dem_case(const Config& root, const RunOptions& opt) {
                                      .add("force_path", dem::to_string(c.params.path)),
                                  opt.restart, comm);
   const std::string dims = domain.decomposed() ? domain.dec.describe() : "1 x 1 x 1";
-  if (comm.distributed()) ck.set_layout(cases::rank_layout(comm.size(), dims));
-  cases::prepare_output_on_writer(ck, writer_rank, comm, opt.overwrite, c.outdir);
+  if (comm.distributed()) ck.set_layout(halo::rank_layout(comm.size(), dims));
+  halo::prepare_output_on_writer(ck, writer_rank, comm, opt.overwrite, c.outdir);
   dem::DemSystem sys(Exec(backend), c.params, c.particles, domain);
   const DemParams& p = sys.params();
   const Index n_particles = sys.global_size();
@@ -350,11 +263,11 @@ int run_dem_case(const Config& root, const RunOptions& opt) {
   for (std::int64_t id : c.track)
     for (const char* q : {"x", "y", "z", "vx", "vy", "vz"}) cols.push_back(std::string(q) + "_" + std::to_string(id));
   std::optional<io::TimeSeries> series;
-  if (writer_rank) series.emplace(cases::open_series(ck, c.outdir + "/series.csv", cols, c.series_interval));
+  if (writer_rank) series.emplace(halo::open_series(ck, c.outdir + "/series.csv", cols, c.series_interval));
   io::ParticleWriter* w = writer ? &*writer : nullptr;
   long step0 = 0;
   if (ck.restarting()) {  // the state of the checkpoint's step; its series and snapshots are kept
-    cases::load_dem(ck, comm, sys, dims);
+    dem::load_dem(ck, comm, sys, dims);
     step0 = ck.restart_step();
     if (writer) writer->resume(step0);
   }
@@ -386,7 +299,7 @@ int run_dem_case(const Config& root, const RunOptions& opt) {
   sim::Trigger ckpt_when = sim::checkpoint_trigger(c.checkpoint);
   ckpt_when.aligned = false;
   loop.add("checkpoint", ckpt_when,
-           [&](const sim::Event& e) { cases::save_dem(ck, comm, e.step, sys.time(), sys, {}); });
+           [&](const sim::Event& e) { dem::save_dem(ck, comm, e.step, sys.time(), sys, {}); });
   loop.progress([&](long) { return sys.time(); }, static_cast<double>(n_particles), "particle-steps/s", quiet);
   loop.run([&](long n) { sys.advance(n); });
   const long step = loop.step();

@@ -11,9 +11,10 @@
 
 #include "lbm/distributed_fluid.hpp"
 #include "cases/scenes.hpp"
-#include "cases/simulation.hpp"
+#include "halo/simulation.hpp"
+#include "core/run_length.hpp"
 #include "core/json.hpp"
-#include "checkpoint_case.hpp"
+#include "lbm/checkpoint.hpp"
 #include "scene_checks.hpp"
 #include "core/buffer.hpp"
 #include "core/output.hpp"
@@ -114,12 +115,10 @@ LbmCase parse(const Config& root, const RunOptions& opt) {
   std::optional<double> dt;
   if (time.has("dt")) dt = time.positive("dt");
   time.accept("dt");
-  const bool has_steps = time.has("steps"), has_end = time.has("end");
-  if (has_steps == has_end) time.fail(has_steps ? "end" : "steps", "give exactly one of 'time.steps' (a step count) or 'time.end' (seconds)");
-  long steps = has_steps ? time.integer_in("steps", 1, 1000000000000L) : 0;
-  double t_end = has_end ? time.positive("end") : 0;
-  time.accept("steps");
-  time.accept("end");
+  const RunLength len = read_run_length(time, 1, 1000000000000L);
+  const bool has_end = len.end.has_value();
+  long steps = len.steps.value_or(0);
+  double t_end = len.end.value_or(0);
   time.finish();
 
   const auto out = root.optional_section("output");
@@ -191,7 +190,7 @@ LbmCase parse(const Config& root, const RunOptions& opt) {
   if (s.collision == lbm::CollisionKind::BGK && s.tau < 0.51)
     throw ConfigError(root.source() + ": key 'collision.tau' = " + std::to_string(s.tau) +
                       ": BGK is unstable this close to 0.5; use tau >= 0.51 or collision.model: trt");
-  if (has_end) steps = std::max<long>(1, cases::saturating_steps(std::round(t_end / c.units.dt)));
+  if (has_end) steps = std::max<long>(1, saturating_steps(std::round(t_end / c.units.dt)));
   if (opt.steps) steps = *opt.steps;
   c.steps = steps;
   {
@@ -389,7 +388,7 @@ int run_parsed(LbmCase& c, const RunOptions& opt) {
   const bool root = comm.root();
   // A restart checks its checkpoint against this case before any output is
   // touched (rank 0 reads it; a checkpoint of any rank count restarts here).
-  ckpt::Run ck = cases::open_run(c.outdir, c.checkpoint, cases::fluid_identity(c.scene, s), opt.restart, comm);
+  ckpt::Run ck = halo::open_run(c.outdir, c.checkpoint, lbm::fluid_identity(c.scene, s), opt.restart, comm);
   if (root) ck.prepare_output(opt.overwrite);
 
   const Units& U = c.units;
@@ -406,7 +405,7 @@ int run_parsed(LbmCase& c, const RunOptions& opt) {
   auto* solver = &fluid;
   solver->initialize(c.flags, c.rho, c.u);
   if (!opt.quiet && comm.distributed()) spdlog::info("parallel: {} ({})", fluid.describe(), comm.describe());
-  if (comm.distributed()) ck.set_layout(cases::rank_layout(comm.size(), fluid.decomposition().describe()));
+  if (comm.distributed()) ck.set_layout(halo::rank_layout(comm.size(), fluid.decomposition().describe()));
 
   // Fields in pieces (core/piece_output.hpp): each rank writes its owned box
   // to its own file, slab by slab through the solver's output staging; rank 0
@@ -416,7 +415,7 @@ int run_parsed(LbmCase& c, const RunOptions& opt) {
   io::PieceGridWriter writer(c.outdir, "fields", s.domain, fluid.piece_boxes(), comm.rank(), ls.setup().domain.owned());
   writer.set_float32(s.precision != lbm::Precision::FP64);
   if (root) {
-    series.emplace(cases::open_series(ck, c.outdir + "/diagnostics.csv",
+    series.emplace(halo::open_series(ck, c.outdir + "/diagnostics.csv",
                                       {"step", "time_s", "mass_rel_change", "momentum_x", "momentum_y", "momentum_z",
                                        "max_speed_m_s", "max_mach"},
                                       c.diag_interval));
@@ -456,7 +455,7 @@ int run_parsed(LbmCase& c, const RunOptions& opt) {
   auto d0 = solver->diagnostics();
   long step0 = 0;
   if (ck.restarting()) {  // the state of the checkpoint's step; its series and fields are kept
-    d0.mass = cases::load_fluid(ck, comm, fluid.local(), s.domain, c.flags).at(0);
+    d0.mass = lbm::load_fluid(ck, comm, fluid.local(), s.domain, c.flags).at(0);
     step0 = ck.restart_step();
     if (root) writer.resume(step0);
   }
@@ -500,7 +499,7 @@ int run_parsed(LbmCase& c, const RunOptions& opt) {
   loop.add("output", sim::Trigger{.every_steps = c.out_interval, .at_start = c.out_interval > 0, .at_end = true},
            [&](const sim::Event& e) { write_fields(e.step); }, true);
   loop.add("checkpoint", sim::checkpoint_trigger(c.checkpoint), [&](const sim::Event& e) {
-    cases::save_fluid(ck, comm, e.step, e.step * U.dt, fluid.local(), {d0.mass});
+    lbm::save_fluid(ck, comm, e.step, e.step * U.dt, fluid.local(), {d0.mass});
   });
   loop.progress([&](long st) { return st * U.dt; }, fluid_cells / 1e6, "MLUPS", opt.quiet);
   loop.run([&](long n) { solver->step(n); });

@@ -31,6 +31,7 @@
 #include "core/exec.hpp"
 #include "core/output.hpp"
 #include "core/piece_output.hpp"
+#include "core/run_checks.hpp"
 #include "core/signals.hpp"
 #include "halo/comm.hpp"
 #include "halo/device.hpp"
@@ -50,30 +51,6 @@ int fail(int code, const char* what, bool every_rank_alike) {
   if (comm.distributed() && !comm.root() && every_rank_alike) std::this_thread::sleep_for(std::chrono::seconds(3));
   if (comm.distributed()) comm.abort(code);
   return code;
-}
-
-// A memory size as a user writes it: a number with an optional unit, K/M/G/T
-// (or KiB/MiB/GiB/TiB) in powers of 1024, KB/MB/GB/TB in powers of 1000, B or
-// none for bytes.
-std::size_t parse_memory_size(const std::string& text) {
-  std::size_t used = 0;
-  double v = 0;
-  try {
-    v = std::stod(text, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  std::string unit = text.substr(used);
-  for (auto& ch : unit) ch = static_cast<char>(std::toupper(static_cast<unsigned char>(ch)));
-  static const std::pair<const char*, double> units[] = {
-      {"", 1},           {"B", 1},          {"K", 0x1p10},     {"KIB", 0x1p10}, {"KB", 1e3}, {"M", 0x1p20},
-      {"MIB", 0x1p20},   {"MB", 1e6},       {"G", 0x1p30},     {"GIB", 0x1p30}, {"GB", 1e9}, {"T", 0x1p40},
-      {"TIB", 0x1p40},   {"TB", 1e12}};
-  for (const auto& [name, scale] : units)
-    if (used > 0 && unit == name && v * scale >= 1 && v * scale < 0x1p60)
-      return static_cast<std::size_t>(v * scale);
-  throw ConfigError("--memory = '" + text + "': give a positive size such as 80GiB, 512M or 141GB (K/M/G/T and "
-                    "KiB/MiB/GiB/TiB are powers of 1024, KB/MB/GB/TB powers of 1000)");
 }
 }  // namespace
 

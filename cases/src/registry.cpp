@@ -10,7 +10,8 @@
 #define LBDEM_SCENE_FAMILIES(X) \
   X(lbm)                        \
   X(dem)                        \
-  X(psm)                        \
+  X(fixed_sphere)               \
+  X(particles)                  \
   X(cfd)                        \
   X(couette)
 

@@ -13,7 +13,7 @@
 #include "core/buffer.hpp"
 #include "core/error.hpp"
 #include "core/signals.hpp"
-#include "halo/stop_poll.hpp"
+#include "halo/simulation.hpp"
 #include "imb/psm_coupling.hpp"
 
 namespace lbdem::imb {
@@ -204,40 +204,30 @@ FixedSphereResult run_fixed_sphere(const FixedSphereSpec& c, Backend b) {
     if (halo) coupling.step(p, opt, out, *halo);
     else coupling.step(p, opt, out);
   };
-  // A stop signal ends the run after the step in progress (one rank); a
-  // signal may reach the ranks at different steps, so several ranks agree
-  // every poll.stride() steps, a stride adapted to a check every ~0.25 s
-  // (halo/stop_poll.hpp).
-  std::optional<halo::StopPoll> poll;
-  if (cut) poll.emplace(*c.comm, 0.25, [&] { solver->synchronize(); });
-  auto stop_after_step = [&] { return poll ? poll->after_steps(1) : stop_requested(); };
-  bool stop = false;
-
   // Steady state: the drag approaches its limit like A e^{-t/T}; with the
   // change D over an interval and the ratio r of successive changes, the
   // remaining change is D r / (1 - r). Stop when that is below tolerance.
   const long check = c.check_every > 0 ? c.check_every : std::max<long>(50, std::lround(L * L / (40 * nu)));
   const auto t0 = std::chrono::steady_clock::now();
   double F = 0, prev = 0, prev_delta = 0, remaining_rel = 1;
-  long step = 0;
-  bool converged = false, interrupted = false;
-  while (step < c.max_steps) {
-    // The solid kernel writes its per-cell forces every step; only the last
-    // step of an interval gathers them (a null force skips the gather). A stop
-    // signal (core/signals.hpp) ends the loop after the step in progress.
-    long done = 0;
-    for (; done + 1 < check && !stop; ++done) {
-      psm_step(imb::ForceOut{});
-      stop = stop_after_step();
+  bool converged = false;
+  // The loop (halo/simulation.hpp) runs whole intervals of `check` steps
+  // (max_steps rounded up), polls stop signals after the step in progress
+  // (several ranks agree every ~0.25 s of steps) and ends early at a steady
+  // drag. The solid kernel writes its per-cell forces every step; only the
+  // last step of an interval gathers them (a null force skips the gather).
+  const halo::Comm& comm = c.comm ? *c.comm : halo::Comm::world();
+  sim::Simulation loop(comm, "fixed_sphere", 0, (c.max_steps + check - 1) / check * check,
+                       sim::Stepping{.wait = [&] { solver->synchronize(); }});
+  long done = 0;
+  auto advance = [&](long steps) {
+    for (long k = 0; k < steps; ++k) {
+      ++done;
+      psm_step(done % check == 0 ? imb::ForceOut::six(f6.data()) : imb::ForceOut{});
     }
-    if (stop) {
-      step += done;
-      interrupted = true;
-      break;
-    }
-    psm_step(imb::ForceOut::six(f6.data()));
-    stop = stop_after_step();
-    step += check;
+  };
+  loop.add("drag", sim::Trigger::steps(check), [&](const sim::Event& ev) {
+    const long step = ev.step;
     const auto f = f6.to_vector();
     F = f[0];
     for (std::size_t i = 1; i < n; ++i) F += f[6 * i];
@@ -278,12 +268,16 @@ FixedSphereResult run_fixed_sphere(const FixedSphereSpec& c, Backend b) {
       }
       if (remaining < c.tolerance * std::abs(F)) {
         converged = true;
-        break;
+        loop.end_here();
+        return;
       }
     }
     prev_delta = step >= 2 * check ? delta : 0;
     prev = F;
-  }
+  });
+  loop.run(advance);
+  const long step = loop.step();
+  const bool interrupted = loop.interrupted();
   solver->synchronize();
   FixedSphereResult r;
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -1,5 +1,5 @@
 // Checkpoints of runs on several ranks (`mpirun -np N lbdem run`, checkpoint
-// section; cases/src/checkpoint_case.hpp): one file, written by rank 0, from
+// section; halo/shared_checkpoint.hpp, lbm/checkpoint.hpp): one file, written by rank 0, from
 // which a run on any number of ranks, cut any way, goes on.
 //  - fluid scenes (A-A and two-lattice, fp32 and fp64, periodic and walled,
 //    restarted at odd and even steps): N steps straight equal k steps on Na

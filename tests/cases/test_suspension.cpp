@@ -1,4 +1,4 @@
-// The production suspension (cases/suspension.hpp, the particles scene in
+// The production suspension (imb/suspension.hpp, the particles scene in
 // physical units): the SI case against its lattice-unit twin, the paper's
 // Table 2 conversion, the random disks of the 2D suspension, the random
 // initial velocities, the Wen-Yu slip and the device statistics.
@@ -13,7 +13,9 @@
 #include <sstream>
 
 #include "imb/fixed_sphere.hpp"
-#include "cases/suspension.hpp"
+#include "cfd/homogeneous_slip.hpp"
+#include "dem/packing.hpp"
+#include "imb/suspension.hpp"
 #include "core/output.hpp"
 #include "dem/system.hpp"
 #include "run_lbdem.hpp"
@@ -249,7 +251,7 @@ TEST(SuspensionSetup, PaperTwoDimensionalPackingIsFastAndValid) {
   const double r = 5;
   // CPU time of this (single-threaded) placement: a loaded machine does not fail it.
   const std::clock_t c0 = std::clock();
-  const auto p = cases::random_disks({0, 0, 0}, {15360, 61440, 1}, {true, true, true}, n, r, 692.3, 1, "particles.count");
+  const auto p = dem::random_disks({0, 0, 0}, {15360, 61440, 1}, {true, true, true}, n, r, 692.3, 1, "particles.count");
   EXPECT_TRUE(p.apart_by_construction);
   const double secs = double(std::clock() - c0) / CLOCKS_PER_SEC;
   EXPECT_LT(secs, 10.0);
@@ -288,7 +290,7 @@ TEST(SuspensionSetup, PaperTwoDimensionalPackingIsFastAndValid) {
 }
 
 TEST(SuspensionSetup, DisksThatCannotFitAreRefused) {
-  EXPECT_THROW(cases::random_disks({0, 0, 0}, {100, 100, 1}, {true, true, true}, 200, 5, 1, 1, "particles.count"),
+  EXPECT_THROW(dem::random_disks({0, 0, 0}, {100, 100, 1}, {true, true, true}, 200, 5, 1, 1, "particles.count"),
                ConfigError);
 }
 
@@ -296,7 +298,7 @@ TEST(SuspensionSetup, RandomVelocitiesHaveTheSpeedAndNoNetMomentum) {
   for (int dim : {2, 3}) {
     dem::HostParticles p;
     for (int i = 0; i < 5000; ++i) p.add({double(i), 0, 0}, 1, 1);
-    cases::add_random_velocities(p, dim, 5e-3, 7);
+    dem::add_random_velocities(p, dim, 5e-3, 7);
     Vec3d mean{0, 0, 0};
     double worst = 0, zmax = 0;
     for (const auto& v : p.v) {
@@ -322,15 +324,15 @@ TEST(SuspensionWenYu, StokesLimitAndDragBalance) {
   // Stokes limit: w = W (1 - phi)^2.65 / (3 pi mu d).
   const double W = 1e-9;
   const double ws = W * std::pow(1 - phi, 2.65) / (3 * M_PI * mu * d);
-  EXPECT_NEAR(cases::wen_yu_slip(phi, d, 1.0, mu, W), ws, 1e-6 * ws);
+  EXPECT_NEAR(cfd::wen_yu_slip(phi, d, 1.0, mu, W), ws, 1e-6 * ws);
   // At a finite Reynolds number the drag of the returned slip is the weight,
   // and the inertial correction makes the slip smaller than Stokes'.
   const double W2 = 0.17;  // the 3D suspension of the first paper, lattice units
-  const double w = cases::wen_yu_slip(phi, d, 1.0, mu, W2);
-  EXPECT_NEAR(cases::wen_yu_drag(phi, d, 1.0, mu, w), W2, 1e-12 * W2);
+  const double w = cfd::wen_yu_slip(phi, d, 1.0, mu, W2);
+  EXPECT_NEAR(cfd::wen_yu_drag(phi, d, 1.0, mu, w), W2, 1e-12 * W2);
   EXPECT_LT(w, W2 * std::pow(1 - phi, 2.65) / (3 * M_PI * mu * d));
   EXPECT_GT(w, 0.9 * W2 * std::pow(1 - phi, 2.65) / (3 * M_PI * mu * d));
-  EXPECT_EQ(cases::wen_yu_slip(phi, d, 1.0, mu, 0.0), 0.0);
+  EXPECT_EQ(cfd::wen_yu_slip(phi, d, 1.0, mu, 0.0), 0.0);
 }
 
 // The device statistics against sums done here, on known particles.
@@ -354,14 +356,14 @@ TEST(SuspensionStatistics, ReductionsMatchHostSums) {
   dem::DemSystem dem(Exec(Backend::Host), p, hp);
   const dem::ParticleView v = dem.view();
   for (Index i = 0; i < v.n; ++i) v.ext_force[i] = {0.1 * double(i), 2.0 + double(i), -0.5, 0};
-  cases::SuspensionStatsSpec spec;
+  imb::SuspensionStatsSpec spec;
   spec.fluid_lo = {0, 0, 0};
   spec.fluid_hi = {32, 32, 32};
   spec.gravity = {0, -1e-5, 0};
   spec.body_force = {0, 3e-6, 0};
   spec.diameter = 2 * r;
   spec.filter_widths = {2, 4};
-  cases::SuspensionStatistics stats(Exec(Backend::Host), spec);
+  imb::SuspensionStatistics stats(Exec(Backend::Host), spec);
   lbm::LbmDiagnostics d;
   d.momentum = {1.0, -2.0, 0.5};
   const auto s = stats.sample(dem, d);

@@ -139,18 +139,28 @@ TEST_F(Validation, ResolvedParticleLargerThanTheBox) {
 // ------------------------------------------------------------ absurd values
 TEST_F(Validation, AbsurdStiffnessNeedsForce) {
   const std::string s = dem_case("{init: list, list: [{position: [0.5, 0.5, 0.5], radius: 0.1}]}",
-                                 "{stiffness: 1.0e30, restitution: 0.9}", "{end_time: 1}");
-  refused(s, {"time.end_time", "material.stiffness", "years", "--force"});
+                                 "{stiffness: 1.0e30, restitution: 0.9}", "{end: 1}");
+  refused(s, {"time.end", "material.stiffness", "years", "--force"});
   EXPECT_EQ(run("check " + write_case(s) + " --force").code, 0);
 }
 TEST_F(Validation, EndTimeBeyondAStepCounterRefusedEvenWithForce) {
-  // end_time / dt far beyond a 64-bit count: refused with the keys, never cast out of range.
+  // end / dt far beyond a 64-bit count: refused with the keys, never cast out of range.
   const std::string s = dem_case("{init: list, list: [{position: [0.5, 0.5, 0.5], radius: 0.1}]}",
-                                 "{stiffness: 1.0e5, restitution: 0.9}", "{end_time: 1.0e60}");
-  refused(s, {"time.end_time", "64-bit step counter"});
+                                 "{stiffness: 1.0e5, restitution: 0.9}", "{end: 1.0e60}");
+  refused(s, {"time.end", "64-bit step counter"});
   const auto r = run("check " + write_case(s) + " --force");
   EXPECT_NE(r.code, 0);
   EXPECT_NE(r.out.find("64-bit step counter"), std::string::npos) << r.out;
+}
+TEST_F(Validation, OldEndTimeSpellingWorksWithAWarningNamingTheNewKey) {
+  // time.end_time is the old spelling of time.end: it still runs, with a
+  // warning that names the new key; both at once are refused.
+  const std::string list = "{init: list, list: [{position: [0.5, 0.5, 0.5], radius: 0.1}]}";
+  const auto r = run("check " + write_case(dem_case(list, "{stiffness: 1.0e4, restitution: 0.9}", "{end_time: 1.0e-3}")));
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("key 'time.end_time' is deprecated; write it as 'time.end'"), std::string::npos) << r.out;
+  refused(dem_case(list, "{stiffness: 1.0e4, restitution: 0.9}", "{end_time: 1.0e-3, end: 1.0e-3}"),
+          {"time.end_time", "old spelling", "time.end"});
 }
 TEST_F(Validation, StepsOverrideAlsoPlanned) {
   const auto r = run("check " + write_case(particles_case()) + " --force");

@@ -202,7 +202,7 @@ TEST_F(CfdScene, BadInputsNameTheirKeys) {
       {"start: 0.3, interval: 5", "start: 0.3, interval: 5, profiles: [{quantity: void_fraction, height: 1.0}]",
        "statistics.profiles[0].height"},
       {"max_courant: 0.5", "max_courant: 2", "diagnostics.max_courant"},
-      {"time: {end_time: 1.3}", "time: {end_time: 1.3, steps: 10}", "time.end_time"},
+      {"time: {end: 1.3}", "time: {end: 1.3, steps: 10}", "time.end"},
       {"void_fraction: linear", "void_fraction: linear\n  pressure_solver: {type: jacobi}", "gas.pressure_solver.type"},
   };
   for (const Bad& b : bad) {
@@ -245,7 +245,7 @@ TEST_F(CfdScene, FixedBedGivesUmfNearErgun) {
   for (const char* U : {"0.1", "0.2"}) {
     std::string text = replaced(read_text(case_path("fluidized_bed_small.yaml")), "velocity: 0.27",
                                 std::string("velocity: ") + U);
-    text = replaced(text, "end_time: 1.3", "end_time: 0.15");
+    text = replaced(text, "end: 1.3", "end: 0.15");
     text = replaced(text, "start: 0.3, interval: 5", "start: 0.1, interval: 5");
     ASSERT_EQ(run_text(text), 0);
     const std::string summary = read_text((dir_ / "summary.json").string());

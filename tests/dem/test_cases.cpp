@@ -87,7 +87,7 @@ output: {directory: /tmp/lbdem_dem_bad}
   expect_error(base + "time: {steps: 10, dtt: 1}\n", "dtt");                       // unknown key
   expect_error(base + "time: {steps: 10, dt: 1.0}\n", "dt");                       // dt > t_c/50
   expect_error(base + "time: {steps: 10}\nextra: 1\n", "extra");                  // unknown top-level key
-  expect_error(base + "time: {steps: 10, end_time: 1}\n", "end_time");            // both
+  expect_error(base + "time: {steps: 10, end: 1}\n", "time.end");            // both
   expect_error(base + "time: {steps: 10}\nwalls: [{point: [0,0,0], normal: [0,0,0]}]\n", "normal");
   RunOptions v = quick(out, 1);
   v.validate_only = true;

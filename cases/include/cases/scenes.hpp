@@ -29,8 +29,10 @@ std::vector<std::string> lbm_scene_names();
 int run_lbm_case(const Config& root, const RunOptions& opt);
 std::vector<std::string> dem_scene_names();
 int run_dem_case(const Config& root, const RunOptions& opt);
-std::vector<std::string> psm_scene_names();
-int run_psm_case(const Config& root, const RunOptions& opt);
+std::vector<std::string> fixed_sphere_scene_names();
+int run_fixed_sphere_case(const Config& root, const RunOptions& opt);
+std::vector<std::string> particles_scene_names();
+int run_particles_case(const Config& root, const RunOptions& opt);
 std::vector<std::string> cfd_scene_names();
 int run_cfd_case(const Config& root, const RunOptions& opt);
 

@@ -24,7 +24,7 @@
 // checksum) before any state is read, so a truncated or corrupt file is
 // refused with one line and nothing of the run is touched.
 //
-// Several ranks (cases/src/checkpoint_case.cpp): one file all the same, written
+// Several ranks (halo/shared_checkpoint.hpp): one file all the same, written
 // by rank 0; the other ranks stream their sections to it in rank order. The
 // header's layout lines ("ranks", "decomposition"; not part of the identity)
 // say how the run was cut; a run cut otherwise reads it all the same (rank 0
@@ -290,7 +290,7 @@ class Run {
   const Policy& policy() const { return policy_; }
   long checkpoints_written() const { return written_; }
   // The two halves of write() for a writer filled by several ranks
-  // (cases/src/checkpoint_case.cpp): the writer of `step` (one rank), and
+  // (halo/shared_checkpoint.hpp): the writer of `step` (one rank), and
   // the bookkeeping of a committed checkpoint (every rank).
   std::unique_ptr<Writer> open_writer(long step, double time) const {
     return std::make_unique<Writer>(path_, id_, step, time, layout_);

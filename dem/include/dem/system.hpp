@@ -181,7 +181,7 @@ class DemSystem {
   // and particles; a stored set of another size or layout is refused
   // (ConfigError). A decomposed system saves its rank's records (owned and
   // ghosts) and the ghost bookkeeping, and loads them into a system of the
-  // same decomposition (cases/src/checkpoint_case.cpp). Synchronous.
+  // same decomposition (dem/checkpoint.hpp). Synchronous.
   void save_state(ckpt::Sink& out) const;
   void load_state(ckpt::Source& in);
 

@@ -134,7 +134,7 @@ class LbmSolver {
   virtual void save_state(ckpt::Sink& out) = 0;
   virtual void load_state(ckpt::Source& in) = 0;
   // The canonical form of the state that a checkpoint of several ranks holds
-  // (cases/src/checkpoint_case.cpp): after a whole step, every population a
+  // (lbm/checkpoint.hpp): after a whole step, every population a
   // cell's next step needs lies in an owned cell's own slot of the incoming
   // array (A-A: the write-back after an odd step puts them there; two-lattice:
   // the array the next step pulls from), so that the owned slots of all pieces

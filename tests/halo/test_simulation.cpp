@@ -1,4 +1,4 @@
-// The one time loop (cases/simulation.hpp): where it stops, which operations
+// The one time loop (halo/simulation.hpp): where it stops, which operations
 // run at which step and in which order, a stop signal, a restart's cadence and
 // the summary it writes.
 #include <gtest/gtest.h>
@@ -8,7 +8,7 @@
 #include <fstream>
 #include <sstream>
 
-#include "cases/simulation.hpp"
+#include "halo/simulation.hpp"
 #include "core/signals.hpp"
 
 using namespace lbdem;
@@ -70,6 +70,27 @@ TEST(Simulation, AdaptiveOnOneRankStepsOneAtATime) {
   EXPECT_EQ(calls, 7);
   EXPECT_EQ(done, 7);
   EXPECT_EQ(log.steps_of("a"), (std::vector<long>{3, 6, 7}));
+}
+
+TEST(Simulation, AnOperationEndsTheRunEarly) {
+  // A steady state reached at step 30: no step after it, the operations
+  // added after the one that ends the run still run there, and the run counts
+  // as done, not interrupted.
+  Simulation s(one(), "t", 0, 100, sim::Stepping{.chunk = 10});
+  Log log;
+  s.add("a", Trigger::steps(10), [&](const Event& e) {
+    log.runs.emplace_back("a", e.step);
+    if (e.step == 30) s.end_here();
+  });
+  s.add("b", Trigger::steps(10), log.op("b"));
+  long done = 0;
+  EXPECT_TRUE(s.run([&](long n) { done += n; }));
+  EXPECT_EQ(done, 30);
+  EXPECT_EQ(s.step(), 30);
+  EXPECT_FALSE(s.interrupted());
+  EXPECT_TRUE(s.ended_early());
+  EXPECT_EQ(log.steps_of("a"), (std::vector<long>{10, 20, 30}));
+  EXPECT_EQ(log.steps_of("b"), (std::vector<long>{10, 20, 30}));
 }
 
 TEST(Simulation, StartEndAndOrderOnceAStep) {

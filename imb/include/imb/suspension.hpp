@@ -1,10 +1,9 @@
 #pragma once
 // The periodic gas-solid suspension of the first paper (Sec. 2, Table 2) as a
-// production run: its set-up (random disks in 2D, random initial particle
-// velocities), the statistics a suspension study publishes, computed on the
-// device as a few numbers per sample, and the Wen-Yu homogeneous slip the
-// measured slip is compared with. Lattice units throughout (cell size 1, fluid
-// time step 1, fluid density 1).
+// production run: the statistics a suspension study publishes, computed on the
+// device as a few numbers per sample, and its series.csv. Its set-up is
+// dem/packing.hpp, the Wen-Yu slip it is compared with cfd/homogeneous_slip.hpp.
+// Lattice units throughout (cell size 1, fluid time step 1, fluid density 1).
 #include <array>
 #include <cstdint>
 #include <functional>
@@ -13,68 +12,18 @@
 #include <vector>
 
 #include "core/exec.hpp"
-#include "dem/block_packing.hpp"
-#include "dem/domain.hpp"
-#include "dem/particles.hpp"
 #include "dem/system.hpp"
 #include "core/checkpoint.hpp"
 #include "core/output.hpp"
 #include "lbm/solver.hpp"
 
-namespace lbdem::imb {
-class CoupledSolver;
-}
 namespace lbdem::halo {
 class Comm;
 }
 
-namespace lbdem::cases {
+namespace lbdem::imb {
 
-// ----------------------------------------------------------------- set-up
-// `count` non-overlapping disks of radius r (centres at z = 0.5: a 2D scene's
-// one-cell slab) in the box [lo, hi] of x and y: a random subset of the sites
-// of a square lattice with about twice as many sites as disks (fewer where the
-// disks need the room), each disk displaced by a uniform random offset of up
-// to half the free gap along each axis, so no two disks overlap. O(count).
-// Masses as HostParticles::add (rho 4/3 pi r^3, the DEM's 2D convention).
-// Throws ConfigError naming `key` when the box cannot hold them.
-dem::HostParticles random_disks(const std::array<double, 3>& lo, const std::array<double, 3>& hi,
-                                const std::array<bool, 3>& periodic, long count, double r, double density,
-                                std::uint64_t seed, const std::string& key);
-
-// The particles of a random suspension packed in blocks (particles.packing:
-// blocks; dem/block_packing.hpp): the same set whatever the rank count, each
-// rank generating only its own. `domain` null or not decomposed: every
-// particle; else the particles whose centre lies in this rank's piece
-// (DemDomain::owner), which is what DemSystem keeps of them. Collective on
-// several ranks: throws ConfigError on every rank when a piece holds no
-// particle (the DEM sizes its cell grid from the radii it is given).
-dem::HostParticles suspension_blocks(const dem::BlockPackingSpec& spec, const dem::DemDomain* domain);
-
-// Adds to every particle's velocity a random vector of length `speed`, its
-// direction uniform on the sphere (3D) or the circle in the x-y plane (2D);
-// then removes the mean of the added vectors, so that the particles' total
-// momentum is what it was (a weight-balanced periodic suspension starts at
-// rest as a whole). Deterministic for a seed.
-void add_random_velocities(dem::HostParticles& p, int dim, double speed, std::uint64_t seed);
-
-// ----------------------------------------------------------------- Wen-Yu
-// The slip speed w = |u_f - v_p| (interstitial fluid velocity minus particle
-// velocity) at which the Wen & Yu (1966) drag on one particle of a homogeneous
-// suspension at solid fraction phi balances its net weight W = (m_p - rho_f
-// V_p) |g|: the steady state of a weight-balanced periodic suspension, where
-// the fluid body force, not a pressure gradient, holds the weight (the
-// particles feel no mean pressure gradient beyond their buoyancy). The drag is
-// that of cfd/drag.hpp (Yu et al. 2024, Eq. 16-17, the Wen-Yu branch):
-//   F(w) = 3 pi mu d w (1 - phi)^-2.65 (1 + 0.15 Re^0.687),
-//   Re = (1 - phi) rho_f d w / mu,
-// so in the Stokes limit w = W (1 - phi)^2.65 / (3 pi mu d). Any consistent
-// units (lattice: rho_f = 1, mu = nu). Returns 0 for W <= 0. For a 2D
-// suspension the particles scene evaluates it for spheres of the disks'
-// diameter and density at the areal fraction, as the first paper compares its
-// 2D suspension with Wen & Yu (its Table 2 gives one terminal velocity for both).
-double wen_yu_slip(double phi, double d, double rho_f, double mu, double net_weight);
-double wen_yu_drag(double phi, double d, double rho_f, double mu, double w);
+class CoupledSolver;
 
 // ----------------------------------------------------------------- statistics
 // What the statistics need to know about the scene (lattice units).
@@ -150,7 +99,7 @@ class ParticleSeries {
   // of `interval` steps) and the file goes on from there.
   // `diagnostics`: the fluid's diagnostics over all ranks (a run on several
   // ranks; default: cs.fluid().diagnostics()).
-  ParticleSeries(const std::string& path, imb::CoupledSolver& cs, const SuspensionStatsSpec& spec, double dt,
+  ParticleSeries(const std::string& path, CoupledSolver& cs, const SuspensionStatsSpec& spec, double dt,
                  const ckpt::Run* run = nullptr, long interval = 1,
                  std::function<lbm::LbmDiagnostics()> diagnostics = {});
   // What a checkpoint keeps of the series: the reference mass (the averages
@@ -170,7 +119,7 @@ class ParticleSeries {
   double seconds() const { return seconds_; }
 
  private:
-  imb::CoupledSolver& cs_;
+  CoupledSolver& cs_;
   std::function<lbm::LbmDiagnostics()> diagnostics_;
   SuspensionStatistics stats_;
   std::vector<std::string> columns_;
@@ -186,4 +135,4 @@ class ParticleSeries {
   std::array<double, 3> along_{0, 1, 0};  // unit vector along -g
 };
 
-}  // namespace lbdem::cases
+}  // namespace lbdem::imb

@@ -8,7 +8,7 @@
 #include "core/piece_output.hpp"
 #include "dem/particles.hpp"
 
-namespace lbdem::cases {
+namespace lbdem::dem {
 
 // x, y, z of each vector, interleaved (3 n values).
 inline std::vector<double> interleave(const std::vector<Vec3d>& v) {
@@ -20,7 +20,7 @@ inline std::vector<double> interleave(const std::vector<Vec3d>& v) {
 
 // Writes positions, radius, velocity, angular velocity, id and mass of `h`,
 // then the scene's own per-particle fields `extra` (same storage order as `h`).
-inline void write_particle_snapshot(io::ParticleWriter& w, long step, double time, const dem::HostParticles& h,
+inline void write_particle_snapshot(io::ParticleWriter& w, long step, double time, const HostParticles& h,
                                     const std::vector<io::ParticleField>& extra = {}) {
   const std::vector<double> pos = interleave(h.x), vel = interleave(h.v), omg = interleave(h.w);
   const std::vector<double> id(h.id.begin(), h.id.end());
@@ -35,7 +35,7 @@ inline void write_particle_snapshot(io::ParticleWriter& w, long step, double tim
 // datasets as write_particle_snapshot for the particles `h` the rank owns.
 // Returns the (name, components) of every field, for the index.
 inline std::vector<std::pair<std::string, int>> write_particle_piece(io::PieceParticleWriter& w, long step, double time,
-                                                                     const dem::HostParticles& h,
+                                                                     const HostParticles& h,
                                                                      const std::vector<io::ParticleField>& extra = {}) {
   const std::vector<double> pos = interleave(h.x), vel = interleave(h.v), omg = interleave(h.w);
   const std::vector<double> id(h.id.begin(), h.id.end());
@@ -49,4 +49,4 @@ inline std::vector<std::pair<std::string, int>> write_particle_piece(io::PiecePa
   return names;
 }
 
-}  // namespace lbdem::cases
+}  // namespace lbdem::dem

@@ -1,4 +1,4 @@
-// The suspension statistics of cases/suspension.hpp on the particles' backend:
+// The suspension statistics of imb/suspension.hpp on the particles' backend:
 // one reduction over the particles for velocities, variances, drag and
 // weights, and per filter width a binning of the particle volumes into coarse
 // cells (integer atomics: the sums do not depend on the order) followed by a
@@ -6,13 +6,13 @@
 #include <cmath>
 #include <string>
 
-#include "cases/suspension.hpp"
+#include "imb/suspension.hpp"
 #include "core/algorithms.hpp"
 #include "core/buffer.hpp"
 #include "core/hd.hpp"
 #include "halo/comm.hpp"
 
-namespace lbdem::cases {
+namespace lbdem::imb {
 
 namespace {
 
@@ -298,4 +298,4 @@ std::vector<double> SuspensionStatistics::row(const SuspensionSample& s) const {
   return r;
 }
 
-}  // namespace lbdem::cases
+}  // namespace lbdem::imb

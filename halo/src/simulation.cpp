@@ -1,4 +1,4 @@
-#include "cases/simulation.hpp"
+#include "halo/simulation.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -116,7 +116,7 @@ bool Simulation::run(const Advance& advance) {
   } else {
     stop = comm_.any(stop_requested());
   }
-  while (step_ < last_ && !stop) {
+  while (step_ < last_ && !stop && !ended_) {
     const long next = next_stop(step_);
     const double t_step = now_s();
     if (poll) {
@@ -144,7 +144,7 @@ bool Simulation::run(const Advance& advance) {
   // before the first step) still has its last boundary.
   if (step_ == first_ && (stop || step_ == last_))
     run_ops(Event{.step = step_, .last = true, .stopping = stop && step_ < last_, .finished = step_ == last_});
-  stopped_ = step_ < last_;
+  stopped_ = step_ < last_ && !ended_;
   return !stopped_;
 }
 

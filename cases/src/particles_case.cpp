@@ -1,24 +1,15 @@
-// Resolved particle scenes (PSM fluid + DEM particles), lattice units.
+// The resolved particle scene (PSM fluid + DEM particles): the coupled PSM-DEM
+// time step (imb/coupled.hpp) for any set of particles: a rotating held
+// sphere, a sphere settling in a closed box, a periodic suspension with the
+// weight balanced by a fluid body force.
 //
-//   scene: fixed_sphere   flow through a simple cubic (3D) / square (2D) array
-//                          of fixed spheres/disks driven by a body force, run to
-//                          a steady state detected automatically; drag
-//                          coefficient against Sangani & Acrivos (1982).
-//   scene: particles      the coupled PSM-DEM time step (imb/coupled.hpp) for
-//                          any set of particles: a rotating held sphere, a
-//                          sphere settling in a closed box, a periodic
-//                          suspension with the weight balanced by a fluid body force.
-//
-// Units: fixed_sphere takes lattice units (cell size 1, fluid time step 1,
-// fluid density 1) and says so (`units: lattice` is required), because the
-// validation cases of the first paper are stated that way (Table 1). The
-// particles scene takes lattice units or `units: physical`: SI values
-// (fluid density and kinematic viscosity, particle diameter and density,
-// gravity, box size, stiffness, speeds, times) with the resolution
-// particles.cells_per_diameter (d/l) and fluid.tau or time.dt, converted once
-// at parse time (core/units.hpp) and checked as the fluid scenes are (tau,
-// Mach number, DEM time step). The run itself is in lattice units;
-// summary.json gives the conversion factors dx, dt and dm.
+// Units: lattice units or `units: physical`: SI values (fluid density and
+// kinematic viscosity, particle diameter and density, gravity, box size,
+// stiffness, speeds, times) with the resolution particles.cells_per_diameter
+// (d/l) and fluid.tau or time.dt, converted once at parse time
+// (core/units.hpp) and checked as the fluid scenes are (tau, Mach number, DEM
+// time step). The run itself is in lattice units; summary.json gives the
+// conversion factors dx, dt and dm.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -38,13 +29,17 @@
 #include "halo/comm.hpp"
 #include "halo/decomposition.hpp"
 #include "halo/stop_poll.hpp"
-#include "cases/particle_output.hpp"
-#include "cases/suspension.hpp"
+#include "dem/particle_output.hpp"
+#include "cfd/homogeneous_slip.hpp"
+#include "dem/packing.hpp"
+#include "imb/suspension.hpp"
 #include "core/units.hpp"
 #include "cases/scenes.hpp"
-#include "cases/simulation.hpp"
+#include "halo/simulation.hpp"
 #include "core/json.hpp"
-#include "checkpoint_case.hpp"
+#include "halo/rank_memory.hpp"
+#include "imb/checkpoint.hpp"
+#include "imb/coupled_run.hpp"
 #include "scene_checks.hpp"
 #include "core/async_writer.hpp"
 #include "core/error.hpp"
@@ -61,256 +56,12 @@
 #include "imb/coupled_checks.hpp"
 #include "imb/drag_error.hpp"
 #include "imb/fraction_table.hpp"
+#include "imb/psm_reader.hpp"
 #include "imb/psm_settings.hpp"
 #include "lbm/storage_checks.hpp"
 
 namespace lbdem {
 namespace {
-
-void require_lattice_units(const Config& root) {
-  const std::string u = root.choice("units", {"lattice"});
-  (void)u;
-}
-
-// fluid.magic: auto (the default) marks Lambda for the resolution rule
-// (imb::psm_magic_auto, set once the particle diameter is known).
-constexpr double kMagicAuto = -1.0;
-
-lbm::CollisionKind read_collision(const Config& f, double& magic, const std::string& def = "trt") {
-  const auto c = f.choice("collision", def, {"bgk", "trt"});
-  // The PSM drag depends on Lambda (bench/imb/NOTES.md, "Fixed-sphere drag"): auto
-  // takes Lambda by d/l and tau (imb::psm_magic_auto), the setting the drag map is built on.
-  if (!f.has("magic") || f.text("magic") == "auto") {
-    if (f.has("magic")) f.accept("magic");
-    magic = kMagicAuto;
-  } else {
-    magic = f.number_in("magic", 1e-6, 10.0,
-                        "TRT parameter Lambda, or auto (by d/l and tau: the mapped PSM setting, imb::psm_magic_auto)");
-  }
-  return c == "bgk" ? lbm::CollisionKind::BGK : lbm::CollisionKind::TRT;
-}
-
-// Lambda of a PSM scene with particles of diameter d (cells) at tau: auto resolved.
-double resolve_magic(double magic, double d, double tau) {
-  return magic == kMagicAuto ? imb::psm_magic_auto(d, tau) : magic;
-}
-
-// tau, collision (with Lambda) and precision of a resolved scene's fluid
-// section (FixedSphereSpec and LbmSetup name these fields alike).
-template <class S>
-void read_fluid_common(const Config& f, S& s, bool read_tau = true) {
-  if (read_tau) s.tau = f.number_in("tau", 0.52, 0.5001, 5.0, "relaxation time tau > 1/2");
-  s.collision = read_collision(f, s.magic);
-  if (read_tau && s.collision == lbm::CollisionKind::BGK && s.tau < 0.51)  // (else: the caller, naming its key)
-    f.fail("tau", "BGK needs tau >= 0.51 to stay stable; use collision: trt for smaller tau");
-  s.precision = lbm::precision_from_string(f.choice("precision", "fp64", {"fp32", "fp64", "fp16s", "fp16c"}));
-}
-
-// psm.max_expected_drag_error when not given: the half Table 1 bar at the scene's d/l.
-constexpr double kMaxDragErrorBar = -1.0;
-
-void read_psm(const Config& ps, imb::PsmOptions& o, int& slots, double& max_drag_error) {
-  const auto fr = ps.choice("fraction", "exact", {"exact", "table", "linear"});
-  o.map.method = fr == "table" ? imb::FractionMethod::Table : fr == "linear" ? imb::FractionMethod::Linear
-                                                                             : imb::FractionMethod::Exact;
-  o.variant = ps.choice("operator", "nebb", {"nebb", "superposition"}) == "nebb" ? imb::PsmVariant::NEBB
-                                                                                 : imb::PsmVariant::Superposition;
-  const auto we = ps.choice("weight", "noble_torczynski_wall", {"noble_torczynski_wall", "noble_torczynski", "linear"});
-  o.weight = we == "linear"             ? imb::PsmWeight::Linear
-             : we == "noble_torczynski" ? imb::PsmWeight::NobleTorczynski
-                                        : imb::PsmWeight::NobleTorczynskiWall;
-  max_drag_error = ps.has("max_expected_drag_error")
-                       ? ps.number_in("max_expected_drag_error", 1e-6, 1.0,
-                                      "relative drag error (0.02 = 2 %) above which the start report warns")
-                       : kMaxDragErrorBar;
-  o.map.table_in_constant = ps.boolean("table_in_constant", false);
-  const auto pl = ps.choice("pipeline", "auto", {"auto", "fused", "mapped"});
-  o.pipeline = pl == "fused" ? imb::PsmPipeline::Fused : pl == "mapped" ? imb::PsmPipeline::Mapped : imb::PsmPipeline::Auto;
-  o.tile_capacity = static_cast<int>(ps.integer_in("tile_capacity", 64, 1, imb::kFusedMaxCapacity));
-  slots = static_cast<int>(ps.integer_in("slots", 4, 1, 64));
-  if (o.pipeline == imb::PsmPipeline::Fused) {  // refuse now, before any output is written
-    imb::PsmOptions probe = o;
-    if (probe.map.method == imb::FractionMethod::Table) probe.map.table = nullptr;
-    try {
-      (void)imb::resolve_pipeline(probe, slots);
-    } catch (const ConfigError& e) {
-      ps.fail("pipeline", e.what());
-    }
-  }
-}
-
-// The expected drag error of the scene as set up (imb/drag_error.hpp), told at
-// `lbdem check` and at the start of a run; a warning when it is above
-// psm.max_expected_drag_error (default: half the first paper's Table 1 error at
-// this d/l).
-void report_expected_drag_error(const imb::DragErrorQuery& q, double max_drag_error, const RunOptions& opt) {
-  const auto e = imb::expected_drag_error(q);
-  const double limit = max_drag_error == kMaxDragErrorBar ? e.bar : max_drag_error;
-  const bool tell = opt.validate_only || !opt.quiet;  // `lbdem check` is quiet otherwise but tells this
-  if (!e.known) {
-    if (tell)
-      spdlog::info("expected drag error at d/l = {}, tau = {}: no estimate ({})", q.diameter, q.tau, e.reason);
-    return;
-  }
-  if (std::abs(e.error) > limit)
-    spdlog::warn("expected drag error at d/l = {}, tau = {}: {:+.2f}% ({}), above psm.max_expected_drag_error = {:.2f}%: "
-                 "a larger particle diameter in cells (a finer grid) or a tau nearer 0.5 lowers it",
-                 q.diameter, q.tau, 100 * e.error, e.reason, 100 * limit);
-  else if (tell)
-    spdlog::info("expected drag error at d/l = {}, tau = {}: {:+.2f}% ({}; limit {:.2f}%)", q.diameter, q.tau,
-                 100 * e.error, e.reason, 100 * limit);
-}
-
-imb::DragErrorQuery drag_query(double d, double tau, lbm::CollisionKind coll, double magic, const imb::PsmOptions& o,
-                               lbm::Precision prec) {
-  imb::DragErrorQuery q;
-  q.diameter = d;
-  q.tau = tau;
-  q.trt = coll == lbm::CollisionKind::TRT;
-  q.magic = magic;
-  q.weight = o.weight;
-  q.variant = o.variant;
-  q.method = o.map.method;
-  q.fp32 = prec == lbm::Precision::FP32;
-  return q;
-}
-
-// Every resolved PSM setting, where the rule's parameters came from (the case
-// file or the rule) and the warnings for a combination the default rule does
-// not cover (imb/psm_settings.hpp), told at `lbdem check` and at the start of
-// a run (rank 0).
-imb::PsmSettings psm_settings(const Config& root, const imb::DragErrorQuery& q, const char* pipeline,
-                              lbm::Precision prec, bool tell) {
-  imb::PsmSettingsInput in;
-  in.q = q;
-  const Config f = root.section("fluid");
-  in.magic_from_file = f.has("magic") && f.text("magic") != "auto";
-  const auto ps = root.optional_section("psm");
-  in.weight_from_file = ps && ps->has("weight");
-  in.pipeline = pipeline;
-  in.precision = lbm::to_string(prec);
-  auto r = imb::resolve_psm_settings(in);
-  for (const auto& w : r.warnings)
-    if (tell) spdlog::warn("{}: {}", root.source(), w);
-  return r;
-}
-
-// ------------------------------------------------------------ fixed sphere
-int run_fixed_sphere_case(const Config& root, const RunOptions& opt) {
-  // The drag of a steady state: a run is redone, never continued.
-  if (opt.restart)
-    throw ConfigError("--restart: scene 'fixed_sphere' does not write checkpoints (it runs to a steady state); run "
-                      "it again instead");
-  require_lattice_units(root);
-  imb::FixedSphereSpec s;
-  const Config g = root.section("geometry");
-  s.dim = static_cast<int>(g.integer_in("dim", 3, 2, 3));
-  s.diameter = g.number_in("diameter", 2.0, 1000.0, "sphere diameter in cells (d/l)");
-  s.chi = g.number_in("chi", 0.5, 0.05, 0.75, "d/L, L the array period (Sangani-Acrivos series valid to 0.75)");
-  s.offset = g.number_in("offset", 0.0, -0.5, 0.5, "sphere centre offset from the cell-aligned centre, cells");
-  g.finish();
-  const Config f = root.section("fluid");
-  read_fluid_common(f, s);
-  s.streaming = f.choice("streaming", "aa", {"aa", "two_lattice"}) == "aa" ? lbm::StreamKind::AA
-                                                                          : lbm::StreamKind::TwoLattice;
-  s.re_p = f.number_in("re_p", 0.2, 1e-4, 50.0, "target particle Reynolds number (sets the body force)");
-  f.finish();
-  imb::PsmOptions po;
-  po.weight = imb::PsmWeight::NobleTorczynskiWall;  // the default with or without a psm section
-  double max_drag_error = kMaxDragErrorBar;
-  if (auto ps = root.optional_section("psm")) {
-    read_psm(*ps, po, s.slots, max_drag_error);
-    ps->finish();
-  }
-  s.magic = resolve_magic(s.magic, s.diameter, s.tau);
-  s.method = po.map.method;
-  s.pipeline = po.pipeline;
-  s.variant = po.variant;
-  s.weight = po.weight;
-  const Config st = root.section("steady");
-  s.tolerance = st.number_in("tolerance", 1e-7, 1e-14, 1e-2, "estimated remaining relative change of the drag");
-  s.max_steps = st.integer_in("max_steps", 2000000, 1, std::numeric_limits<long>::max());
-  st.finish();
-  const Config o = root.section("output");
-  std::string outdir = o.text("directory");
-  o.finish();
-  s.parallel = halo::parse_parallel(root);
-  root.accept("scene");
-  root.finish();
-  if (opt.output) outdir = *opt.output;
-  if (opt.steps) s.max_steps = *opt.steps;
-  cases::check_fixed_sphere(root, s.dim, s.diameter, s.chi, s.precision, s.streaming, s.max_steps, opt);
-  {
-    // 16-bit storage (lbm/storage_checks.hpp): the flow is steady, its scale the array period d / chi.
-    lbm::LbmSetup fl;
-    fl.precision = s.precision;
-    fl.tau = s.tau;
-    const double nu = (s.tau - 0.5) / 3.0;
-    for (const auto& w : lbm::storage_warnings(fl, s.re_p * nu / s.diameter, s.diameter / s.chi, double(s.max_steps)))
-      spdlog::warn("{}: {}", root.source(), w);
-  }
-  if (s.dim == 3) report_expected_drag_error(drag_query(s.diameter, s.tau, s.collision, s.magic, po, s.precision),
-                                             max_drag_error, opt);
-  const auto psm = psm_settings(root, drag_query(s.diameter, s.tau, s.collision, s.magic, po, s.precision),
-                                imb::to_string(s.pipeline == imb::PsmPipeline::Fused ? imb::PsmPipeline::Fused
-                                                                                     : imb::PsmPipeline::Mapped),
-                                s.precision, halo::Comm::world().root());
-  const Backend backend = resolve_backend(opt.backend);
-  const halo::Comm& comm = halo::Comm::world();
-  s.comm = &comm;
-  if (comm.distributed()) {
-    // The cut is checked before anything is allocated or written.
-    const long L = std::lround(s.diameter / s.chi);
-    halo::decompose(Grid::whole({L, L, s.dim == 3 ? L : 1}), comm.size(), s.parallel.decomposition,
-                    "parallel.decomposition");
-  }
-  if (opt.validate_only) return 0;
-  if (comm.root()) io::prepare_output_dir(outdir, opt.overwrite);
-  std::unique_ptr<imb::FractionTable> table;
-  if (s.method == imb::FractionMethod::Table) {
-    table = std::make_unique<imb::FractionTable>(imb::build_fraction_table(s.dim));
-    s.table = table.get();
-  }
-  s.quiet = opt.quiet;
-  if (!opt.quiet)
-    spdlog::info("scene fixed_sphere: {}D, d/l = {}, chi = {}, tau = {}, {} Lambda = {}, {} fractions, backend {}",
-                 s.dim, s.diameter, s.chi, s.tau, to_string(s.collision), s.magic, imb::to_string(s.method),
-                 to_string(backend));
-  const auto r = imb::run_fixed_sphere(s, backend);
-  // Numbers to the last bit (K is compared across rank counts and settings).
-  json::Value js = json::Value::object();
-  js.set("scene", "fixed_sphere")
-      .set("dim", s.dim)
-      .set("diameter", s.diameter)
-      .set("chi", s.chi)
-      .set("tau", s.tau)
-      .set("magic", s.magic)
-      .set("K", r.K)
-      .set("K_reference", r.K_ref)
-      .set("relative_error", r.rel_error)
-      .set("re_p", r.re_p)
-      .set("steps", r.steps)
-      .set("converged", r.converged)
-      .set("seconds", r.seconds)
-      .set("mlups", r.mlups)
-      .set("interrupted", r.interrupted)
-      .set("ranks", comm.size())
-      .set("psm", json::Value::parse(imb::psm_settings_json(psm)));
-  if (comm.root()) io::write_text_atomically(outdir + "/summary.json", js.dump());
-  if (r.interrupted) {
-    spdlog::warn("stopped by {} at step {} before the drag converged; K so far in {}/summary.json", stop_signal_name(),
-                 r.steps, outdir);
-    return kExitInterrupted;
-  }
-  if (!opt.quiet) {
-    spdlog::info("K = {:.5f} against {} {:.5f}: error {:+.3f}%, Re_p = {:.3f}, {} steps{} in {:.1f} s ({:.1f} MLUPS)",
-                 r.K, s.dim == 3 ? "Sangani & Acrivos (1982)" : "Sangani & Acrivos (1982, cylinders)", r.K_ref,
-                 100 * r.rel_error, r.re_p, r.steps, r.converged ? "" : " (NOT converged: raise steady.max_steps)",
-                 r.seconds, r.mlups);
-    spdlog::info("results: {}/summary.json", outdir);
-  }
-  return r.converged ? 0 : 1;
-}
 
 // --------------------------------------------------------- coupled particles
 struct ParticlesCase {
@@ -340,7 +91,7 @@ struct ParticlesCase {
   bool async_output = false;  // output.background
   bool final_output = true;   // output.final
   ckpt::Policy checkpoint;
-  double max_drag_error = kMaxDragErrorBar;
+  double max_drag_error = imb::kMaxDragErrorBar;
   halo::ParallelOptions parallel;  // mpirun: how the grid (and with it the particles) is cut
   imb::PsmSettings psm;            // every resolved PSM setting (summary.json "psm")
 };
@@ -428,7 +179,7 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
     s.boundaries.kind[0] = lbm::BoundaryKind::Wall;
     s.boundaries.rho[0] = 1.0;
   }
-  read_fluid_common(f, s, !c.physical);
+  imb::read_fluid_common(f, s, !c.physical);
   if (c.physical && s.collision == lbm::CollisionKind::BGK && s.tau < 0.51)
     (f.has("tau") ? f : t).fail(f.has("tau") ? "tau" : "dt", "gives tau = " + std::to_string(s.tau) +
                                                                   ": BGK needs tau >= 0.51 to stay stable; use "
@@ -536,7 +287,7 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
       c.particles = dem::random_packing(rs);
     } else {
       cases::check_particles_memory(root, s, double(count), opt);
-      c.particles = cases::random_disks(rs.lo, rs.hi, rs.periodic, count, r, rho_s, seed,
+      c.particles = dem::random_disks(rs.lo, rs.hi, rs.periodic, count, r, rho_s, seed,
                                         pc.full_key(pc.has("count") ? "count" : "solid_fraction"));
     }
     for (Index i = 0; i < c.particles.size(); ++i) {
@@ -544,7 +295,7 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
       c.particles.w[static_cast<std::size_t>(i)] = w0l;
     }
   }
-  cases::add_random_velocities(c.particles, dim, random_speed, seed);
+  dem::add_random_velocities(c.particles, dim, random_speed, seed);
   if (dim == 2) {
     // 2D: disks one cell deep (the first paper's Table 2: m = rho_s pi r^2 l),
     // not the spheres HostParticles::add makes: mass x (pi r^2) / (4/3 pi r^3).
@@ -601,11 +352,11 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
   dm.finish();
   c.coupling.psm.weight = imb::PsmWeight::NobleTorczynskiWall;  // the default with or without a psm section
   if (auto ps = root.optional_section("psm")) {
-    read_psm(*ps, c.coupling.psm, c.coupling.slots, c.max_drag_error);
+    imb::read_psm(*ps, c.coupling.psm, c.coupling.slots, c.max_drag_error);
     ps->finish();
   }
   c.coupling.psm.map.max_radius = r;
-  s.magic = resolve_magic(s.magic, diam, s.tau);
+  s.magic = imb::resolve_magic(s.magic, diam, s.tau);
   if (c.physical) {
     // time.steps, or time.end in seconds.
     if (t.has("steps") == t.has("end"))
@@ -650,7 +401,7 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
     if (split)
       dom = dem::domain_from_decomposition(
           world, halo::decompose(s.domain, world.size(), c.parallel.decomposition, "parallel.decomposition"), p);
-    c.particles = cases::suspension_blocks(*c.blocks, dom ? &*dom : nullptr);
+    c.particles = dem::suspension_blocks(*c.blocks, dom ? &*dom : nullptr);
     if (dim == 2)  // disks one cell deep, as above
       for (std::size_t i = 0; i < c.particles.mass.size(); ++i) c.particles.mass[i] *= 0.75 / c.particles.r[i];
   }
@@ -692,13 +443,13 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
     for (const auto& w : lbm::storage_warnings(s, 0.0, scale, double(c.steps))) spdlog::warn("{}: {}", root.source(), w);
   }
   // Every device allocation of the run, by component, before any is made (exit 4 when it does not fit).
-  cases::check_coupled_memory(root, s, c.coupling, static_cast<double>(c.particles.size()), opt);
+  imb::check_coupled_memory(root, s, c.coupling, static_cast<double>(c.particles.size()), cases::planned_backend(opt));
   return c;
 }
 
 // What the suspension statistics need of the scene.
-cases::SuspensionStatsSpec suspension_stats_spec(const ParticlesCase& c) {
-  cases::SuspensionStatsSpec sp;
+imb::SuspensionStatsSpec suspension_stats_spec(const ParticlesCase& c) {
+  imb::SuspensionStatsSpec sp;
   sp.dim = c.dim;
   sp.fluid_lo = c.fluid_lo;
   sp.fluid_hi = c.fluid_hi;
@@ -735,7 +486,7 @@ double mean_net_weight(const ParticlesCase& c, bool sphere = false) {
 // velocity, and compares both with Wen & Yu.
 double wen_yu_prediction(const ParticlesCase& c) {
   const double nu = (c.setup.tau - 0.5) / 3.0;
-  return cases::wen_yu_slip(c.solid_fraction, c.diameter, c.coupling.fluid_density, c.coupling.fluid_density * nu,
+  return cfd::wen_yu_slip(c.solid_fraction, c.diameter, c.coupling.fluid_density, c.coupling.fluid_density * nu,
                             mean_net_weight(c, true));
 }
 
@@ -762,7 +513,7 @@ double periodic_settling_reference(const ParticlesCase& c) {
 }
 
 // The last sample's slip along -g (along y without gravity).
-double last_slip_along_gravity(const ParticlesCase& c, const cases::SuspensionSample& s) {
+double last_slip_along_gravity(const ParticlesCase& c, const imb::SuspensionSample& s) {
   const auto& g = c.coupling.gravity;
   const double gn = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
   if (!(gn > 0)) return s.slip[1];
@@ -775,7 +526,7 @@ json::Value json_vec(const std::array<double, 3>& v) { return json::Value::array
 // factors, the lattice parameters it ran with (numbers to the last bit: a
 // physical-unit case and its lattice-unit twin compare exactly), the
 // statistics against Wen-Yu.
-void particles_summary(json::Value& js, const ParticlesCase& c, const cases::ParticleSeries& series, Index particles,
+void particles_summary(json::Value& js, const ParticlesCase& c, const imb::ParticleSeries& series, Index particles,
                        long job_steps, double secs, double cells, Backend backend) {
   const Units& U = c.units;
   const auto& n = c.setup.domain.global;
@@ -840,130 +591,7 @@ void particles_summary(json::Value& js, const ParticlesCase& c, const cases::Par
   js.set("psm", json::Value::parse(imb::psm_settings_json(c.psm)));
 }
 
-// summary.json "timing": per phase of the coupled step the total seconds of
-// each rank, as the max and the mean over the ranks (imb::CoupledSolver
-// phase clock; exposed_communication: host time waiting in the fluid halo's
-// transport, part of fluid_psm), the set-up phases alike, the snapshot
-// output's share, and the particles per rank at the worst series row.
-// Collective.
-void timing_json(json::Value& js, imb::CoupledSolver& cs, lbm::DistributedFluid& dfluid, const halo::Comm& comm,
-                 const std::array<double, 4>& setup, double loop_secs, double output_secs, long snapshots,
-                 double ppr_max, double ppr_mean, long ppr_step) {
-  PhaseClock& clock = cs.phase_clock();
-  clock.collect();
-  std::vector<double> t = clock.totals();
-  std::vector<std::string> names = clock.names();
-  const lbm::FluidHalo* h = dfluid.halo();
-  t.push_back(h ? h->times().start + h->times().finish : 0.0);
-  names.push_back("exposed_communication");
-  for (double v : setup) t.push_back(v);
-  for (const char* n : {"packing", "particle_distribution", "fluid_initial_state", "first_map"}) names.push_back(n);
-  t.push_back(output_secs);
-  names.push_back("output");
-  // This rank's phases together and its loop time (the phases lie inside the loop).
-  double phase_sum = 0;
-  for (double v : clock.totals()) phase_sum += v;
-  t.push_back(phase_sum);
-  names.push_back("phase_sum");
-  t.push_back(loop_secs);
-  names.push_back("loop");
-  std::vector<double> mx = t, mean = t;
-  if (comm.distributed()) {
-    for (double& v : mx) v = comm.max(v);
-    comm.sum(mean);
-    for (double& v : mean) v /= comm.size();
-  }
-  const std::size_t nphase = clock.names().size() + 1;
-  auto pair = [&](std::size_t i) { return json::Value::object().set("max", mx[i]).set("mean", mean[i]); };
-  json::Value& tj = js["timing"];
-  for (std::size_t i = 0; i < nphase; ++i) tj["phases"].set(names[i], pair(i));
-  double setup_max = 0;
-  for (std::size_t i = nphase; i < nphase + 4; ++i) {
-    tj["setup"].set(names[i], pair(i));
-    setup_max += mx[i];
-  }
-  tj.set("setup_seconds", setup_max)
-      .set("loop_seconds", mx[nphase + 6])
-      .set("phase_sum_seconds", mx[nphase + 5])
-      .set("output_seconds", pair(nphase + 4))
-      .set("snapshots", snapshots)
-      .set("output_fraction_of_run", mx[nphase + 4] / std::max(mx[nphase + 6], 1e-12))
-      .set("steps_timed", clock.steps())
-      .set("note",
-           "seconds per rank summed over the run, max and mean over the ranks; phases of the coupled step: fluid_psm "
-           "(fluid + PSM step, halo exchange included), force_reduction (ghost forces to their owners), dem (the DEM "
-           "sub-steps, migration and ghost rebuilds included), ghost_sync (ghost velocities), map (particles to "
-           "cells); exposed_communication is the part of fluid_psm waiting for the halo; on the device the phases are "
-           "sampled every 16th step with events; setup_seconds sums the set-up phases' maxima; "
-           "output_fraction_of_run: the snapshots' wall time over loop_seconds (which includes those inside the "
-           "loop); loop_seconds and phase_sum_seconds (the phases of a rank together): max over the ranks");
-  js["particles_per_rank"]
-      .set("max", ppr_max)
-      .set("mean", ppr_mean)
-      .set("imbalance", ppr_mean > 0 ? ppr_max / ppr_mean : 0.0)
-      .set("step", ppr_step)
-      .set("note", "owned particles per rank at the series row with the largest max / mean");
-}
-
-// The components of every rank's memory use (a rank without particles may
-// hold fewer buffers): the union, in the order of the ranks. Collective.
-std::vector<std::string> memory_component_names(const MemoryUse& m, const halo::Comm& comm) {
-  std::string mine;
-  for (const auto& it : m.items) mine += it.name + "\n";
-  const auto all = comm.allgather(std::as_bytes(std::span<const char>(mine.data(), mine.size())));
-  std::vector<std::string> names;
-  for (const auto& b : all) {
-    std::string text(reinterpret_cast<const char*>(b.data()), b.size());
-    std::size_t at = 0;
-    while (at < text.size()) {
-      const std::size_t e = text.find('\n', at);
-      const std::string nm = text.substr(at, e - at);
-      if (std::find(names.begin(), names.end(), nm) == names.end()) names.push_back(nm);
-      at = e + 1;
-    }
-  }
-  return names;
-}
-
-// The particles of a run on several ranks, cut where the grid is cut
-// (imb/coupled.hpp): refuses, before anything is allocated, a cut the
-// coupling cannot run on. A piece must be at least the DEM's ghost width
-// 2 r_max + skin thick, and the ghosts, kept within 2 r + skin of a piece at
-// each list build and moving at most skin / 2 before the next, must reach
-// every particle whose solid fraction can touch a cell of the piece or its
-// ghost layer: a cell within r + sqrt(dim) / 2 of the centre (plus the
-// linear fractions' radius correction, at most 0.1 r), the ghost layer one
-// cell beyond the piece. So r + skin / 2 >= 0.1 r + sqrt(dim) / 2 + 1.
-dem::DemDomain particles_domain(const Config& root, const ParticlesCase& c, const halo::Comm& comm) {
-  const halo::Decomposition dec =
-      halo::decompose(c.setup.domain, comm.size(), c.parallel.decomposition, "parallel.decomposition");
-  dem::DemDomain dom = dem::domain_from_decomposition(comm, dec, c.dem);
-  dom.transport = c.parallel.transport;
-  const double w = dem::ghost_width(c.dem, c.particles.r);
-  double r_max = 0;
-  for (double r : c.particles.r) r_max = std::max(r_max, r);
-  const double skin = c.dem.skin > 0 ? c.dem.skin : w - 2 * r_max;
-  const double reach = 0.1 * r_max + std::sqrt(double(c.dim)) / 2 + 1;
-  if (r_max + skin / 2 < reach)
-    throw ConfigError(root.source() + ": particles.diameter = " + std::to_string(2 * r_max) +
-                      " cells is too small to run on several ranks: a particle's ghost copies (kept within 2 r + "
-                      "skin of a piece) would not reach every cell its solid fraction covers on a neighbouring "
-                      "piece; use a diameter of at least " + std::to_string(2 * (reach - skin / 2) + 0.01) +
-                      " cells, or one rank");
-  for (int a = 0; a < 3; ++a) {
-    const auto& cut = dom.cuts[static_cast<std::size_t>(a)];
-    for (std::size_t i = 0; dec.dims[static_cast<std::size_t>(a)] > 1 && i + 1 < cut.size(); ++i)
-      if (cut[i + 1] - cut[i] < w)
-        throw ConfigError(root.source() + ": parallel.decomposition = " + dec.describe() + " cuts axis " +
-                          std::string(1, char('x' + a)) + " into a piece of " + std::to_string(cut[i + 1] - cut[i]) +
-                          " cells, thinner than the particles' ghost width 2 r + skin = " + std::to_string(w) +
-                          " cells (a particle's contact partners and its cells must lie in the neighbouring pieces): "
-                          "use fewer ranks along " + std::string(1, char('x' + a)) + " or a larger domain.cells");
-  }
-  return dom;
-}
-
-int run_particles_case(const Config& root, const RunOptions& opt) {
+int run_particles(const Config& root, const RunOptions& opt) {
   // Set-up phases (summary.json "timing"), host wall time; each one ends
   // with the device idle, so its work is counted in it.
   using sclk = std::chrono::steady_clock;
@@ -978,41 +606,41 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
   if (ranks) {
     // The cut, checked before anything is allocated or written. Contacts
     // are summed in global-id order, so that the cut does not change them.
-    domain = particles_domain(root, c, comm);
+    domain = imb::coupled_domain(root.source(), c.setup, c.dim, c.dem, c.particles.r, c.parallel, comm);
     c.dem.contact_order = dem::ContactOrder::GlobalId;
   }
   if (c.setup.lattice == lbm::LatticeKind::D3Q19 && writer)
-    report_expected_drag_error(drag_query(2 * c.particles.r[0], c.setup.tau, c.setup.collision, c.setup.magic,
+    imb::report_expected_drag_error(imb::drag_query(2 * c.particles.r[0], c.setup.tau, c.setup.collision, c.setup.magic,
                                           c.coupling.psm, c.setup.precision),
-                               c.max_drag_error, opt);
-  c.psm = psm_settings(root, drag_query(c.diameter, c.setup.tau, c.setup.collision, c.setup.magic,
+                               c.max_drag_error, opt.validate_only, opt.quiet);
+  c.psm = imb::psm_settings(root, imb::drag_query(c.diameter, c.setup.tau, c.setup.collision, c.setup.magic,
                                         c.coupling.psm, c.setup.precision),
                        imb::to_string(imb::resolve_pipeline(c.coupling.psm, c.coupling.slots)), c.setup.precision, writer);
   const Backend backend = resolve_backend(opt.backend);
-  const MemoryUse planned = cases::coupled_memory(c.setup, c.coupling, static_cast<double>(c.particles.size()), backend);
+  const MemoryUse planned = imb::coupled_memory(c.setup, c.coupling, static_cast<double>(c.particles.size()), backend);
   const double cells = static_cast<double>(c.setup.domain.global_cells());
   if (opt.validate_only) {
     if (!writer) return 0;
     std::printf("%s: device memory (%s, %s, %s pipeline), %.4g cells, %lld particles:\n%s", root.source().c_str(),
                 to_string(backend), lbm::to_string(c.setup.precision),
                 imb::to_string(imb::resolve_pipeline(c.coupling.psm, c.coupling.slots)), cells,
-                static_cast<long long>(c.particle_count), cases::memory_table(planned, cells).c_str());
+                static_cast<long long>(c.particle_count), memory_table(planned, cells).c_str());
     return 0;
   }
   const bool quiet = opt.quiet || !writer;
   // A restart checks its checkpoint against this case before any output is
   // touched (rank 0 reads it; a checkpoint of any rank count restarts here).
-  ckpt::Run ck = cases::open_run(
+  ckpt::Run ck = halo::open_run(
       c.outdir, c.checkpoint,
-      cases::fluid_identity("particles", c.setup).add("particles", std::to_string(c.particle_count)), opt.restart,
+      lbm::fluid_identity("particles", c.setup).add("particles", std::to_string(c.particle_count)), opt.restart,
       comm);
-  cases::prepare_output_on_writer(ck, writer, comm, opt.overwrite, c.outdir);
+  halo::prepare_output_on_writer(ck, writer, comm, opt.overwrite, c.outdir);
   // The fluid: the whole grid on one rank, this rank's piece (with its halo
   // exchange) on several.
   t_setup = sclk::now();
   lbm::DistributedFluid dfluid(c.setup, backend, c.parallel, comm);
   lbm::LbmSolver* fluid = &dfluid.local();
-  if (ranks) ck.set_layout(cases::rank_layout(comm.size(), dfluid.decomposition().describe()));
+  if (ranks) ck.set_layout(halo::rank_layout(comm.size(), dfluid.decomposition().describe()));
   const auto& n = c.setup.domain.local;  // the whole grid (Grid::whole)
   const auto N = static_cast<std::size_t>(n[0] * n[1] * n[2]);
   // Closed axes carry one layer of half-way bounce-back wall cells on each side
@@ -1150,7 +778,7 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
         }
       }
       bg->submit([snap, &pw, &gw, &field_list, offset, slab, one = !ranks] {
-        snap->names = cases::write_particle_piece(pw, snap->step, snap->time, snap->particles,
+        snap->names = dem::write_particle_piece(pw, snap->step, snap->time, snap->particles,
                                                   {{"hydrodynamic_force", 3, snap->force.data()}});
         gw.write_piece(snap->step, snap->time, field_list, slab, [&](const CellBox& b, const std::vector<double*>& out) {
           const std::size_t c0 = offset(b);
@@ -1169,7 +797,7 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
     }
     const auto hf = cs.hydro_force_host();
     const dem::HostParticles own = dem.download();
-    const auto names = cases::write_particle_piece(pw, step, t, own, {{"hydrodynamic_force", 3, hf.data()}});
+    const auto names = dem::write_particle_piece(pw, step, t, own, {{"hydrodynamic_force", 3, hf.data()}});
     gw.write_piece(step, t, field_list, fluid->output_slab_cells(), [&](const CellBox& b, const std::vector<double*>& out) {
       fluid->macroscopic_box(b, out[0], out[1]);
       cs.solid_fraction_box(b, out[2]);
@@ -1196,15 +824,15 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
     ++snapshots;
   };
   // A restart keeps the series rows up to its checkpoint and the series' accumulators.
-  cases::SuspensionStatsSpec spec = suspension_stats_spec(c);
+  imb::SuspensionStatsSpec spec = suspension_stats_spec(c);
   if (ranks) spec.comm = &comm;
-  cases::ParticleSeries series(c.outdir + "/series.csv", cs, spec, c.units.dt, &ck, c.series_interval,
+  imb::ParticleSeries series(c.outdir + "/series.csv", cs, spec, c.units.dt, &ck, c.series_interval,
                                ranks ? std::function<lbm::LbmDiagnostics()>([&dfluid] { return dfluid.diagnostics(); })
                                      : std::function<lbm::LbmDiagnostics()>());
   series.average_from(c.steps / 2);  // the mean slip of summary.json: the run's second half
   long step0 = 0;
   if (ck.restarting()) {  // the state of the checkpoint's step; its series and snapshots are kept
-    series.restore(cases::load_coupled(ck, comm, *fluid, c.setup.domain, flags, dem, cs,
+    series.restore(imb::load_coupled(ck, comm, *fluid, c.setup.domain, flags, dem, cs,
                                        dfluid.decomposition().describe()));
     step0 = ck.restart_step();
     if (writer) {
@@ -1254,7 +882,7 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
            sim::Trigger{.every_steps = c.output_interval, .at_start = c.output_interval > 0, .at_end = c.final_output},
            [&](const sim::Event& e) { write_output(e.step); }, true);
   loop.add("checkpoint", sim::checkpoint_trigger(c.checkpoint), [&](const sim::Event& e) {
-    cases::save_coupled(ck, comm, e.step, double(e.step) * c.units.dt, *fluid, dem, cs, series.state());
+    imb::save_coupled(ck, comm, e.step, double(e.step) * c.units.dt, *fluid, dem, cs, series.state());
   }, true);
   loop.progress([&](long st) { return double(st) * c.units.dt; }, double(N) / 1e6, "MLUPS (coupled)", quiet);
   loop.run([&](long k) { cs.advance(k); });
@@ -1280,7 +908,7 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
     for (const auto& it : held.items) bytes.push_back(double(it.bytes));
     if (ranks) {
       // Every rank holds the same components (the same pipeline); a missing one counts 0.
-      const std::vector<std::string> names = memory_component_names(held, comm);
+      const std::vector<std::string> names = halo::memory_component_names(held, comm);
       bytes.assign(names.size(), 0.0);
       for (const auto& it : held.items)
         for (std::size_t k = 0; k < names.size(); ++k)
@@ -1314,7 +942,7 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
              "wall time in snapshot output (device copies and, unless background, the HDF5 writes) and in checkpoint "
              "writes; stepping_seconds includes the snapshots and checkpoints taken inside the loop");
     if (ranks) js.set("decomposition", dfluid.decomposition().describe());
-    timing_json(js, cs, dfluid, comm, {packing_secs, distribution_secs, fluid_init_secs, first_map_secs}, secs,
+    imb::timing_json(js, cs, dfluid, comm, {packing_secs, distribution_secs, fluid_init_secs, first_map_secs}, secs,
                 output_secs, snapshots, ppr_max, ppr_mean, ppr_step);
   }
   if (loop.conclude(c.outdir, double(step) * c.units.dt) != 0) return kExitInterrupted;
@@ -1324,7 +952,7 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
                  "gives dx, dt, dm)",
                  step - step0, secs, double(N) * (step - step0) / std::max(secs, 1e-12) / 1e6,
                  100 * series.seconds() / std::max(secs, 1e-12), c.outdir, c.outdir, c.outdir);
-    if (c.particle_count > cases::ParticleSeries::kTrackedMax && series.averaged_samples() > 0)
+    if (c.particle_count > imb::ParticleSeries::kTrackedMax && series.averaged_samples() > 0)
       spdlog::info("mean slip over steps {}..{}: {:.4g} cells/step ({:.4g} x the Wen-Yu homogeneous slip {:.4g}); "
                    "drag / net weight {:.4f}",
                    c.steps / 2, step, series.mean_slip(), series.mean_slip() / wen_yu_prediction(c),
@@ -1343,12 +971,10 @@ int run_particles_case(const Config& root, const RunOptions& opt) {
 
 }  // namespace
 
-std::vector<std::string> psm_scene_names() { return {"fixed_sphere", "particles"}; }
+std::vector<std::string> particles_scene_names() { return {"particles"}; }
 
-int run_psm_case(const Config& root, const RunOptions& opt) {
-  const std::string scene = root.text("scene");
-  return cases::with_user_keys(scene, [&] {
-    if (scene == "fixed_sphere") return run_fixed_sphere_case(root, opt);
+int run_particles_case(const Config& root, const RunOptions& opt) {
+  return cases::with_user_keys("particles", [&] {
     // A physical-unit file names its SI keys where a check names the lattice one.
     // (Not a message about a lattice key the user wrote by mistake: that one names it.)
     const bool physical = root.has("units") && root.text("units") == "physical";
@@ -1356,7 +982,7 @@ int run_psm_case(const Config& root, const RunOptions& opt) {
       return physical && m.find("unknown key '") == std::string::npos ? cases::user_keys(m, physical_key_map()) : m;
     };
     try {
-      return run_particles_case(root, opt);
+      return run_particles(root, opt);
     } catch (const ConfigError& e) {
       throw ConfigError(rewrite(e.what()));
     } catch (const ResourceError& e) {

@@ -1,13 +1,12 @@
-// series.csv of the particle scene (cases/suspension.hpp, ParticleSeries).
+// series.csv of the particle scene (imb/suspension.hpp, ParticleSeries).
 #include <chrono>
 #include <cmath>
 
-#include "cases/suspension.hpp"
-#include "checkpoint_case.hpp"
+#include "imb/suspension.hpp"
 #include "halo/comm.hpp"
 #include "imb/coupled.hpp"
 
-namespace lbdem::cases {
+namespace lbdem::imb {
 
 namespace {
 std::vector<std::string> series_columns(const SuspensionStatistics& s, bool track) {
@@ -23,7 +22,7 @@ std::vector<std::string> series_columns(const SuspensionStatistics& s, bool trac
 }
 }  // namespace
 
-ParticleSeries::ParticleSeries(const std::string& path, imb::CoupledSolver& cs, const SuspensionStatsSpec& spec,
+ParticleSeries::ParticleSeries(const std::string& path, CoupledSolver& cs, const SuspensionStatsSpec& spec,
                                double dt, const ckpt::Run* run, long interval,
                                std::function<lbm::LbmDiagnostics()> diagnostics)
     : cs_(cs),
@@ -118,4 +117,4 @@ lbm::LbmDiagnostics ParticleSeries::append(long step) {
   return d;
 }
 
-}  // namespace lbdem::cases
+}  // namespace lbdem::imb

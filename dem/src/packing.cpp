@@ -1,20 +1,17 @@
-// Set-up of the periodic suspension (cases/suspension.hpp): random disks,
-// random initial velocities, the Wen-Yu homogeneous slip.
+// Random particle sets of a suspension's set-up (dem/packing.hpp).
+#include "dem/packing.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <random>
 #include <string>
 
-#include "cases/suspension.hpp"
-#include "cfd/drag.hpp"
 #include "core/error.hpp"
 #include "core/random.hpp"
 
-namespace lbdem::cases {
+namespace lbdem::dem {
 
 namespace {
-constexpr double kPi = 3.14159265358979323846;
-
 std::string g(double v) {
   char b[32];
   std::snprintf(b, sizeof b, "%.6g", v);
@@ -22,10 +19,10 @@ std::string g(double v) {
 }
 }  // namespace
 
-dem::HostParticles random_disks(const std::array<double, 3>& lo, const std::array<double, 3>& hi,
+HostParticles random_disks(const std::array<double, 3>& lo, const std::array<double, 3>& hi,
                                 const std::array<bool, 3>& periodic, long count, double r, double density,
                                 std::uint64_t seed, const std::string& key) {
-  dem::HostParticles hp;
+  HostParticles hp;
   if (count <= 0) return hp;
   // The region the centres may take: the whole period, or the box less a radius at walls.
   std::array<double, 2> rlo{}, rlen{};
@@ -102,13 +99,13 @@ dem::HostParticles random_disks(const std::array<double, 3>& lo, const std::arra
   return hp;
 }
 
-dem::HostParticles suspension_blocks(const dem::BlockPackingSpec& spec, const dem::DemDomain* domain) {
-  const dem::BlockPacking bp(spec);
+HostParticles suspension_blocks(const BlockPackingSpec& spec, const DemDomain* domain) {
+  const BlockPacking bp(spec);
   if (!domain || !domain->decomposed()) return bp.pack_all();
   const int me = domain->rank();
   Vec3d lo, hi;
   domain->piece(me, lo, hi);
-  dem::HostParticles mine =
+  HostParticles mine =
       bp.pack({lo.x, lo.y, lo.z}, {hi.x, hi.y, hi.z}, [&](const Vec3d& x) { return domain->owner(x) == me; });
   if (domain->comm->any(mine.size() == 0))
     throw ConfigError("particles.packing: blocks leaves a rank's piece without particles (" + std::to_string(bp.count()) +
@@ -117,7 +114,7 @@ dem::HostParticles suspension_blocks(const dem::BlockPackingSpec& spec, const de
   return mine;
 }
 
-void add_random_velocities(dem::HostParticles& p, int dim, double speed, std::uint64_t seed) {
+void add_random_velocities(HostParticles& p, int dim, double speed, std::uint64_t seed) {
   if (!(speed > 0) || p.x.empty()) return;
   // A stream of its own (seed mixed with a constant), so that the positions
   // of a random packing with the same seed do not correlate with it.
@@ -138,22 +135,4 @@ void add_random_velocities(dem::HostParticles& p, int dim, double speed, std::ui
   for (std::size_t i = 0; i < dv.size(); ++i) p.v[i] = p.v[i] + (dv[i] - mean);
 }
 
-double wen_yu_drag(double phi, double d, double rho_f, double mu, double w) {
-  const double eps = 1.0 - phi;
-  const double re = eps * rho_f * d * w / mu;
-  return 3 * kPi * mu * d * eps * w * cfd::drag_wen_yu(phi, re);
-}
-
-double wen_yu_slip(double phi, double d, double rho_f, double mu, double net_weight) {
-  if (!(net_weight > 0) || !(phi >= 0 && phi < 1) || !(mu > 0) || !(d > 0)) return 0;
-  // The drag grows monotonically with w: bracket from the Stokes limit (an
-  // upper bound, the inertial factor being >= 1) and bisect.
-  double hi = net_weight * std::pow(1 - phi, 2.65) / (3 * kPi * mu * d), lo = 0;
-  for (int it = 0; it < 200; ++it) {
-    const double mid = 0.5 * (lo + hi);
-    (wen_yu_drag(phi, d, rho_f, mu, mid) < net_weight ? lo : hi) = mid;
-  }
-  return 0.5 * (lo + hi);
-}
-
-}  // namespace lbdem::cases
+}  // namespace lbdem::dem

@@ -114,11 +114,19 @@ class Simulation {
   // signal ended it (after the operations of its last boundary).
   bool run(const Advance& advance);
 
+  // Called by an operation: the run is done at this boundary (a steady state
+  // reached) and takes no further step; the operations after it in this
+  // boundary still run, the end-of-run triggers do not fire again. Every rank
+  // must call it at the same boundary. run() then returns true.
+  void end_here() { ended_ = true; }
+
   long step() const { return step_; }
   long first_step() const { return first_; }
   long last_step() const { return last_; }
   // A stop signal ended the run before its last step.
   bool interrupted() const { return stopped_; }
+  // An operation ended the run early (end_here).
+  bool ended_early() const { return ended_; }
   const PhaseTimer& phases() const { return phases_; }
   double phase(const std::string& name) const;
   double elapsed() const;  // wall seconds since run() began
@@ -168,6 +176,7 @@ class Simulation {
   double t0_ = 0;
   bool started_ = false;
   bool stopped_ = false;
+  bool ended_ = false;
 };
 
 }  // namespace lbdem::sim

@@ -1,0 +1,29 @@
+#pragma once
+// The reader of a case file's `gas` section (the fluidized_bed scene): density,
+// viscosity, cubic cells that fill the box, time step, drag law, void-fraction
+// deposition, the minimum gas fraction, an initial velocity, the six faces'
+// boundaries (periodic, no_slip, free_slip, inlet with an optional patch,
+// outlet) and the pressure solver. The gas memory is checked before anything
+// is built (core/run_checks.hpp). Messages name the key as written
+// (Config::fail); GasParams' own validation (cfd::validate) is the caller's.
+#include <array>
+
+#include "cfd/gas_grid.hpp"
+#include "cfd/gas_solver.hpp"
+#include "core/config.hpp"
+#include "core/exec.hpp"
+#include "core/vec.hpp"
+
+namespace lbdem::cfd {
+
+struct GasSection {
+  GasGridView grid;
+  GasParams gas;
+  Vec3d initial_velocity{};
+};
+
+// Section `gs` for the box [lo, hi] on `backend` (its memory).
+void read_gas(const Config& gs, const std::array<double, 3>& lo, const std::array<double, 3>& hi, Backend backend,
+              GasSection& c);
+
+}  // namespace lbdem::cfd
