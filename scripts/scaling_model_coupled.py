@@ -225,6 +225,8 @@ def measured_rows():
             x = json.loads(line)
             if x.get("kind", "coupled") != "coupled" or x.get("skipped") or x.get("exit", 0) != 0:
                 continue
+            if "H200" not in x.get("device", "NVIDIA H200"):  # the model is of the H200
+                continue
             if not x.get("phases") or not x.get("loop_s"):
                 continue
             commit = str(x.get("commit", "?"))
@@ -249,7 +251,7 @@ def measured_rows():
                 dims = None
             g = case["grid"]
             if x.get("grid"):
-                glob_ = tuple(x["grid"])
+                glob_ = tuple((list(x["grid"]) + [1, 1])[:3])
             elif dims and dims != (1, 1, 1) and cells > 1.5 * g[0] * g[1] * g[2]:
                 glob_ = tuple(g[a] * dims[a] for a in range(3))
             else:
