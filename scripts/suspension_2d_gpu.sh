@@ -60,7 +60,7 @@ run_one() {
   fi
   local yaml
   yaml=$(case_in "$prec")
-  rm -rf "$work/$name"
+  rm -rf "${work:?}/$name"
   local t=$SECONDS
   timeout 240 "${MPIRUN[@]}" -np "$n" "$lbdem" run "$yaml" --backend "$backend" --steps "$steps" --output "$work/$name" \
     --quiet > "$out/$name.log" 2>&1
@@ -94,7 +94,7 @@ PY
   json_line "$jsonl" kind=coupled dim=2d mode=strong precision="$prec" gpus="$n" exit="$rc" wall_s="$wall" $fields
   echo "$name: exit $rc in $wall s"
   [ "$rc" -eq 0 ] || tail -5 "$out/$name.log"
-  rm -rf "$work/$name"
+  rm -rf "${work:?}/$name"
 }
 
 for prec in ${PRECISIONS:-fp32 fp64}; do
