@@ -687,8 +687,8 @@ def markdown(d):
                 L.append(s)
     L.append("")
     L.append("Reading. **Strong scaling** of a fixed box runs out of work per GPU: the 3D box stays above 80 %% to 8 GPUs "
-             "(one node) and falls below between 8 and 64, where a GPU holds ~8·10^6 cells and ~2,000 spheres; from there "
-             "the step is set by what does not shrink with the piece: the DEM's ten substeps on their launch-bound floor "
+             "(one node, cut along y only) and falls below from 16 (cut 1 x 8 x 2: a second split axis, ~3·10^7 cells and "
+             "~8,000 spheres per GPU); from there the step is set by what does not shrink with the piece: the DEM's ten substeps on their launch-bound floor "
              "(12 us each) and, per substep, the ghost handling of every split axis (a 3D cut has three), then the ghost "
              "sync and the fixed part of the halo exchange. At 672 GPUs (~8·10^5 cells and ~190 spheres per GPU) the step "
              "is ~1 ms of which the fluid is 7 %%. The InfiniBand halo stays hidden behind the inner box in these runs. "
