@@ -1,0 +1,125 @@
+#!/usr/bin/env bash
+# The first paper's 2D suspension at full size (cases/suspension/suspension_2d.yaml: 15360 x 61440 cells,
+# 1,166,400 disks of d/l 10, block packing) coupled on 1, 2 and (where the host has them) 4 GPUs, in fp32 and
+# fp64 (issue 27): STEPS steps each, no snapshots (output.interval 0, no final snapshot: one would be 15-30 GB),
+# the grid cut as halo::decompose chooses. Every run's summary.json "timing" (phases max/mean over ranks, set-up
+# phases) and "particles_per_rank" go to one JSON line each (dim 2d, precision, gpus, dims: what
+# scripts/scaling_model_coupled.py reads from bench/results/suspension_2d_h200.jsonl); a table is printed at the
+# end.
+#   scripts/suspension_2d_gpu.sh BUILD_DIR
+# BUILD_DIR: a build folder (configured from the `cuda` preset and built here if missing: lbdem_build).
+# BUILD_ONLY=1: build and stop (a first call on a fresh machine; the runs then go in a second call).
+# Environment: STEPS (200), GPUS (the GPU counts to run, default "1 2 4" less those the host lacks), PRECISIONS
+# ("fp32 fp64"), BUDGET (seconds of runs after which the remaining ones are skipped, 420), WORK (run folders,
+# removed after each run; default /tmp/lbdem_suspension_2d), OUT (results; default ./out); CASE2D and BACKEND
+# (a smaller 2D case and the cpu backend: a try of the script on a host without GPUs).
+# Writes $OUT/suspension_2d/{suspension_2d.jsonl, table.txt, <run>.log, <run>.summary.json}; never field files.
+# Time on a 2-GPU H200 host (the model's estimate, bench/results/scaling_model.md: one GPU 39 ms per step in
+# fp32, 63 in fp64; set-up of 9.4e8 cells a few seconds): four runs of 30-50 s each, about 3 minutes after the
+# build; 4 GPUs add two shorter runs (~1 minute). Device memory: ~46 GB (fp32) and ~80 GB (fp64) on one GPU.
+set -uo pipefail
+source "$(dirname "$0")/lib.sh"
+lbdem_env
+build="${1:?usage: scripts/suspension_2d_gpu.sh BUILD_DIR}"
+lbdem_build "$build" lbdem || exit 1
+[ -n "${BUILD_ONLY:-}" ] && exit 0
+out="$OUT/suspension_2d"
+mkdir -p "$out"
+jsonl="$out/suspension_2d.jsonl"
+work="${WORK:-/tmp/lbdem_suspension_2d}"
+mkdir -p "$work"
+lbdem="$build/cases/lbdem"
+steps="${STEPS:-200}"
+budget="${BUDGET:-420}"
+G=$(gpu_count)
+[ "$G" -ge 1 ] || { echo "no GPU"; exit 1; }
+case2d="${CASE2D:-$LBDEM_ROOT/cases/suspension/suspension_2d.yaml}"
+backend="${BACKEND:-cuda}"
+t0=$SECONDS
+
+# The shipped case in precision P, no snapshots (series statistics as shipped).
+case_in() {
+  local p="$1" f="$work/suspension_2d_$1.yaml"
+  python3 - "$case2d" "$p" > "$f" <<'PY'
+import re, sys
+text, p = open(sys.argv[1]).read(), sys.argv[2]
+text = re.sub(r"precision: fp32", "precision: " + p, text)
+text = re.sub(r"^output: \{", "output: {final: false, ", text, flags=re.M)
+text = re.sub(r"interval: 5000", "interval: 0", text)
+print(text)
+PY
+  echo "$f"
+}
+
+run_one() {
+  local n="$1" prec="$2" name="coupled_2d_${2}_${1}"
+  if [ $((SECONDS - t0)) -gt "$budget" ]; then
+    echo "skipped $name: past the ${budget} s budget"
+    json_line "$jsonl" kind=coupled dim=2d mode=strong precision="$prec" gpus="$n" skipped=true
+    return
+  fi
+  local yaml
+  yaml=$(case_in "$prec")
+  rm -rf "${work:?}/$name"
+  local t=$SECONDS
+  timeout 240 "${MPIRUN[@]}" -np "$n" "$lbdem" run "$yaml" --backend "$backend" --steps "$steps" --output "$work/$name" \
+    --quiet > "$out/$name.log" 2>&1
+  local rc=$? wall=$((SECONDS - t))
+  cp "$work/$name/summary.json" "$out/$name.summary.json" 2>/dev/null
+  local fields
+  fields=$(python3 - "$work/$name/summary.json" <<'PY'
+import json, re, sys
+try:
+    s = json.load(open(sys.argv[1]))
+except Exception:
+    print("error=no_summary"); sys.exit()
+t = s.get("timing", {})
+cells = 1
+for c in s["lattice"]["cells"]:
+    cells *= c
+loop = t.get("loop_seconds", s.get("seconds", 0))
+steps = s.get("steps", 0) - s.get("restarted_from_step", 0)
+dec = s.get("decomposition", "1 x 1 x 1")
+out = {"steps": steps, "cells": cells, "particles": s.get("particles"), "grid": s["lattice"]["cells"],
+       "dims": [int(v) for v in re.findall(r"\d+", dec)][:3],
+       "glups": s.get("coupled_mlups", 0) / 1e3, "steps_per_s": steps / loop if loop else 0,
+       "loop_s": loop, "setup_s": t.get("setup_seconds"), "snapshots": t.get("snapshots", 0),
+       "phases": t.get("phases"), "setup": t.get("setup"),
+       "particles_per_rank": {k: v for k, v in s.get("particles_per_rank", {}).items() if k != "note"}}
+for k, v in out.items():
+    print("%s=%s" % (k, json.dumps(v).replace(" ", "")))
+PY
+)
+  # shellcheck disable=SC2086
+  json_line "$jsonl" kind=coupled dim=2d mode=strong precision="$prec" gpus="$n" exit="$rc" wall_s="$wall" $fields
+  echo "$name: exit $rc in $wall s"
+  [ "$rc" -eq 0 ] || tail -5 "$out/$name.log"
+  rm -rf "${work:?}/$name"
+}
+
+for prec in ${PRECISIONS:-fp32 fp64}; do
+  for n in ${GPUS:-1 2 4}; do
+    [ "$n" -le "$G" ] && run_one "$n" "$prec"
+  done
+done
+
+python3 - "$jsonl" <<'PY' | tee "$out/table.txt"
+import json, sys
+rows = [json.loads(l) for l in open(sys.argv[1]) if l.strip()]
+print("%-5s %4s %-7s %8s %8s %7s %6s %s" % ("prec", "GPUs", "cut", "setup s", "steps/s", "GLUPS", "eff %",
+                                            "phases max/mean s (fluid_psm dem map force_red ghost exposed)"))
+for prec in ("fp32", "fp64"):
+    mine = [r for r in rows if r.get("precision") == prec and not r.get("skipped") and r.get("exit", 1) == 0
+            and r.get("loop_s")]
+    base = next((r for r in mine if r["gpus"] == 1), None)
+    for r in sorted(mine, key=lambda r: r["gpus"]):
+        eff = r["glups"] / (r["gpus"] * base["glups"]) if base and base.get("glups") else float("nan")
+        ph = r.get("phases") or {}
+        split = " ".join("%.2f/%.2f" % (ph[k]["max"], ph[k]["mean"]) for k in
+                         ("fluid_psm", "dem", "map", "force_reduction", "ghost_sync", "exposed_communication") if k in ph)
+        ppr = r.get("particles_per_rank") or {}
+        print("%-5s %4d %-7s %8.1f %8.2f %7.2f %6.1f %s  imbalance %.4f" % (
+            prec, r["gpus"], "x".join(map(str, r.get("dims", []))), r.get("setup_s") or 0, r.get("steps_per_s", 0),
+            r.get("glups", 0), 100 * eff, split, ppr.get("imbalance", 0)))
+PY
+echo "total $((SECONDS - t0)) s; results in $out (append $jsonl to bench/results/suspension_2d_h200.jsonl)"
