@@ -48,7 +48,7 @@ exe="$build/cases/lbdem"
 # yaml CASE NAME STEPS START: CASE for STEPS gas steps, statistics from START s, snapshots only at the first and
 # last step, a checkpoint at the end.
 yaml() {
-  sed -e "s/^time: {end_time: [0-9.e+-]*}/time: {steps: $3}/" -e "s/^  start: [0-9.e+-]*/  start: $4/" \
+  sed -e "s/^time: {end\(_time\)\?: [0-9.e+-]*}/time: {steps: $3}/" -e "s/^  start: [0-9.e+-]*/  start: $4/" \
     -e "s/^output: {directory: \([^,]*\), interval: [0-9]*/output: {directory: \1, interval: 0/" \
     "$LBDEM_ROOT/cases/$1" > "$out/$2.yaml"
   echo "checkpoint: {interval: 100000000}" >> "$out/$2.yaml"

@@ -67,9 +67,10 @@ for ((i = 1; i <= repeats; ++i)); do
   rc=$?
   last=$((SECONDS - t0))
   # -a: a test that prints a NUL byte makes the log "binary", and grep would print no line of it
-  line=$(grep -aE 'tests passed, [0-9]+ tests? failed out of [0-9]+' "$log" | tail -1)
+  # ctest ends with "N% tests passed, F tests failed out of T", or "100% tests passed out of T" when none failed
+  line=$(grep -aE 'tests passed(, [0-9]+ tests? failed)? out of [0-9]+' "$log" | tail -1)
   failed=$(sed -E -n 's/.* ([0-9]+) tests? failed out of ([0-9]+).*/\1/p' <<< "$line")
-  total=$(sed -E -n 's/.* failed out of ([0-9]+).*/\1/p' <<< "$line")
+  total=$(sed -E -n 's/.* out of ([0-9]+).*/\1/p' <<< "$line")
   failed=${failed:-0}; total=${total:-0}
   names=$(sed -n '/The following tests FAILED:/,$p' "$log" | tr -d '\000' | sed -E -n 's/^[[:space:]]+[0-9]+ - ([^ ]+) .*/\1/p')
   arr="["
