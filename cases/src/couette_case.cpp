@@ -26,6 +26,7 @@
 #include "core/piece_output.hpp"
 #include "core/units.hpp"
 #include "lbm/distributed_fluid.hpp"
+#include "lbm/tau.hpp"
 
 namespace lbdem {
 
@@ -157,7 +158,7 @@ int run_couette_case(const Config& root, const RunOptions& opt) {
 
   // ---- verify: each rank its owned fluid cells, the sums over the ranks.
   const long t = loop.step();
-  const double nu = (s.tau - 0.5) / 3.0;
+  const double nu = lbm::lattice_viscosity(s.tau);
   std::vector<double> sums{0, 0};  // sum (u - u_ref)^2, sum u_ref^2
   const Grid& piece = ls.setup().domain;
   const CellBox own = piece.owned();

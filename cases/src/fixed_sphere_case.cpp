@@ -52,6 +52,7 @@
 #include "imb/psm_reader.hpp"
 #include "imb/psm_settings.hpp"
 #include "lbm/storage_checks.hpp"
+#include "lbm/tau.hpp"
 
 namespace lbdem {
 namespace {
@@ -111,7 +112,7 @@ int run_fixed_sphere(const Config& root, const RunOptions& opt) {
     lbm::LbmSetup fl;
     fl.precision = s.precision;
     fl.tau = s.tau;
-    const double nu = (s.tau - 0.5) / 3.0;
+    const double nu = lbm::lattice_viscosity(s.tau);
     for (const auto& w : lbm::storage_warnings(fl, s.re_p * nu / s.diameter, s.diameter / s.chi, double(s.max_steps)))
       spdlog::warn("{}: {}", root.source(), w);
   }

@@ -24,6 +24,7 @@
 #include "halo/stop_poll.hpp"
 #include "lbm/solver.hpp"
 #include "lbm/storage_checks.hpp"
+#include "lbm/tau.hpp"
 
 namespace lbdem {
 
@@ -187,7 +188,7 @@ LbmCase parse(const Config& root, const RunOptions& opt) {
   cases::check_fluid_scene(root, c.scene, mode, cells, sc, dx, nu_si, u_ref, c.max_mach, tau, dt);
   c.units = derive_units(ur);
   s.tau = c.units.tau;
-  if (s.collision == lbm::CollisionKind::BGK && s.tau < 0.51)
+  if (lbm::bgk_too_close_to_half(s.collision, s.tau))
     throw ConfigError(root.source() + ": key 'collision.tau' = " + std::to_string(s.tau) +
                       ": BGK is unstable this close to 0.5; use tau >= 0.51 or collision.model: trt");
   if (has_end) steps = std::max<long>(1, saturating_steps(std::round(t_end / c.units.dt)));
@@ -266,7 +267,7 @@ int run_lbm_case(const Config& root, const RunOptions& opt) {
   };
   const Units& U = c.units;
   const Config sc = root.section(c.scene);
-  const double nu = s.tau > 0 ? (s.tau - 0.5) / 3.0 : 0;
+  const double nu = s.tau > 0 ? lbm::lattice_viscosity(s.tau) : 0;
 
   if (c.scene == "channel") {
     const std::uint8_t wall = add(lbm::BoundaryKind::Wall, {0, 0, 0}, 1);

@@ -59,6 +59,7 @@
 #include "imb/psm_reader.hpp"
 #include "imb/psm_settings.hpp"
 #include "lbm/storage_checks.hpp"
+#include "lbm/tau.hpp"
 
 namespace lbdem {
 namespace {
@@ -180,7 +181,7 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
     s.boundaries.rho[0] = 1.0;
   }
   imb::read_fluid_common(f, s, !c.physical);
-  if (c.physical && s.collision == lbm::CollisionKind::BGK && s.tau < 0.51)
+  if (c.physical && lbm::bgk_too_close_to_half(s.collision, s.tau))
     (f.has("tau") ? f : t).fail(f.has("tau") ? "tau" : "dt", "gives tau = " + std::to_string(s.tau) +
                                                                   ": BGK needs tau >= 0.51 to stay stable; use "
                                                                   "collision: trt for smaller tau");
@@ -485,7 +486,7 @@ double mean_net_weight(const ParticlesCase& c, bool sphere = false) {
 // paper's Table 2 gives its 2D and 3D suspensions one (the sphere's) terminal
 // velocity, and compares both with Wen & Yu.
 double wen_yu_prediction(const ParticlesCase& c) {
-  const double nu = (c.setup.tau - 0.5) / 3.0;
+  const double nu = lbm::lattice_viscosity(c.setup.tau);
   return cfd::wen_yu_slip(c.solid_fraction, c.diameter, c.coupling.fluid_density, c.coupling.fluid_density * nu,
                             mean_net_weight(c, true));
 }
@@ -549,7 +550,7 @@ void particles_summary(json::Value& js, const ParticlesCase& c, const imb::Parti
   js["lattice"]
       .set("cells", json::Value::array_of(std::vector<long>{n[0], n[1], n[2]}))
       .set("tau", c.setup.tau)
-      .set("nu", (c.setup.tau - 0.5) / 3.0)
+      .set("nu", lbm::lattice_viscosity(c.setup.tau))
       .set("diameter", c.diameter)
       .set("density_ratio", c.density_ratio)
       .set("gravity", json_vec(c.coupling.gravity))
@@ -586,7 +587,7 @@ void particles_summary(json::Value& js, const ParticlesCase& c, const imb::Parti
         .set("slip", ref)
         .set("measured_slip", w)
         .set("relative_error", (w - ref) / ref)
-        .set("re_p", w * c.diameter / ((c.setup.tau - 0.5) / 3.0));
+        .set("re_p", w * c.diameter / lbm::lattice_viscosity(c.setup.tau));
   }
   js.set("psm", json::Value::parse(imb::psm_settings_json(c.psm)));
 }
@@ -963,7 +964,7 @@ int run_particles(const Config& root, const RunOptions& opt) {
                    "array (Sangani & Acrivos 1982, d/L = {:.3g}) {:.5g}: error {:+.2f}% (PSM at d/l = {:g}; "
                    "Re_p = {:.3f})",
                    w, w * c.units.dx / c.units.dt, c.diameter / double(n[0]), ref, 100 * (w - ref) / ref, c.diameter,
-                   w * c.diameter / ((c.setup.tau - 0.5) / 3.0));
+                   w * c.diameter / lbm::lattice_viscosity(c.setup.tau));
     }
   }
   return 0;

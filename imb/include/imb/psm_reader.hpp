@@ -13,6 +13,7 @@
 #include "imb/psm_coupling.hpp"
 #include "imb/psm_settings.hpp"
 #include "lbm/solver.hpp"
+#include "lbm/tau.hpp"
 
 namespace lbdem::imb {
 
@@ -33,7 +34,7 @@ template <class S>
 void read_fluid_common(const Config& f, S& s, bool read_tau = true) {
   if (read_tau) s.tau = f.number_in("tau", 0.52, 0.5001, 5.0, "relaxation time tau > 1/2");
   s.collision = read_collision(f, s.magic);
-  if (read_tau && s.collision == lbm::CollisionKind::BGK && s.tau < 0.51)  // (else: the caller, naming its key)
+  if (read_tau && lbm::bgk_too_close_to_half(s.collision, s.tau))  // (else: the caller, naming its key)
     f.fail("tau", "BGK needs tau >= 0.51 to stay stable; use collision: trt for smaller tau");
   s.precision = lbm::precision_from_string(f.choice("precision", "fp64", {"fp32", "fp64", "fp16s", "fp16c"}));
 }
