@@ -65,6 +65,7 @@
 #include "dem/particle_output.hpp"
 #include "cases/scenes.hpp"
 #include "halo/simulation.hpp"
+#include "core/output_section.hpp"
 #include "core/run_length.hpp"
 #include "core/json.hpp"
 #include "cfd/coupling.hpp"
@@ -196,46 +197,7 @@ CfdCase read_case(const Config& root, const RunOptions& opt) {
     throw ConfigError(root.where("gas") + ": key 'gas.cell_size' = " + num(c.grid.h) +
                       " m is smaller than the largest particle diameter " + num(2 * rmax) +
                       " m (particles.radius): the unresolved mode needs cells of 1-5 particle diameters");
-  {
-    const auto dc = root.optional_section("dem");
-    p.skin = 0.2 * rmin;
-    p.path = dem::ForcePath::Particle;
-    const double tc = dem::min_collision_time(p, c.particles);
-    std::string key = "dem.steps_per_collision";
-    const int given = (dc && dc->has("substeps")) + (dc && dc->has("dt")) + (dc && dc->has("steps_per_collision"));
-    if (given > 1) dc->fail("substeps", "give one of dem.substeps, dem.dt, dem.steps_per_collision");
-    if (dc && dc->has("substeps")) {
-      c.substeps = static_cast<int>(dc->integer_in("substeps", 1, 1000000));
-      key = "dem.substeps";
-    } else if (dc && dc->has("dt")) {
-      // The largest DEM step that divides the gas step and is not above dem.dt.
-      const double n = std::ceil(c.gas.dt / dc->positive("dt") - 1e-9);
-      if (!(n <= 1e6)) dc->fail("dt", "needs more than 1e6 DEM sub-steps per gas step (gas.dt / dem.dt)");
-      c.substeps = static_cast<int>(std::max(1.0, n));
-      key = "dem.dt";
-    } else {
-      const double spc = dc ? dc->number_in("steps_per_collision", 50.0, 5.0, 1e6) : 50.0;
-      p.min_steps_per_collision = std::min(spc, p.min_steps_per_collision);
-      const double n = std::isfinite(tc) ? std::ceil(c.gas.dt * spc / tc) : 1.0;
-      if (!(n <= 1e6))
-        throw ConfigError(root.source() + ": " + key + ": gas.dt = " + num(c.gas.dt) + " s over t_c / " + num(spc) +
-                          " (t_c = " + num(tc) + " s from material.stiffness and the radii) needs " + num(n) +
-                          " DEM sub-steps per gas step (at most 1e6): lower gas.dt or soften the contacts");
-      c.substeps = static_cast<int>(std::max(1.0, n));
-    }
-    if (dc) {
-      p.skin = dc->positive("skin", p.skin);
-      p.path = dc->choice("force_path", "particle", {"particle", "pair"}) == "pair" ? dem::ForcePath::Pair
-                                                                                 : dem::ForcePath::Particle;
-      dc->finish();
-    }
-    p.dt = c.gas.dt / c.substeps;
-    try {
-      dem::check_time_step(p, c.particles, key);
-    } catch (const ConfigError& e) {
-      throw ConfigError(root.source() + ": " + e.what() + " (DEM dt = gas.dt / sub-steps)");
-    }
-  }
+  c.substeps = cfd::read_bed_dem(root, c.gas.dt, rmin, c.particles, p);
   {
     const Config t = root.section("time");
     const RunLength len = read_run_length(t, 0, std::numeric_limits<long>::max());
@@ -258,13 +220,11 @@ CfdCase read_case(const Config& root, const RunOptions& opt) {
     c.steps = static_cast<long>(planned);
   }
   {
-    const Config o = root.section("output");
-    c.outdir = o.text("directory");
-    c.output_interval = o.integer_in("interval", 0, 0, std::numeric_limits<long>::max());
-    c.series_interval = o.integer_in("series_interval", 100, 1, std::numeric_limits<long>::max());
-    if (o.has("track"))
-      for (long id : o.integers("track", 1, 64, 0, std::numeric_limits<long>::max())) c.track.push_back(id);
-    o.finish();
+    OutputSettings o = read_output(root, kOutputInterval | kOutputSeries | kOutputTrack);
+    c.outdir = o.directory;
+    c.output_interval = o.interval;
+    c.series_interval = o.series_interval;
+    c.track = std::move(o.track);
   }
   if (const auto st = root.optional_section("statistics")) {
     c.stats_start = st->number_in("start", 0.0, 0.0, 1e9, "simulated time [s] from which averages are taken");

@@ -20,6 +20,7 @@
 #include "cases/scenes.hpp"
 #include "halo/simulation.hpp"
 #include "lbm/checkpoint.hpp"
+#include "core/output_section.hpp"
 #include "core/run_length.hpp"
 #include "core/memory_use.hpp"
 #include "core/signals.hpp"
@@ -77,10 +78,9 @@ int run_couette_case(const Config& root, const RunOptions& opt) {
   const std::optional<long> steps_given = len.steps;
   const double t_end = len.end.value_or(0.0);
   time.finish();
-  const auto out = root.optional_section("output");
-  std::string outdir = out ? out->text("directory", "runs/couette") : "runs/couette";
-  const long out_interval = out ? out->integer_in("interval", 0, 0, 1000000000000L) : 0;
-  if (out) out->finish();
+  const OutputSettings out = read_output(root, kOutputInterval, "runs/couette", 1000000000000L);
+  std::string outdir = out.directory;
+  const long out_interval = out.interval;
   const halo::ParallelOptions parallel = halo::parse_parallel(root);
   const ckpt::Policy policy = ckpt::read_policy(root);
   root.finish();

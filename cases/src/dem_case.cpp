@@ -26,6 +26,7 @@
 #include "dem/checkpoint.hpp"
 #include "dem/particle_reader.hpp"
 #include "scene_checks.hpp"
+#include "core/output_section.hpp"
 #include "core/run_length.hpp"
 #include "core/error.hpp"
 #include "core/output.hpp"
@@ -136,14 +137,11 @@ DemCase read_case(const Config& root, const RunOptions& opt) {
     t.finish();
   }
   {
-    const Config o = root.section("output");
-    c.outdir = o.text("directory");
-    c.output_interval = o.integer_in("interval", 0, 0, std::numeric_limits<long>::max());
-    c.series_interval = o.integer_in("series_interval", 100, 1, std::numeric_limits<long>::max());
-    if (o.has("track")) {
-      for (long id : o.integers("track", 1, 64, 0, std::numeric_limits<long>::max())) c.track.push_back(id);
-    }
-    o.finish();
+    OutputSettings o = read_output(root, kOutputInterval | kOutputSeries | kOutputTrack);
+    c.outdir = o.directory;
+    c.output_interval = o.interval;
+    c.series_interval = o.series_interval;
+    c.track = std::move(o.track);
   }
   // The cut: parallel.decomposition, as in every scene. The top-level
   // `decomposition` of earlier versions still works, with a warning naming

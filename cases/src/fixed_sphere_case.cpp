@@ -28,6 +28,7 @@
 #include "cfd/homogeneous_slip.hpp"
 #include "dem/packing.hpp"
 #include "imb/suspension.hpp"
+#include "core/output_section.hpp"
 #include "core/units.hpp"
 #include "cases/scenes.hpp"
 #include "halo/simulation.hpp"
@@ -98,9 +99,7 @@ int run_fixed_sphere(const Config& root, const RunOptions& opt) {
   s.tolerance = st.number_in("tolerance", 1e-7, 1e-14, 1e-2, "estimated remaining relative change of the drag");
   s.max_steps = st.integer_in("max_steps", 2000000, 1, std::numeric_limits<long>::max());
   st.finish();
-  const Config o = root.section("output");
-  std::string outdir = o.text("directory");
-  o.finish();
+  std::string outdir = read_output(root, 0).directory;
   s.parallel = halo::parse_parallel(root);
   root.accept("scene");
   root.finish();

@@ -12,6 +12,7 @@
 #include "lbm/distributed_fluid.hpp"
 #include "cases/scenes.hpp"
 #include "halo/simulation.hpp"
+#include "core/output_section.hpp"
 #include "core/run_length.hpp"
 #include "core/json.hpp"
 #include "lbm/checkpoint.hpp"
@@ -122,10 +123,9 @@ LbmCase parse(const Config& root, const RunOptions& opt) {
   double t_end = len.end.value_or(0);
   time.finish();
 
-  const auto out = root.optional_section("output");
-  c.outdir = out ? out->text("directory", "runs/" + c.scene) : "runs/" + c.scene;
-  c.out_interval = out ? out->integer_in("interval", 0, 0, 1000000000000L) : 0;
-  if (out) out->finish();
+  const OutputSettings out = read_output(root, kOutputInterval, "runs/" + c.scene, 1000000000000L);
+  c.outdir = out.directory;
+  c.out_interval = out.interval;
   const auto diag = root.optional_section("diagnostics");
   c.diag_interval = diag ? diag->integer_in("interval", 1000, 1, 1000000000L) : 1000;
   c.max_mach = diag ? diag->number_in("max_mach", 0.3, 1e-6, 0.5, "lattice Mach number above which the run stops; 0.3 is the usual limit") : 0.3;

@@ -33,6 +33,7 @@
 #include "cfd/homogeneous_slip.hpp"
 #include "dem/packing.hpp"
 #include "imb/suspension.hpp"
+#include "core/output_section.hpp"
 #include "core/units.hpp"
 #include "cases/scenes.hpp"
 #include "halo/simulation.hpp"
@@ -51,6 +52,7 @@
 #include "dem/domain.hpp"
 #include "dem/grid_box.hpp"
 #include "dem/init.hpp"
+#include "dem/particle_reader.hpp"
 #include "dem/system.hpp"
 #include "imb/coupled.hpp"
 #include "imb/coupled_checks.hpp"
@@ -340,15 +342,7 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
   p.external_forcing = true;
   p.friction = true;  // rotation under hydrodynamic torque; friction coefficient as given (0: none)
   const Config dm = root.section("dem");
-  p.material.stiffness = U.to_lattice_stiffness(dm.positive("stiffness"));
-  p.material.restitution = dm.number_in("restitution", 0.9, 1e-6, 1.0, "restitution coefficient e in (0, 1]");
-  p.material.wall_stiffness = dm.has("wall_stiffness") ? U.to_lattice_stiffness(dm.positive("wall_stiffness"))
-                                                       : p.material.stiffness;
-  p.material.wall_restitution = dm.number_in("wall_restitution", p.material.restitution, 1e-6, 1.0, "e in (0, 1]");
-  p.material.friction = dm.number_in("friction", 0.0, 0.0, 10.0);
-  p.material.wall_friction = dm.number_in("wall_friction", p.material.friction, 0.0, 10.0);
-  c.coupling.dem_substeps = static_cast<int>(dm.integer_in("substeps", 10, 1, 100000));
-  p.dt = 1.0 / c.coupling.dem_substeps;
+  c.coupling.dem_substeps = dem::read_coupled_dem(dm, U, p);
   p.skin = 0.1 * diam;
   dm.finish();
   c.coupling.psm.weight = imb::PsmWeight::NobleTorczynskiWall;  // the default with or without a psm section
@@ -373,21 +367,13 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
     c.steps = t.integer_in("steps", 0, std::numeric_limits<long>::max());
   }
   t.finish();
-  const Config o = root.section("output");
-  c.outdir = o.text("directory");
-  c.output_interval = o.integer_in("interval", 0, 0, std::numeric_limits<long>::max());
-  c.series_interval = o.integer_in("series_interval", 100, 1, std::numeric_limits<long>::max());
-  // Fields on disk: float64, float32, or (the default) the populations'
-  // precision: float64 for fp64 runs, float32 for fp32 and the 16-bit storages.
-  const std::string fp = o.choice("field_precision", "storage", {"fp64", "fp32", "storage"});
-  c.fields_fp32 = fp == "fp32" || (fp == "storage" && s.precision != lbm::Precision::FP64);
-  // Snapshots copied to host memory (40 B per cell) and written by a host
-  // thread while the run goes on; off: written slab by slab, no host copy of the grid.
-  c.async_output = o.boolean("background", false);
-  // Fields and particles at the end of the run (off: the periodic snapshots
-  // only, e.g. a speed measurement on a grid whose fields fill tens of GB).
-  c.final_output = o.boolean("final", true);
-  o.finish();
+  const OutputSettings o = read_output(root, kOutputInterval | kOutputSeries | kOutputFields);
+  c.outdir = o.directory;
+  c.output_interval = o.interval;
+  c.series_interval = o.series_interval;
+  c.fields_fp32 = o.field_precision == "fp32" || (o.field_precision == "storage" && s.precision != lbm::Precision::FP64);
+  c.async_output = o.background;  // host copy: 40 B per cell
+  c.final_output = o.final;
   c.checkpoint = ckpt::read_policy(root);
   c.parallel = halo::parse_parallel(root);
   root.accept("scene");

@@ -1,10 +1,12 @@
 // The reader of a case file's `gas` section (cfd/gas_reader.hpp).
 #include "cfd/gas_reader.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <string>
 
+#include "core/error.hpp"
 #include "core/run_checks.hpp"
 
 namespace lbdem::cfd {
@@ -130,6 +132,50 @@ void read_gas(const Config& gs, const std::array<double, 3>& lo, const std::arra
     ps->finish();
   }
   gs.finish();
+}
+
+int read_bed_dem(const Config& root, double gas_dt, double rmin, const dem::HostParticles& particles,
+                 dem::DemParams& p) {
+  int substeps = 1;
+  const auto dc = root.optional_section("dem");
+  p.skin = 0.2 * rmin;
+  p.path = dem::ForcePath::Particle;
+  const double tc = dem::min_collision_time(p, particles);
+  std::string key = "dem.steps_per_collision";
+  const int given = (dc && dc->has("substeps")) + (dc && dc->has("dt")) + (dc && dc->has("steps_per_collision"));
+  if (given > 1) dc->fail("substeps", "give one of dem.substeps, dem.dt, dem.steps_per_collision");
+  if (dc && dc->has("substeps")) {
+    substeps = static_cast<int>(dc->integer_in("substeps", 1, 1000000));
+    key = "dem.substeps";
+  } else if (dc && dc->has("dt")) {
+    // The largest DEM step that divides the gas step and is not above dem.dt.
+    const double n = std::ceil(gas_dt / dc->positive("dt") - 1e-9);
+    if (!(n <= 1e6)) dc->fail("dt", "needs more than 1e6 DEM sub-steps per gas step (gas.dt / dem.dt)");
+    substeps = static_cast<int>(std::max(1.0, n));
+    key = "dem.dt";
+  } else {
+    const double spc = dc ? dc->number_in("steps_per_collision", 50.0, 5.0, 1e6) : 50.0;
+    p.min_steps_per_collision = std::min(spc, p.min_steps_per_collision);
+    const double n = std::isfinite(tc) ? std::ceil(gas_dt * spc / tc) : 1.0;
+    if (!(n <= 1e6))
+      throw ConfigError(root.source() + ": " + key + ": gas.dt = " + num(gas_dt) + " s over t_c / " + num(spc) +
+                        " (t_c = " + num(tc) + " s from material.stiffness and the radii) needs " + num(n) +
+                        " DEM sub-steps per gas step (at most 1e6): lower gas.dt or soften the contacts");
+    substeps = static_cast<int>(std::max(1.0, n));
+  }
+  if (dc) {
+    p.skin = dc->positive("skin", p.skin);
+    p.path = dc->choice("force_path", "particle", {"particle", "pair"}) == "pair" ? dem::ForcePath::Pair
+                                                                               : dem::ForcePath::Particle;
+    dc->finish();
+  }
+  p.dt = gas_dt / substeps;
+  try {
+    dem::check_time_step(p, particles, key);
+  } catch (const ConfigError& e) {
+    throw ConfigError(root.source() + ": " + e.what() + " (DEM dt = gas.dt / sub-steps)");
+  }
+  return substeps;
 }
 
 }  // namespace lbdem::cfd

@@ -137,4 +137,17 @@ void read_material(const Config& m, DemParams& p, FrictionFrom friction) {
   m.finish();
 }
 
+int read_coupled_dem(const Config& dm, const Units& U, DemParams& p) {
+  p.material.stiffness = U.to_lattice_stiffness(dm.positive("stiffness"));
+  p.material.restitution = dm.number_in("restitution", 0.9, 1e-6, 1.0, "restitution coefficient e in (0, 1]");
+  p.material.wall_stiffness = dm.has("wall_stiffness") ? U.to_lattice_stiffness(dm.positive("wall_stiffness"))
+                                                       : p.material.stiffness;
+  p.material.wall_restitution = dm.number_in("wall_restitution", p.material.restitution, 1e-6, 1.0, "e in (0, 1]");
+  p.material.friction = dm.number_in("friction", 0.0, 0.0, 10.0);
+  p.material.wall_friction = dm.number_in("wall_friction", p.material.friction, 0.0, 10.0);
+  const int substeps = static_cast<int>(dm.integer_in("substeps", 10, 1, 100000));
+  p.dt = 1.0 / substeps;
+  return substeps;
+}
+
 }  // namespace lbdem::dem

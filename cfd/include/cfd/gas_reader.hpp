@@ -13,6 +13,7 @@
 #include "core/config.hpp"
 #include "core/exec.hpp"
 #include "core/vec.hpp"
+#include "dem/system.hpp"
 
 namespace lbdem::cfd {
 
@@ -25,5 +26,14 @@ struct GasSection {
 // Section `gs` for the box [lo, hi] on `backend` (its memory).
 void read_gas(const Config& gs, const std::array<double, 3>& lo, const std::array<double, 3>& hi, Backend backend,
               GasSection& c);
+
+// The bed's optional `dem` section: the DEM sub-steps per gas step from one
+// of dem.substeps, dem.dt (the largest step that divides gas_dt and is not
+// above it) or dem.steps_per_collision (of the shortest collision time t_c of
+// `particles`, default 50), the neighbour-list skin (default 0.2 rmin) and
+// the force path. Sets p's step gas_dt / sub-steps and checks it against t_c;
+// returns the sub-steps. Messages name the key and the file (root.source()).
+int read_bed_dem(const Config& root, double gas_dt, double rmin, const dem::HostParticles& particles,
+                 dem::DemParams& p);
 
 }  // namespace lbdem::cfd

@@ -15,6 +15,7 @@
 #include <optional>
 
 #include "core/config.hpp"
+#include "core/units.hpp"
 #include "dem/particles.hpp"
 #include "dem/system.hpp"
 
@@ -38,5 +39,12 @@ enum class FrictionFrom { Physics, Values };
 // values (default: the particles'), friction and the tangential spring and
 // damping ratios (Yu et al. 2024 contact law, dem/contact.hpp).
 void read_material(const Config& m, DemParams& p, FrictionFrom friction);
+
+// The `dem` section of a resolved (PSM) scene, in the units `U` converts the
+// file's values from (the identity in lattice units): stiffness [N/m],
+// restitution, their wall values (default: the particles'), friction,
+// wall_friction and substeps (DEM steps per fluid step, default 10). Sets p's
+// contact material and its step 1/substeps (fluid steps); returns substeps.
+int read_coupled_dem(const Config& dm, const Units& U, DemParams& p);
 
 }  // namespace lbdem::dem
