@@ -58,6 +58,7 @@
 #include "imb/coupled_checks.hpp"
 #include "imb/drag_error.hpp"
 #include "imb/fraction_table.hpp"
+#include "imb/physical_units.hpp"
 #include "imb/psm_reader.hpp"
 #include "imb/psm_settings.hpp"
 #include "lbm/storage_checks.hpp"
@@ -119,43 +120,12 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
   std::vector<long> cells;
   double diam = 0;
   if (c.physical) {
-    // SI in: the cell size follows from the particle diameter and the
-    // resolution d/l, the time step from tau (or dt) and the viscosity.
-    const double d_si = pc.positive("diameter");
-    const double cpd = pc.number_in("cells_per_diameter", 2.0, 1000.0,
-                                    "particle diameter in cells, d/l (the first paper uses 10)");
-    UnitsRequest ur;
-    ur.dx = d_si / cpd;
-    ur.rho = f.positive("density");
-    ur.nu = f.positive("kinematic_viscosity");
-    if (f.has("tau")) ur.tau = f.number("tau");
-    if (t.has("dt")) ur.dt = t.positive("dt");
-    f.accept("tau");
-    t.accept("dt");
-    ur.u_ref = 0;  // the particle speeds are checked against the Mach limit below, in lattice units
-    ur.where = root.source();
-    ur.tau_key = "fluid.tau";
-    ur.dt_key = "time.dt";
-    U = derive_units(ur);
-    if (!(U.tau <= 5.0))
-      (ur.tau ? f : t).fail(ur.tau ? "tau" : "dt", "gives tau = " + std::to_string(U.tau) +
-                                                         ": at most 5 (the lattice viscosity (tau - 1/2)/3 "
-                                                         "is too large to resolve); use a smaller time step");
+    // SI in (imb/physical_units.hpp): dx from the particle diameter and d/l, tau or dt from the viscosity.
+    imb::PhysicalGrid g = imb::read_physical_grid(root, d, f, pc, t);
+    U = g.units;
     s.tau = U.tau;
-    diam = cpd;  // exactly: dx = d / (d/l)
-    // domain.cells is not a key here (finish() refuses it): the grid follows
-    // from domain.size and particles.cells_per_diameter.
-    const auto size = d.numbers("size", 2, 3);
-    for (std::size_t a = 0; a < size.size(); ++a) {
-      const double n = size[a] / U.dx;
-      const double nr = std::round(n);
-      if (!(size[a] > 0) || !(nr >= 1) || !(nr <= double(1 << 20)) || std::abs(n - nr) > 1e-6 * nr)
-        d.fail("size", "must be a whole number of cells of dx = particles.diameter / particles.cells_per_diameter = " +
-                           std::to_string(U.dx) + " m along each axis (" + std::to_string(n) + " cells along " +
-                           std::string(1, char('x' + a)) + "; e.g. " + std::to_string(std::max(1.0, nr) * U.dx) +
-                           " m), 1 to 2^20 cells");
-      cells.push_back(static_cast<long>(nr));
-    }
+    diam = g.cells_per_diameter;
+    cells = std::move(g.cells);
   } else {
     cells = d.integers("cells", 2, 3, 1, 1 << 20);
   }
@@ -352,20 +322,7 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
   }
   c.coupling.psm.map.max_radius = r;
   s.magic = imb::resolve_magic(s.magic, diam, s.tau);
-  if (c.physical) {
-    // time.steps, or time.end in seconds.
-    if (t.has("steps") == t.has("end"))
-      t.fail(t.has("steps") ? "end" : "steps", "give exactly one of 'time.steps' (a step count) or 'time.end' (seconds)");
-    if (t.has("steps")) {
-      c.steps = t.integer_in("steps", 0, std::numeric_limits<long>::max());
-    } else {
-      const double steps = U.to_lattice_time(t.positive("end"));
-      if (!(steps < 1e15)) t.fail("end", "is " + std::to_string(steps) + " time steps of " + std::to_string(U.dt) + " s; at most 1e15");
-      c.steps = std::max<long>(1, std::lround(steps));
-    }
-  } else {
-    c.steps = t.integer_in("steps", 0, std::numeric_limits<long>::max());
-  }
+  c.steps = imb::read_coupled_steps(t, U, c.physical);  // time.end in seconds with physical units
   t.finish();
   const OutputSettings o = read_output(root, kOutputInterval | kOutputSeries | kOutputFields);
   c.outdir = o.directory;
