@@ -67,29 +67,7 @@ run_one() {
   local rc=$? wall=$((SECONDS - t))
   cp "$work/$name/summary.json" "$out/$name.summary.json" 2>/dev/null
   local fields
-  fields=$(python3 - "$work/$name/summary.json" <<'PY'
-import json, re, sys
-try:
-    s = json.load(open(sys.argv[1]))
-except Exception:
-    print("error=no_summary"); sys.exit()
-t = s.get("timing", {})
-cells = 1
-for c in s["lattice"]["cells"]:
-    cells *= c
-loop = t.get("loop_seconds", s.get("seconds", 0))
-steps = s.get("steps", 0) - s.get("restarted_from_step", 0)
-dec = s.get("decomposition", "1 x 1 x 1")
-out = {"steps": steps, "cells": cells, "particles": s.get("particles"), "grid": s["lattice"]["cells"],
-       "dims": [int(v) for v in re.findall(r"\d+", dec)][:3],
-       "glups": s.get("coupled_mlups", 0) / 1e3, "steps_per_s": steps / loop if loop else 0,
-       "loop_s": loop, "setup_s": t.get("setup_seconds"), "snapshots": t.get("snapshots", 0),
-       "phases": t.get("phases"), "setup": t.get("setup"),
-       "particles_per_rank": {k: v for k, v in s.get("particles_per_rank", {}).items() if k != "note"}}
-for k, v in out.items():
-    print("%s=%s" % (k, json.dumps(v).replace(" ", "")))
-PY
-)
+  fields=$(python3 "$LBDEM_ROOT/scripts/coupled_summary.py" "$work/$name/summary.json")
   # shellcheck disable=SC2086
   json_line "$jsonl" kind=coupled dim=2d mode=strong precision="$prec" gpus="$n" exit="$rc" wall_s="$wall" $fields
   echo "$name: exit $rc in $wall s"

@@ -30,19 +30,7 @@ rm -rf "${work:?}/run"
 rc=$?
 echo "run exit $rc"
 cp "$work/run/series.csv" "$out/" 2>/dev/null
-python3 - "$work/run/summary.json" > "$out/fields.txt" <<'PY'
-import json, sys
-try:
-    s = json.load(open(sys.argv[1]))
-except Exception:
-    sys.exit()
-t = s.get("timing", {})
-ppr = {k: v for k, v in s.get("particles_per_rank", {}).items() if k != "note"}
-print("particles_per_rank=%s" % json.dumps(ppr).replace(" ", ""))
-print("phases=%s" % json.dumps(t.get("phases")).replace(" ", ""))
-print("loop_s=%s" % t.get("loop_seconds"))
-print("glups=%s" % (s.get("coupled_mlups", 0) / 1e3))
-PY
+python3 "$LBDEM_ROOT/scripts/coupled_summary.py" "$work/run/summary.json" > "$out/fields.txt"
 # shellcheck disable=SC2046
 json_line "$out/imbalance.jsonl" case=suspension_3d_half gpus="$n" steps="$steps" exit="$rc" $(cat "$out/fields.txt")
 tail -1 "$out/imbalance.jsonl"

@@ -83,34 +83,7 @@ coupled() {
   local du
   du=$(du -sm "$work/$name" 2>/dev/null | cut -f1)
   local fields
-  fields=$(python3 - "$work/$name/summary.json" <<'PY'
-import json, sys
-try:
-    s = json.load(open(sys.argv[1]))
-except Exception as e:
-    print("error=no_summary"); sys.exit()
-t = s.get("timing", {})
-cells = 1
-for c in s["lattice"]["cells"]:
-    cells *= c
-loop = t.get("loop_seconds", s.get("seconds", 0))
-steps = s.get("steps", 0) - s.get("restarted_from_step", 0)
-snap = t.get("output_seconds", {}).get("max", 0)
-nsnap = max(t.get("snapshots", 0), 1)
-# loop_seconds counts the snapshots taken inside the loop: the stepping alone is the rest.
-stepping = loop - snap if loop > snap else loop
-out = {"steps": steps, "cells": cells, "particles": s.get("particles"),
-       "glups": s.get("coupled_mlups", 0) / 1e3, "steps_per_s": steps / stepping if stepping else 0,
-       "loop_s": loop, "stepping_s": stepping, "setup_s": t.get("setup_seconds"), "snapshot_s": snap,
-       "snapshots": t.get("snapshots", 0),
-       # The share of a run at the shipped interval: one snapshot over 5000 steps of stepping.
-       "snapshot_fraction_shipped": (snap / nsnap) / (5000 * stepping / steps) if steps and stepping else None,
-       "snapshot_fraction_run": snap / loop if loop else None,
-       "phases": t.get("phases"), "setup": t.get("setup"), "particles_per_rank": {k: v for k, v in s.get("particles_per_rank", {}).items() if k != "note"}}
-for k, v in out.items():
-    print("%s=%s" % (k, json.dumps(v).replace(" ", "")))
-PY
-)
+  fields=$(python3 "$LBDEM_ROOT/scripts/coupled_summary.py" "$work/$name/summary.json")
   # shellcheck disable=SC2086
   json_line "$jsonl" kind=coupled mode="$mode" gpus="$n" exit="$rc" wall_s="$wall" disk_mib="${du:-0}" $fields
   echo "$name: exit $rc in $wall s"
