@@ -18,17 +18,28 @@ inline std::vector<double> interleave(const std::vector<Vec3d>& v) {
   return out;
 }
 
-// Writes positions, radius, velocity, angular velocity, id and mass of `h`,
-// then the scene's own per-particle fields `extra` (same storage order as `h`).
+// The datasets of a particle snapshot: positions, then radius, velocity,
+// angular velocity, id and mass of `h`, then the scene's own per-particle
+// fields `extra` (same storage order as `h`). `fields` points into the
+// buffers held here, so the object is neither copied nor moved.
+struct ParticleDatasets {
+  std::vector<double> pos, vel, omg, id;
+  std::vector<io::ParticleField> fields;
+  ParticleDatasets(const HostParticles& h, const std::vector<io::ParticleField>& extra)
+      : pos(interleave(h.x)), vel(interleave(h.v)), omg(interleave(h.w)), id(h.id.begin(), h.id.end()) {
+    fields = {{"radius", 1, h.r.data()}, {"velocity", 3, vel.data()}, {"angular_velocity", 3, omg.data()},
+              {"id", 1, id.data()}, {"mass", 1, h.mass.data()}};
+    fields.insert(fields.end(), extra.begin(), extra.end());
+  }
+  ParticleDatasets(const ParticleDatasets&) = delete;
+  ParticleDatasets& operator=(const ParticleDatasets&) = delete;
+};
+
+// Writes the snapshot of `h` (ParticleDatasets) through one writer.
 inline void write_particle_snapshot(io::ParticleWriter& w, long step, double time, const HostParticles& h,
                                     const std::vector<io::ParticleField>& extra = {}) {
-  const std::vector<double> pos = interleave(h.x), vel = interleave(h.v), omg = interleave(h.w);
-  const std::vector<double> id(h.id.begin(), h.id.end());
-  std::vector<io::ParticleField> fields{{"radius", 1, h.r.data()},  {"velocity", 3, vel.data()},
-                                        {"angular_velocity", 3, omg.data()}, {"id", 1, id.data()},
-                                        {"mass", 1, h.mass.data()}};
-  fields.insert(fields.end(), extra.begin(), extra.end());
-  w.write(step, time, h.size(), pos.data(), fields);
+  const ParticleDatasets d(h, extra);
+  w.write(step, time, h.size(), d.pos.data(), d.fields);
 }
 
 // This rank's piece of a particle snapshot (core/piece_output.hpp): the same
@@ -37,15 +48,10 @@ inline void write_particle_snapshot(io::ParticleWriter& w, long step, double tim
 inline std::vector<std::pair<std::string, int>> write_particle_piece(io::PieceParticleWriter& w, long step, double time,
                                                                      const HostParticles& h,
                                                                      const std::vector<io::ParticleField>& extra = {}) {
-  const std::vector<double> pos = interleave(h.x), vel = interleave(h.v), omg = interleave(h.w);
-  const std::vector<double> id(h.id.begin(), h.id.end());
-  std::vector<io::ParticleField> fields{{"radius", 1, h.r.data()},  {"velocity", 3, vel.data()},
-                                        {"angular_velocity", 3, omg.data()}, {"id", 1, id.data()},
-                                        {"mass", 1, h.mass.data()}};
-  fields.insert(fields.end(), extra.begin(), extra.end());
-  w.write_piece(step, time, h.size(), pos.data(), fields);
+  const ParticleDatasets d(h, extra);
+  w.write_piece(step, time, h.size(), d.pos.data(), d.fields);
   std::vector<std::pair<std::string, int>> names;
-  for (const auto& f : fields) names.emplace_back(f.name, f.components);
+  for (const auto& f : d.fields) names.emplace_back(f.name, f.components);
   return names;
 }
 
