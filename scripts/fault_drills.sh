@@ -6,7 +6,7 @@
 #     BUILD_DIR  a build holding cases/lbdem (built first with scripts/lib.sh's lbdem_build when it has none)
 #     --backend  cpu (default; CPU ranks, any machine) or cuda (GPU ranks: one GPU per rank, the local rank's)
 #     --ranks    ranks of every run (default 4; at least 2)
-#     DRILL      any of kill_rank ckpt_interrupt ckpt_cadence oom_rank disk_full (default: all five)
+#     DRILL      any of kill_rank ckpt_interrupt ckpt_cadence ckpt_counts oom_rank disk_full (default: all six)
 #   DRILL_CELLS    cells per axis of the drills' 3D Taylor-Green case (default 24 on cpu, 128 on cuda)
 #   DRILL_DISK     tmpfs | fsize | auto (default auto: tmpfs where this process may mount one, else fsize)
 #   DRILL_KILL_S   the most seconds the surviving ranks may take to end after one rank is killed (default 30)
@@ -49,11 +49,11 @@ while [ $# -gt 0 ]; do
   case "$1" in
     --backend) backend="$2"; shift 2 ;;
     --ranks) ranks="$2"; shift 2 ;;
-    kill_rank|ckpt_interrupt|ckpt_cadence|oom_rank|disk_full) drills+=("$1"); shift ;;
+    kill_rank|ckpt_interrupt|ckpt_cadence|ckpt_counts|oom_rank|disk_full) drills+=("$1"); shift ;;
     *) echo "fault_drills: unknown argument '$1'"; exit 2 ;;
   esac
 done
-[ ${#drills[@]} -gt 0 ] || drills=(kill_rank ckpt_interrupt ckpt_cadence oom_rank disk_full)
+[ ${#drills[@]} -gt 0 ] || drills=(kill_rank ckpt_interrupt ckpt_cadence ckpt_counts oom_rank disk_full)
 [ "$ranks" -ge 2 ] || { echo "fault_drills: --ranks must be at least 2"; exit 2; }
 build="$(realpath -m "$build")"
 exe="$build/cases/lbdem"
@@ -269,6 +269,42 @@ drill_ckpt_cadence() {
   for s in $seen; do [ $((s % 1000)) -ne 0 ] && off=true; done
   report ckpt_cadence "$off" "checkpoint.interval 100 with diagnostics every 1000: checkpoints at multiples of 100" \
     "checkpoints seen at steps: ${seen:-none}" $((SECONDS - t0)) "$work/cadence.log"
+}
+
+# ckpt_counts: a checkpoint of the run on $ranks ranks of this backend at step 200, restarted to step 400 on 2
+# ranks and on 1 of this backend and on $ranks CPU ranks (the grid cut as the scene chooses). Each final snapshot
+# (joined) against the straight run's on $ranks ranks, with `lbdem compare`: the same backend bit for bit (the
+# fluid's arithmetic does not depend on the cut); the CPU within 1e-12 of each field's largest value (another
+# compiler and FMA contraction: round-off only).
+drill_ckpt_counts() {
+  local steps=400 first=200 d="$work/counts" t0=$SECONDS ref
+  ref=$(straight "$steps") || { report ckpt_counts false "a straight run" "the straight run failed" 0; return; }
+  ref="$(dirname "$ref")"
+  local yaml="$work/counts.yaml"
+  grep -v '^parallel:' "$(case_file counts "$steps" "$first" 0)" > "$yaml.cut" && mv "$yaml.cut" "$yaml"
+  "${MPIRUN[@]}" -np "$ranks" "$exe" run "$(case_file counts_first "$steps" "$first" 0)" --backend "$backend" \
+    --quiet --steps "$first" --output "$d" > "$work/counts.log" 2>&1
+  local rc=$? observed="" ok=true target np be tol out r
+  [ "$rc" -eq 0 ] && [ "$(ckpt_step "$d/checkpoint.lbdem")" -eq "$first" ] || ok=false
+  observed="checkpoint of step $first on $ranks $backend ranks (exit $rc)"
+  "${MPIRUN[@]}" -np 1 "$exe" join "$ref" --step "$steps" > /dev/null 2>&1
+  for target in "2:$backend" "1:$backend" "$ranks:cpu"; do
+    np=${target%%:*} be=${target#*:}
+    tol=$([ "$be" = "$backend" ] && echo 0 || echo 1e-12)
+    out="$work/counts_${np}_$be"
+    rm -rf "$out" && cp -a "$d" "$out"
+    OMP_NUM_THREADS=$([ "$be" = cpu ] && echo 2 || echo 1) "${MPIRUN[@]}" -np "$np" "$exe" run "$yaml" \
+      --backend "$be" --quiet --restart "$out" --output "$out" > "$out.log" 2>&1
+    rc=$?
+    [ "$np" -gt 1 ] && "${MPIRUN[@]}" -np 1 "$exe" join "$out" --step "$steps" > /dev/null 2>&1
+    "$exe" compare "$ref/$(printf 'fields_%08d.h5' "$steps")" "$out/$(printf 'fields_%08d.h5' "$steps")" \
+      --tolerance "$tol" > "$out.cmp" 2>&1
+    r=$?
+    observed+="; restart on $np $be ranks exit $rc, compare (tolerance $tol) exit $r: $(grep -c 'not bitwise' "$out.cmp") of $(grep -c ' values, ' "$out.cmp") fields not bitwise, largest relative $(sed -E -n 's/.*relative to max \|a\| ([^ ]+)$/\1/p' "$out.cmp" | sort -g | tail -1)"
+    { [ "$rc" -eq 0 ] && [ "$r" -eq 0 ] && grep -q ' values, ' "$out.cmp"; } || { ok=false; tail_log "$out.log" 6; cat "$out.cmp"; }
+  done
+  report ckpt_counts "$ok" "a checkpoint on $ranks $backend ranks restarted on 2 and 1 $backend ranks (fields bitwise to the straight run) and on $ranks cpu ranks (within 1e-12)" \
+    "$observed" $((SECONDS - t0)) "$work/counts.log"
 }
 
 drill_oom_rank() {

@@ -8,12 +8,13 @@
 //                              machine with that much free memory, device and
 //                              host, e.g. 80GiB, whatever is free here)
 //   lbdem info                 build, backends, devices
+//   lbdem compare A.h5 B.h5 [--tolerance T]  compare two snapshots' fields
 //   lbdem join RUN_DIR [--step N | --all]   join a run's snapshot pieces into
 //                              whole files (core/piece_output.hpp); default: the last step
 // Exit codes: 0 ok, 2 invalid input, 3 diverged, 4 resources (memory, disk full),
 // 5 stopped by SIGINT/SIGTERM (final output written, summary.json says
 // "interrupted": true; a second signal a second or more later ends the process
-// at once), 1 other error.
+// at once), 1 other error (compare: the fields differ).
 #include <omp.h>
 #include <spdlog/spdlog.h>
 
@@ -104,6 +105,14 @@ int main(int argc, char** argv) {
   auto* join_step_opt = join->add_option("--step", join_step, "the step to join (default: the last one)");
   join->add_flag("--all", join_all, "join every step")->excludes(join_step_opt);
 
+  auto* compare = app.add_subcommand("compare", "compare the fields of two whole-grid snapshot files");
+  std::string cmp_a, cmp_b;
+  double cmp_tol = 0;
+  compare->add_option("a", cmp_a, "a snapshot file (.h5; `lbdem join` makes one of a run's pieces)")->required();
+  compare->add_option("b", cmp_b, "the snapshot to compare it with")->required();
+  compare->add_option("--tolerance", cmp_tol, "largest accepted difference relative to each field's largest "
+                                              "magnitude (default 0: bit for bit)")->check(CLI::NonNegativeNumber);
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -131,6 +140,18 @@ int main(int argc, char** argv) {
       for (auto& s : all_scene_names()) std::printf(" %s", s.c_str());
       std::printf("\n");
       return 0;
+    }
+    if (*compare) {  // exit 0: every dataset within the tolerance; 1: one differs
+      if (!halo::Comm::world().root()) return 0;
+      bool same = true;
+      for (const io::DatasetDiff& d : io::compare_datasets(cmp_a, cmp_b)) {
+        const double rel = d.scale > 0 ? d.max_abs / d.scale : d.max_abs;
+        same = same && (d.bitwise || rel <= cmp_tol);
+        std::printf("%s: %zu values, %s, max |a - b| %.3e, relative to max |a| %.3e\n", d.name.c_str(), d.values,
+                    d.bitwise ? "bitwise equal" : "not bitwise", d.max_abs, rel);
+      }
+      std::printf("%s\n", same ? "same within the tolerance" : "differ beyond the tolerance");
+      return same ? 0 : 1;
     }
     if (*join) {
       if (!halo::Comm::world().root()) return 0;  // under mpirun: one process joins

@@ -13,6 +13,8 @@
 #include <hdf5.h>
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
@@ -386,6 +388,46 @@ std::vector<double> read_dataset(const std::string& h5_path, const std::string& 
     h5_check(H5Dread(dset.get(), H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()), h5_path,
              "H5Dread '" + name + "'");
   return v;
+}
+
+// ---------------------------------------------------------------------------
+// compare_datasets
+// ---------------------------------------------------------------------------
+std::vector<DatasetDiff> compare_datasets(const std::string& a, const std::string& b) {
+  silence_hdf5_errors();
+  std::error_code ec;
+  if (!fs::is_regular_file(a, ec)) throw Error("HDF5 file '" + a + "' does not exist");
+  std::vector<std::string> names;
+  {
+    H5Id h5(H5Fopen(a.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
+    if (!h5.ok()) h5_fail(a, "H5Fopen");
+    H5G_info_t gi;
+    h5_check(H5Gget_info(h5.get(), &gi), a, "H5Gget_info");
+    for (hsize_t i = 0; i < gi.nlinks; ++i) {
+      char buf[256] = {};
+      if (H5Lget_name_by_idx(h5.get(), ".", H5_INDEX_NAME, H5_ITER_INC, i, buf, sizeof buf, H5P_DEFAULT) < 0)
+        h5_fail(a, "H5Lget_name_by_idx");
+      H5Id d(H5Dopen2(h5.get(), buf, H5P_DEFAULT), H5Dclose);  // groups do not open as datasets
+      if (d.ok()) names.emplace_back(buf);
+    }
+  }
+  std::vector<DatasetDiff> out;
+  for (const std::string& n : names) {
+    const std::vector<double> va = read_dataset(a, n), vb = read_dataset(b, n);
+    if (va.size() != vb.size())
+      throw Error("dataset '" + n + "' holds " + std::to_string(va.size()) + " values in '" + a + "' but " +
+                  std::to_string(vb.size()) + " in '" + b + "'");
+    DatasetDiff d{n, va.size()};
+    d.bitwise = va.empty() || std::memcmp(va.data(), vb.data(), va.size() * sizeof(double)) == 0;
+    for (std::size_t i = 0; i < va.size(); ++i) {
+      d.max_abs = std::max(d.max_abs, std::abs(va[i] - vb[i]));
+      // a NaN on one side only: an infinite difference (std::max would drop it)
+      if (std::isnan(va[i]) != std::isnan(vb[i])) d.max_abs = std::numeric_limits<double>::infinity();
+      d.scale = std::max(d.scale, std::abs(va[i]));
+    }
+    out.push_back(d);
+  }
+  return out;
 }
 
 }  // namespace lbdem::io

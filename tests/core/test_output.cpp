@@ -119,6 +119,42 @@ TEST(Output, Grid2D) {
   EXPECT_NE(x.find("Dimensions=\"2 8 7\""), std::string::npos);
 }
 
+// compare_datasets (`lbdem compare`): equal files bitwise; one value moved by
+// 1e-9 shows as that difference (exact: both values are doubles), relative to
+// the field's largest magnitude; a file without the dataset is named.
+TEST(Output, CompareDatasets) {
+  TempDir d("compare");
+  std::vector<double> phi(6 * 7), u(3 * 6 * 7);
+  for (std::size_t i = 0; i < phi.size(); ++i) phi[i] = 1.0 + 0.25 * static_cast<double>(i);
+  for (std::size_t i = 0; i < u.size(); ++i) u[i] = -0.5 * static_cast<double>(i);
+  io::GridWriter a(d.str(), "a", {6, 7, 1}, {0, 0, 0}, {1, 1, 1}), b(d.str(), "b", {6, 7, 1}, {0, 0, 0}, {1, 1, 1});
+  const auto fa = a.write(0, 0.0, {{"phi", 1, phi.data(), "1"}, {"u", 3, u.data(), "1"}});
+  const auto same = b.write(0, 0.0, {{"phi", 1, phi.data(), "1"}, {"u", 3, u.data(), "1"}});
+  auto diffs = io::compare_datasets(fa, same);
+  ASSERT_EQ(diffs.size(), 2u);
+  for (const auto& x : diffs) {
+    EXPECT_TRUE(x.bitwise) << x.name;
+    EXPECT_EQ(x.max_abs, 0.0) << x.name;
+  }
+  phi[5] += 1e-9;
+  const auto moved = b.write(1, 0.0, {{"phi", 1, phi.data(), "1"}, {"u", 3, u.data(), "1"}});
+  diffs = io::compare_datasets(fa, moved);
+  ASSERT_EQ(diffs.size(), 2u);
+  EXPECT_EQ(diffs[0].name, "phi");
+  EXPECT_FALSE(diffs[0].bitwise);
+  EXPECT_EQ(diffs[0].max_abs, phi[5] - (1.0 + 0.25 * 5));
+  EXPECT_EQ(diffs[0].scale, 1.0 + 0.25 * 41);
+  EXPECT_TRUE(diffs[1].bitwise);
+  io::GridWriter c(d.str(), "c", {6, 7, 1}, {0, 0, 0}, {1, 1, 1});
+  const auto other = c.write(0, 0.0, {{"phi", 1, phi.data(), "1"}});
+  try {
+    io::compare_datasets(fa, other);
+    ADD_FAILURE() << "a missing dataset was not refused";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("'u'"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Output, ParticlesRoundTripAndXdmf) {
   TempDir d("part");
   const long n = 7;

@@ -165,6 +165,20 @@ std::vector<std::string> read_manifest(const std::string& dir);
 // Reads a dataset back (tests, restart tools). Returns the flat values.
 std::vector<double> read_dataset(const std::string& h5_path, const std::string& name);
 
+// How the datasets of two HDF5 files (whole-grid snapshots of two runs, e.g. a
+// run and its restart on other ranks or another backend) differ: every dataset
+// at the root of `a`, against the one of that name in `b` (missing or another
+// size: an Error naming it). `max_abs` is the largest |a - b| over the values,
+// `scale` the largest |a|, so max_abs / scale is the difference relative to the
+// field's size; `bitwise` holds when every value has the same bits.
+struct DatasetDiff {
+  std::string name;
+  std::size_t values = 0;
+  bool bitwise = true;
+  double max_abs = 0, scale = 0;
+};
+std::vector<DatasetDiff> compare_datasets(const std::string& a, const std::string& b);
+
 // Output-folder policy, applied before a run writes anything:
 //  - creates `dir` if needed; an empty string, a non-folder or an unwritable
 //    folder is a ConfigError naming it;
