@@ -23,7 +23,7 @@
 # scene's code at sizes a sanitizer cannot take in minutes; not included). Each run gets one GPU
 # (CUDA_VISIBLE_DEVICES, round robin), longest-expected first (scenes and the long-labelled tests).
 # Writes under $OUT/sanitize/: runs.jsonl (one line per run: tool, target, name, status clean|errors|test_failed|
-# cut|not_run, the sanitizer's summary line, exit code, seconds), <tool>/<target>/<name>.log (the last 40 lines of
+# cut|not_run, the sanitizer's summary line, exit code, seconds), <tool>/<target>/<name>.log (the first 60 lines from the first report and the last 25 of
 # each run that was not clean), summary.txt; $OUT/sanitize.jsonl one line per tool x target (runs, clean, errors,
 # test failures, cut, not run, and the names of all but the clean).
 # Prints one line per tool x target. Exit status: 0 when every run was clean (a scene's own exit code does not
@@ -164,7 +164,12 @@ def one(w, gpu):
         d = os.path.join(out, w["tool"], w["target"])
         os.makedirs(d, exist_ok=True)
         with open(os.path.join(d, re.sub(r"[^A-Za-z0-9_.-]", "_", w["name"]) + ".log"), "w") as f:
-            f.write(" ".join(cmd) + "\n...\n" + "\n".join(text.splitlines()[-40:]) + "\n")
+            # The first report (where the fault starts) and the end (the summary): the reports after the
+            # first are mostly its consequences.
+            lines = text.splitlines()
+            first = next((i for i, l in enumerate(lines) if l.startswith("========= ") and "SUMMARY" not in l), None)
+            head = lines[first:first + 60] if first is not None else []
+            f.write(" ".join(cmd) + "\n...\n" + "\n".join(head) + "\n...\n" + "\n".join(lines[-25:]) + "\n")
     return rec
 
 def worker(k):
