@@ -42,7 +42,6 @@
 #include "imb/checkpoint.hpp"
 #include "imb/coupled_run.hpp"
 #include "scene_checks.hpp"
-#include "core/async_writer.hpp"
 #include "core/error.hpp"
 #include "core/output.hpp"
 #include "core/phase_clock.hpp"
@@ -56,6 +55,7 @@
 #include "dem/system.hpp"
 #include "imb/coupled.hpp"
 #include "imb/coupled_checks.hpp"
+#include "imb/coupled_output.hpp"
 #include "imb/drag_error.hpp"
 #include "imb/fraction_table.hpp"
 #include "imb/physical_units.hpp"
@@ -622,151 +622,11 @@ int run_particles(const Config& root, const RunOptions& opt) {
                  c.particle_count, 2 * c.particles.r[0], c.density_ratio, n[0], n[1], n[2], c.setup.tau,
                  c.coupling.dem_substeps, to_string(backend), c.balance ? "on" : "off",
                  imb::to_string(c.coupling.psm.map.method), imb::to_string(cs.coupling().pipeline()), c.outdir);
-  // Snapshots in pieces (core/piece_output.hpp): every rank writes its owned
-  // box of each field and the particles it owns to its own files; rank 0
-  // writes the XDMF index, a spatial collection of the pieces per step. No
-  // field or particle list is gathered; only the particle counts reach rank 0.
-  std::optional<io::PieceParticleWriter> pwo;
-  std::optional<io::PieceGridWriter> gwo;
-  pwo.emplace(c.outdir, "particles", comm.rank(), comm.size());
-  gwo.emplace(c.outdir, "fields", c.setup.domain, dfluid.piece_boxes(), comm.rank(), fluid->setup().domain.owned());
-  gwo->set_float32(c.fields_fp32);
-  const std::vector<io::SlabField> field_list{
-      {"density", 1, "lattice"}, {"velocity", 3, "lattice (cells per step)"}, {"solid_fraction", 1, "1"}};
-  // Background output (output.background): each rank copies its piece to
-  // host memory and its writer thread writes it while the run goes on; the
-  // thread owns every HDF5 call of the rank from here on. Declared after the
-  // writers, so it finishes its jobs before they go. On several ranks the
-  // particle counts are gathered when the copy is taken (collective), and
-  // rank 0 indexes a step once every rank has finished its pieces: at the
-  // next snapshot or at the end, after each rank's wait and a barrier (the
-  // index never names an unfinished file).
-  std::optional<io::BackgroundWriter> bg;
-  if (c.async_output) bg.emplace();
-  struct Snapshot {
-    long step = 0;
-    double time = 0;
-    dem::HostParticles particles;
-    std::vector<double> force, rho, u, eps;
-    std::vector<long> counts;         // particles per rank (rank 0)
-    std::vector<std::pair<std::string, int>> names;  // the particle fields written (set by the job)
-  };
-  std::shared_ptr<Snapshot> unindexed;  // several ranks: written, not yet indexed
-  // The index of `snap`'s step, on rank 0's writer thread after its pieces.
-  auto index_job = [&](std::shared_ptr<Snapshot> snap) {
-    bg->submit([snap, &pw = *pwo, &gw = *gwo, &field_list] {
-      gw.index(snap->step, snap->time, field_list);
-      pw.index(snap->step, snap->time, snap->counts, snap->names);
-    });
-  };
-  // Every rank's pieces of the last background snapshot on disk, then its
-  // index (collective on several ranks).
-  auto finish_background = [&] {
-    if (!bg) return;
-    bg->wait();
-    if (!ranks || !unindexed) return;
-    comm.barrier();
-    if (writer) {
-      index_job(unindexed);
-      bg->wait();
-    }
-    unindexed.reset();
-  };
-  // Fields leave the device slab by slab through the staging buffers the
-  // solver and the coupling reserved at start: output allocates no device memory.
-  long snapshots = 0;
-  auto write_output_now = [&](long step) {
-    const double t = double(step) * c.units.dt;
-    if (bg) finish_background();  // one host copy of the piece at a time
-    if (writer) {  // every piece named in the manifest before any rank creates one
-      gwo->record(step);
-      pwo->record(step);
-    }
-    if (ranks) comm.barrier();
-    io::PieceParticleWriter& pw = *pwo;
-    io::PieceGridWriter& gw = *gwo;
-    if (bg) {
-      // This rank's owned box copied out slab by slab (x fastest, the order
-      // of the writer's slabs) and handed to the thread.
-      auto snap = std::make_shared<Snapshot>();
-      snap->step = step;
-      snap->time = t;
-      snap->force = cs.hydro_force_host();
-      snap->particles = dem.download();
-      const CellBox own = fluid->setup().domain.owned();
-      const auto M = static_cast<std::size_t>(own.size());
-      snap->rho.resize(M);
-      snap->u.resize(3 * M);
-      snap->eps.resize(M);
-      // Where a slab starts in the owned box, x fastest: slabs are whole
-      // layers, whole rows or one row piece of it, so each is contiguous there.
-      auto offset = [own](const CellBox& b) {
-        return static_cast<std::size_t>(
-            ((Index(b.lo[2] - own.lo[2]) * own.ext[1]) + (b.lo[1] - own.lo[1])) * own.ext[0] + (b.lo[0] - own.lo[0]));
-      };
-      const Index slab = fluid->output_slab_cells();
-      for (const CellBox& b : slabs_of(own, slab)) {
-        const std::size_t c0 = offset(b);
-        fluid->macroscopic_box(b, snap->rho.data() + c0, snap->u.data() + 3 * c0);
-        cs.solid_fraction_box(b, snap->eps.data() + c0);
-      }
-      snap->counts = {static_cast<long>(snap->particles.size())};
-      if (ranks) {
-        const long mine = snap->counts[0];
-        const auto all = comm.gather(std::as_bytes(std::span<const long>(&mine, 1)), 0);
-        snap->counts.clear();
-        for (const auto& bytes : all) {
-          long v = 0;
-          std::memcpy(&v, bytes.data(), sizeof v);
-          snap->counts.push_back(v);
-        }
-      }
-      bg->submit([snap, &pw, &gw, &field_list, offset, slab, one = !ranks] {
-        snap->names = dem::write_particle_piece(pw, snap->step, snap->time, snap->particles,
-                                                  {{"hydrodynamic_force", 3, snap->force.data()}});
-        gw.write_piece(snap->step, snap->time, field_list, slab, [&](const CellBox& b, const std::vector<double*>& out) {
-          const std::size_t c0 = offset(b);
-          const auto m = static_cast<std::size_t>(b.size());
-          std::copy_n(snap->rho.data() + c0, m, out[0]);
-          std::copy_n(snap->u.data() + 3 * c0, 3 * m, out[1]);
-          std::copy_n(snap->eps.data() + c0, m, out[2]);
-        });
-        if (one) {  // one rank: its own pieces are all there is
-          gw.index(snap->step, snap->time, field_list);
-          pw.index(snap->step, snap->time, snap->counts, snap->names);
-        }
-      });
-      if (ranks) unindexed = snap;
-      return;
-    }
-    const auto hf = cs.hydro_force_host();
-    const dem::HostParticles own = dem.download();
-    const auto names = dem::write_particle_piece(pw, step, t, own, {{"hydrodynamic_force", 3, hf.data()}});
-    gw.write_piece(step, t, field_list, fluid->output_slab_cells(), [&](const CellBox& b, const std::vector<double*>& out) {
-      fluid->macroscopic_box(b, out[0], out[1]);
-      cs.solid_fraction_box(b, out[2]);
-    });
-    // The counts reach rank 0 after every rank wrote its pieces: the index never names an unfinished file.
-    std::vector<long> counts{static_cast<long>(own.size())};
-    if (ranks) {
-      const long mine = counts[0];
-      const auto all = comm.gather(std::as_bytes(std::span<const long>(&mine, 1)), 0);
-      counts.clear();
-      for (const auto& bytes : all) {
-        long v = 0;
-        std::memcpy(&v, bytes.data(), sizeof v);
-        counts.push_back(v);
-      }
-    }
-    if (writer) {
-      gw.index(step, t, field_list);
-      pw.index(step, t, counts, names);
-    }
-  };
-  auto write_output = [&](long step) {
-    write_output_now(step);
-    ++snapshots;
-  };
+  // Snapshots in pieces, every rank its own (imb/coupled_output.hpp); fields
+  // leave the device slab by slab through the staging buffers the solver and
+  // the coupling reserved at start: output allocates no device memory.
+  imb::CoupledSnapshots snaps({c.outdir, c.fields_fp32, c.async_output, c.units.dt}, c.setup.domain,
+                              dfluid.piece_boxes(), *fluid, dem, cs, comm);
   // A restart keeps the series rows up to its checkpoint and the series' accumulators.
   imb::SuspensionStatsSpec spec = suspension_stats_spec(c);
   if (ranks) spec.comm = &comm;
@@ -780,8 +640,7 @@ int run_particles(const Config& root, const RunOptions& opt) {
                                        dfluid.decomposition().describe()));
     step0 = ck.restart_step();
     if (writer) {
-      pwo->resume(step0);
-      gwo->resume(step0);
+      snaps.resume(step0);
     }
   }
   // Particles per rank at the series rows: the row with the largest max / mean.
@@ -824,7 +683,7 @@ int run_particles(const Config& root, const RunOptions& opt) {
   // Snapshots every output.interval steps (and at step 0); at the end with output.final.
   loop.add("output",
            sim::Trigger{.every_steps = c.output_interval, .at_start = c.output_interval > 0, .at_end = c.final_output},
-           [&](const sim::Event& e) { write_output(e.step); }, true);
+           [&](const sim::Event& e) { snaps.write(e.step); }, true);
   loop.add("checkpoint", sim::checkpoint_trigger(c.checkpoint), [&](const sim::Event& e) {
     imb::save_coupled(ck, comm, e.step, double(e.step) * c.units.dt, *fluid, dem, cs, series.state());
   }, true);
@@ -836,9 +695,9 @@ int run_particles(const Config& root, const RunOptions& opt) {
   const double secs = loop.elapsed();
   double output_secs = loop.phase("output");
   const double checkpoint_secs = loop.phase("checkpoint");
-  if (bg) {  // every snapshot on disk and indexed (a write failure surfaces here) before the summary
+  {  // every snapshot on disk and indexed (a background write's failure surfaces here) before the summary
     const auto w0 = std::chrono::steady_clock::now();
-    finish_background();
+    snaps.finish();
     output_secs += std::chrono::duration<double>(std::chrono::steady_clock::now() - w0).count();
   }
   json::Value& js = loop.summary();
@@ -862,8 +721,9 @@ int run_particles(const Config& root, const RunOptions& opt) {
       for (std::size_t k = 0; k < names.size(); ++k) held.add(names[k], static_cast<std::size_t>(bytes[k]));
     }
     // The largest host buffer a rank's snapshot output held (values) and the
-    // largest piece (cells): output never holds more than one slab of a piece.
-    long out_buffer = static_cast<long>(gwo->largest_buffer_values());
+    // largest piece (cells): output holds one slab of a piece, or in the
+    // background the rank's own piece (five values per cell).
+    long out_buffer = static_cast<long>(snaps.largest_buffer_values());
     long piece_cells = static_cast<long>(fluid->setup().domain.cells());
     if (ranks) {
       out_buffer = comm.max(out_buffer);
@@ -873,9 +733,9 @@ int run_particles(const Config& root, const RunOptions& opt) {
     for (const auto& it : held.items) mem.set(it.name, it.bytes);
     js.set("memory_bytes_per_cell", double(held.total()) / double(N)).set("dem_rebuilds", dem.stats().rebuilds);
     js["output"]
-        .set("snapshots", snapshots)
+        .set("snapshots", snaps.count())
         .set("seconds", output_secs)
-        .set("background", bool(bg))
+        .set("background", snaps.background())
         .set("largest_host_buffer_values", out_buffer)
         .set("largest_piece_cells", piece_cells)
         .set("stepping_seconds", secs)
@@ -887,7 +747,7 @@ int run_particles(const Config& root, const RunOptions& opt) {
              "writes; stepping_seconds includes the snapshots and checkpoints taken inside the loop");
     if (ranks) js.set("decomposition", dfluid.decomposition().describe());
     imb::timing_json(js, cs, dfluid, comm, {packing_secs, distribution_secs, fluid_init_secs, first_map_secs}, secs,
-                output_secs, snapshots, ppr_max, ppr_mean, ppr_step);
+                output_secs, snaps.count(), ppr_max, ppr_mean, ppr_step);
   }
   if (loop.conclude(c.outdir, double(step) * c.units.dt) != 0) return kExitInterrupted;
   if (!quiet) {

@@ -239,7 +239,14 @@ std::string PieceGridWriter::write_piece(long step, double time, const std::vect
           start.push_back(0);
           count.push_back(hsize_t(fields[f].components));
         }
-        write_slab(ds[f].get(), path, fields[f].name, start, count, H5T_NATIVE_DOUBLE, out[f]);
+        if (fp32_) {  // rounded here (a C cast: HDF5's own double -> float rounding) and written without conversion
+          const auto m = static_cast<std::size_t>(b.size()) * static_cast<std::size_t>(fields[f].components);
+          if (slab32_.size() < m) slab32_.resize(m);
+          std::copy_n(out[f], m, slab32_.data());
+          write_slab(ds[f].get(), path, fields[f].name, start, count, H5T_NATIVE_FLOAT, slab32_.data());
+        } else {
+          write_slab(ds[f].get(), path, fields[f].name, start, count, H5T_NATIVE_DOUBLE, out[f]);
+        }
       }
     }
   });

@@ -82,6 +82,7 @@ class PieceGridWriter {
   bool fp32_ = false;
   bool xdmf_recorded_ = false;
   std::vector<std::vector<double>> slab_;
+  std::vector<float> slab32_;  // float32 files: a field's slab rounded here, written as it is stored
   std::size_t largest_ = 0;
   struct Entry {
     long step;
