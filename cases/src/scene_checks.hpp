@@ -55,18 +55,6 @@ void check_fluid_plan(const Config& root, const RunOptions& opt, double steps, d
 void check_fixed_sphere(const Config& root, int dim, double diameter, double chi, lbm::Precision precision,
                         lbm::StreamKind streaming, long max_steps, const RunOptions& opt);
 
-// Resolved particles: grid (+ `particles` estimated particles) memory before
-// anything is built; then, with the particles made, box, walls, overlaps,
-// Mach number and plan.
-void check_particles_memory(const Config& root, const lbm::LbmSetup& fluid, double particles, const RunOptions& opt);
-void check_particles_random(const Config& root, const Config& pc, const lbm::LbmSetup& fluid,
-                            const std::array<double, 3>& lo, const std::array<double, 3>& hi,
-                            const std::array<bool, 3>& periodic, double solid_fraction, double r,
-                            const RunOptions& opt);
-void check_particles_scene(const Config& root, const lbm::LbmSetup& fluid, const dem::DemParams& dem,
-                           const dem::HostParticles& p, const std::array<double, 3>& gravity, bool balance,
-                           int dem_substeps, long steps, const RunOptions& opt);
-
 // ----------------------------------------------------------------- key names
 using KeyMap = std::vector<std::pair<std::string, std::string>>;  // internal name -> key in the file
 // The table of a scene ("particles", "fixed_sphere", "dem", the fluid scenes).
