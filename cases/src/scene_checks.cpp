@@ -20,27 +20,6 @@ Backend planned_backend(const RunOptions& opt) {
 }
 
 // ----------------------------------------------------------------- per scene
-void check_dem_scene(const Config& root, const dem::DemParams& p, const dem::HostParticles& hp, long steps,
-                     const RunOptions& opt) {
-  const dem::ParticleBox box = dem::particle_box(p, 3, "domain.lo, domain.hi", "walls");
-  dem::check_particles_in_box(root, hp, box);
-  dem::check_particle_overlaps(root, hp, box);
-  const double n = static_cast<double>(hp.x.size());
-  check_memory(root, planned_backend(opt), n * kDemDeviceBytesPerParticle, n * kDemHostBytesPerParticle, "particles",
-               num(n) + " particles", "use fewer particles");
-  std::string key = "time.steps";
-  double planned = double(steps);
-  if (opt.steps) {
-    key = "--steps";
-  } else if (const auto t = root.optional_section("time"); t && t->has(end_key(*t))) {
-    key = t->full_key(end_key(*t)) + " = " + t->value_text(end_key(*t)) + " s with dt = " + num(p.dt) + " s (" +
-          (t->has("dt") ? "time.dt" : "t_c / time.steps_per_collision, t_c from material.stiffness and the radii") +
-          ")";
-    planned = t->number(end_key(*t)) / p.dt;  // in double: the integer count may have overflowed
-  }
-  check_plan(root, opt.force, planned, 0, n, key);
-}
-
 void check_fluid_scene(const Config& root, const std::string& scene, const std::string& mode,
                        const std::vector<long>& cells, const Config& sc, double dx, double nu, double u_ref,
                        double max_mach, std::optional<double> tau, std::optional<double> dt) {
@@ -85,26 +64,6 @@ void check_fluid_plan(const Config& root, const RunOptions& opt, double steps, d
   if (opt.steps) key = "--steps";
   else if (const auto t = root.optional_section("time"); t && t->has(end_key(*t))) key = t->full_key(end_key(*t)) + " / dt";
   check_plan(root, opt.force, steps, fluid_cells, 0, key);
-}
-
-void check_fixed_sphere(const Config& root, int dim, double diameter, double chi, lbm::Precision precision,
-                        lbm::StreamKind streaming, long max_steps, const RunOptions& opt) {
-  lbm::LbmSetup fluid;
-  fluid.lattice = dim == 3 ? lbm::LatticeKind::D3Q19 : lbm::LatticeKind::D2Q9;
-  fluid.precision = precision;
-  fluid.streaming = streaming;
-  const long L = std::lround(diameter / chi);
-  if (L < 4)
-    throw ConfigError(root.source() + ": keys 'geometry.diameter' = " + num(diameter) + ", 'geometry.chi' = " +
-                      num(chi) + ": the array period L = d / chi = " + std::to_string(L) +
-                      " cells is too short to hold a resolved sphere and the flow around it; use L >= 4 (a larger "
-                      "diameter or a smaller chi)");
-  const double cells = dim == 3 ? double(L) * L * L : double(L) * L;
-  const double bytes = lbm::lbm_grid_bytes(fluid, cells);
-  check_memory(root, planned_backend(opt), bytes, cells * (1 + 5 * sizeof(double)), "geometry.diameter, geometry.chi",
-               "the grid of " + num(cells) + " cells (L = d / chi = " + std::to_string(L) + ")",
-               "use a smaller diameter or a larger chi");
-  check_plan(root, opt.force, double(max_steps), cells, 0, opt.steps ? "--steps" : "steady.max_steps");
 }
 
 // ----------------------------------------------------------------- key names

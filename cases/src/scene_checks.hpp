@@ -38,11 +38,6 @@ Backend planned_backend(const RunOptions& opt);
 // ----------------------------------------------------------------- per scene
 // One call from each scene's parse (the checks above, with the scene's keys).
 
-// DEM scene: the particles against the box and walls, overlaps, device
-// memory and the plan.
-void check_dem_scene(const Config& root, const dem::DemParams& p, const dem::HostParticles& hp, long steps,
-                     const RunOptions& opt);
-
 // Fluid scenes (SI units): grid sizes that mean something, then the Mach
 // number with the key that set the speed (before derive_units()).
 void check_fluid_scene(const Config& root, const std::string& scene, const std::string& mode,
@@ -50,10 +45,6 @@ void check_fluid_scene(const Config& root, const std::string& scene, const std::
                        double u_ref, double max_mach, std::optional<double> tau, std::optional<double> dt);
 // ... and the plan, once the step count is known.
 void check_fluid_plan(const Config& root, const RunOptions& opt, double steps, double fluid_cells);
-
-// Fixed sphere: the period L = d / chi, memory, plan.
-void check_fixed_sphere(const Config& root, int dim, double diameter, double chi, lbm::Precision precision,
-                        lbm::StreamKind streaming, long max_steps, const RunOptions& opt);
 
 // ----------------------------------------------------------------- key names
 using KeyMap = std::vector<std::pair<std::string, std::string>>;  // internal name -> key in the file
