@@ -1,12 +1,11 @@
 #pragma once
-// Each scene's checks, run while its case file is parsed (before any output
-// folder, grid or particle array is made): the modules' checks
-// (core/run_checks.hpp: grids, memory, the plan; lbm/fluid_checks.hpp: the
-// Mach number of a fluid scene, a rank's grid; dem/particle_checks.hpp:
-// particles against the box, overlaps, packings; imb/coupled_memory.hpp: a
-// coupled run's memory and Mach number) with the scene's keys; and the key
-// names of messages: the coupled and fixed-sphere code below the scenes names
-// its parameters by their C++ names (coupling.dem_substeps); with_user_keys()
+// What the scenes still check themselves while their case file is parsed:
+// the fluid scenes' geometry and Mach number with the key that set the speed,
+// and their plan (core/run_checks.hpp, lbm/fluid_checks.hpp). Each module
+// checks its own state (dem::check_dem_scene, imb::check_particles_scene,
+// imb::check_fixed_sphere, lbm::check_fluid_memory, ...). And the key names
+// of messages: the coupled and fixed-sphere code below the scenes names its
+// parameters by their C++ names (coupling.dem_substeps); with_user_keys()
 // rewrites them to the keys of the case file (dem.substeps), one table per
 // scene.
 #include <array>
