@@ -166,7 +166,7 @@ DemCase read_case(const Config& root, const RunOptions& opt) {
     if (std::find(c.particles.id.begin(), c.particles.id.end(), id) == c.particles.id.end())
       throw ConfigError("output.track: particle id " + std::to_string(id) + " does not exist (ids 0.." +
                         std::to_string(c.particles.size() - 1) + ")");
-  cases::check_dem_scene(root, c.params, c.particles, c.steps, opt);
+  dem::check_dem_scene(root, c.params, c.particles, c.steps, cases::planned_backend(opt), opt.force, opt.steps.has_value());
   return c;
 }
 

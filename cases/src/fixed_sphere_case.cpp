@@ -105,7 +105,8 @@ int run_fixed_sphere(const Config& root, const RunOptions& opt) {
   root.finish();
   if (opt.output) outdir = *opt.output;
   if (opt.steps) s.max_steps = *opt.steps;
-  cases::check_fixed_sphere(root, s.dim, s.diameter, s.chi, s.precision, s.streaming, s.max_steps, opt);
+  imb::check_fixed_sphere(root, s.dim, s.diameter, s.chi, s.precision, s.streaming, s.max_steps, cases::planned_backend(opt),
+                         opt.force, opt.steps ? "--steps" : "steady.max_steps");
   {
     // 16-bit storage (lbm/storage_checks.hpp): the flow is steady, its scale the array period d / chi.
     lbm::LbmSetup fl;

@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "lbm/distributed_fluid.hpp"
+#include "lbm/fluid_reader.hpp"
 #include "cases/scenes.hpp"
 #include "halo/simulation.hpp"
 #include "core/output_section.hpp"
@@ -94,34 +95,10 @@ LbmCase parse(const Config& root, const RunOptions& opt) {
   s.streaming = root.choice("streaming", "aa", {"aa", "two_lattice"}) == "aa" ? lbm::StreamKind::AA : lbm::StreamKind::TwoLattice;
 
   c.parallel = halo::parse_parallel(root);
-  const Config coll = root.section("collision");
-  s.collision = coll.choice("model", "trt", {"bgk", "trt"}) == "bgk" ? lbm::CollisionKind::BGK : lbm::CollisionKind::TRT;
-  s.magic = coll.number_in("magic", 3.0 / 16.0, 1e-6, 100.0, "TRT magic parameter Lambda; 3/16 exact walls, 1/4 most stable");
-  std::optional<double> tau;
-  if (coll.has("tau")) tau = coll.number("tau");
-  coll.accept("tau");
-  coll.finish();
-
-  const Config fluid = root.section("fluid");
-  const double rho_si = fluid.positive("density");
-  const double nu_si = fluid.positive("kinematic_viscosity");
-  fluid.finish();
-
-  const Config dom = root.section("domain");
-  const auto cells = dom.integers("cells", static_cast<std::size_t>(D), static_cast<std::size_t>(D), 1, 1L << 16);
-  const double dx = dom.positive("spacing");
-  dom.finish();
+  const lbm::SiFluid si = lbm::read_si_fluid(root, s);  // collision, fluid, domain, time
+  const auto& cells = si.cells;
+  const double dx = si.dx, nu_si = si.nu;
   for (int a = 0; a < D; ++a) c.fluid_cells[static_cast<std::size_t>(a)] = cells[static_cast<std::size_t>(a)];
-
-  const Config time = root.section("time");
-  std::optional<double> dt;
-  if (time.has("dt")) dt = time.positive("dt");
-  time.accept("dt");
-  const RunLength len = read_run_length(time, 1, 1000000000000L);
-  const bool has_end = len.end.has_value();
-  long steps = len.steps.value_or(0);
-  double t_end = len.end.value_or(0);
-  time.finish();
 
   const OutputSettings out = read_output(root, kOutputInterval, "runs/" + c.scene, 1000000000000L);
   c.outdir = out.directory;
@@ -156,7 +133,7 @@ LbmCase parse(const Config& root, const RunOptions& opt) {
     u_ref = U;
     for (int a = 1; a < D; ++a)
       if (cells[static_cast<std::size_t>(a)] != cells[0])
-        dom.fail("cells", "the Taylor-Green vortex needs equal cells on every axis");
+        root.section("domain").fail("cells", "the Taylor-Green vortex needs equal cells on every axis");
   } else if (c.scene == "lid_driven_cavity") {
     U = sc.positive("lid_velocity");
     u_ref = U;
@@ -176,22 +153,9 @@ LbmCase parse(const Config& root, const RunOptions& opt) {
   c.checkpoint = ckpt::read_policy(root);
   root.finish();
 
-  UnitsRequest ur;
-  ur.dx = dx;
-  ur.nu = nu_si;
-  ur.rho = rho_si;
-  ur.tau = tau;
-  ur.dt = dt;
-  ur.u_ref = u_ref;
-  ur.max_mach = c.max_mach;
-  ur.where = root.source();
-  cases::check_fluid_scene(root, c.scene, mode, cells, sc, dx, nu_si, u_ref, c.max_mach, tau, dt);
-  c.units = derive_units(ur);
-  s.tau = c.units.tau;
-  if (lbm::bgk_too_close_to_half(s.collision, s.tau))
-    throw ConfigError(root.source() + ": key 'collision.tau' = " + std::to_string(s.tau) +
-                      ": BGK is unstable this close to 0.5; use tau >= 0.51 or collision.model: trt");
-  if (has_end) steps = std::max<long>(1, saturating_steps(std::round(t_end / c.units.dt)));
+  cases::check_fluid_scene(root, c.scene, mode, cells, sc, dx, nu_si, u_ref, c.max_mach, si.tau, si.dt);
+  c.units = lbm::si_fluid_units(root, si, u_ref, c.max_mach, s);
+  long steps = lbm::si_fluid_steps(si, c.units);
   if (opt.steps) steps = *opt.steps;
   c.steps = steps;
   {
@@ -209,7 +173,7 @@ LbmCase parse(const Config& root, const RunOptions& opt) {
       spdlog::warn("{}: {}", root.source(), w);
   }
   if (opt.output) c.outdir = *opt.output;
-  cases::check_fluid_plan(root, opt, has_end && !opt.steps ? t_end / c.units.dt : double(c.steps), double(c.fluid_cells[0]) * double(c.fluid_cells[1]) * double(c.fluid_cells[2]));
+  cases::check_fluid_plan(root, opt, si.length.end && !opt.steps ? *si.length.end / c.units.dt : double(c.steps), double(c.fluid_cells[0]) * double(c.fluid_cells[1]) * double(c.fluid_cells[2]));
 
   // Grid with boundary layers.
   for (int a = 0; a < 3; ++a) c.pad[static_cast<std::size_t>(a)] = closed[static_cast<std::size_t>(a)] ? 1 : 0;
@@ -226,31 +190,12 @@ LbmCase parse(const Config& root, const RunOptions& opt) {
 // Defined below: runs a parsed case.
 int run_parsed(LbmCase& c, const RunOptions& opt);
 
-// Refuses grids that cannot fit, before anything is allocated: the solver's
-// device/host memory plus the host staging fields (flags, rho, u, pressure:
-// 1 + 5 doubles per cell) for set-up and output.
-void check_memory(const LbmCase& c, Backend backend) {
-  // Each rank holds its piece (the decomposition is checked here, before anything is allocated).
-  const std::size_t need = lbm::distributed_fluid_memory(c.setup, c.parallel, halo::Comm::world().size());
-  const auto cells = static_cast<std::size_t>(c.setup.domain.storage_cells());
-  const std::size_t host_need = cells * (1 + 5 * sizeof(double)) + (backend == Backend::Host ? need : 0);
-  const std::size_t have = backend_free_bytes(backend);
-  const std::size_t host_have = backend_free_bytes(Backend::Host);
-  if (need > have || host_need > host_have) {
-    const bool dev = need > have;
-    throw ResourceError("key 'domain.cells': the grid of " + std::to_string(cells) + " cells needs " +
-                      std::to_string((dev ? need : host_need) >> 20) + " MiB of " + (dev ? to_string(backend) : "host") +
-                      " memory but " + std::to_string((dev ? have : host_have) >> 20) +
-                      " MiB are free; use fewer cells, precision: fp32, or streaming: aa");
-  }
-}
-
 }  // namespace
 
 int run_lbm_case(const Config& root, const RunOptions& opt) {
   // Parse and validate everything first: bad input never touches output.
   LbmCase c = parse(root, opt);
-  check_memory(c, resolve_backend(opt.backend));
+  lbm::check_fluid_memory(c.setup, c.parallel, halo::Comm::world().size(), resolve_backend(opt.backend));
   auto& s = c.setup;
   const auto& n = s.domain.local;
   const auto N = static_cast<std::size_t>(n[0] * n[1] * n[2]);

@@ -61,6 +61,7 @@
 #include "imb/physical_units.hpp"
 #include "imb/psm_reader.hpp"
 #include "imb/psm_settings.hpp"
+#include "imb/suspension_reader.hpp"
 #include "lbm/storage_checks.hpp"
 #include "lbm/tau.hpp"
 
@@ -159,7 +160,7 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
                                                                   "collision: trt for smaller tau");
   c.max_mach = f.number_in("max_mach", 0.3, 0.01, 0.5, "largest lattice Mach number |u| sqrt(3) before the run stops");
   f.finish();
-  cases::check_particles_memory(root, s, 0, opt);
+  imb::check_particles_memory(root, s, 0, cases::planned_backend(opt));
   const Config ph = root.section("physics");
   const auto gv = ph.numbers("gravity", {0, 0, 0}, 3, 3);
   c.coupling.gravity = {U.to_lattice_acceleration(gv[0]), U.to_lattice_acceleration(gv[1]),
@@ -170,143 +171,19 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
     ph.fail("balance_weight", "only a fully periodic domain needs a fluid body force to balance the particles' weight");
   c.coupling.buoyancy = ph.boolean("buoyancy", true);
   ph.finish();
-  c.density_ratio = c.physical ? U.to_lattice_density(pc.positive("density"))
-                               : pc.number_in("density_ratio", 1.0, 1e-3, 1e6, "solid / fluid density");
-  if (c.physical && !(c.density_ratio >= 1e-3 && c.density_ratio <= 1e6))
-    pc.fail("density", "gives a solid / fluid density ratio of " + std::to_string(c.density_ratio) +
-                           " (fluid.density " + std::to_string(U.rho) + " kg/m^3): valid 1e-3 to 1e6");
-  if (!c.physical) diam = pc.number_in("diameter", 1.0, 1e4, "particle diameter in cells");
-  c.diameter = diam;
-  const auto v0 = pc.numbers("velocity", {0, 0, 0}, 3, 3);
-  const auto w0 = pc.numbers("angular_velocity", {0, 0, 0}, 3, 3);
-  const Vec3d v0l{U.to_lattice_velocity(v0[0]), U.to_lattice_velocity(v0[1]), U.to_lattice_velocity(v0[2])};
-  const Vec3d w0l{U.to_lattice_angular_velocity(w0[0]), U.to_lattice_angular_velocity(w0[1]),
-                  U.to_lattice_angular_velocity(w0[2])};
-  const bool held = pc.boolean("held", false);  // position and rotation prescribed (infinite mass)
-  const std::string init = pc.choice("init", {"list", "random"});
-  const auto seed = static_cast<std::uint64_t>(pc.integer_in("seed", 1, 0, std::numeric_limits<long>::max()));
-  // Random initial velocities of this magnitude (the first paper's v_s0, Sec. 2).
-  const double random_speed = U.to_lattice_velocity(pc.number_in("random_speed", 0.0, 0.0, 1e300));
-  if (random_speed * std::sqrt(3.0) > c.max_mach)
-    pc.fail("random_speed", "is " + std::to_string(random_speed) + " cells per step, a lattice Mach number of " +
-                                std::to_string(random_speed * std::sqrt(3.0)) + " above fluid.max_mach = " +
-                                std::to_string(c.max_mach) + "; use a smaller speed (the first paper: 5e-3 in lattice units)");
+  imb::FluidBox fb{dim, cells, c.fluid_lo, c.fluid_hi, periodic};
+  imb::SuspensionParticles sp = imb::read_suspension_particles(
+      root, pc, fb,
+      {&U, c.physical, diam, c.max_mach, &s, cases::planned_backend(opt), opt.validate_only});
+  c.density_ratio = sp.density_ratio;
+  c.diameter = diam = sp.diameter;
+  c.particles = std::move(sp.particles);
+  c.blocks = sp.blocks;
+  c.solid_fraction = sp.solid_fraction;
   const double r = 0.5 * diam;
-  // Mass of a solid sphere of density rho_s (lattice units: fluid density 1).
-  const double rho_s = held ? 1e300 : c.density_ratio;
-  // SI positions are measured from the fluid box's corner; the lattice ones
-  // from the grid's, whose closed axes start with a wall layer.
-  auto position = [&](double x, int a) {
-    return c.physical ? U.to_lattice_length(x) + double(c.fluid_lo[static_cast<std::size_t>(a)]) : x;
-  };
-  if (init == "list") {
-    for (const Config& it : pc.sequence("list")) {
-      const auto x = it.numbers("position", dim, 3);
-      c.particles.add({position(x[0], 0), position(x[1], 1), dim == 3 ? position(x[2], 2) : 0.5}, r,
-                      held ? 1e300 / (4.0 / 3.0 * M_PI * r * r * r) : rho_s, v0l, w0l);
-      it.finish();
-    }
-  } else {
-    dem::RandomPackingSpec rs;
-    for (int a = 0; a < 3; ++a) {
-      const auto k = static_cast<std::size_t>(a);
-      rs.lo[k] = double(c.fluid_lo[k]);
-      rs.hi[k] = double(c.fluid_hi[k]);
-    }
-    rs.periodic = periodic;
-    double box = 1;
-    for (int a = 0; a < dim; ++a) box *= double(cells[static_cast<std::size_t>(a)]);
-    const double vp = dim == 3 ? 4.0 / 3.0 * M_PI * r * r * r : M_PI * r * r;
-    if (pc.has("count") == pc.has("solid_fraction"))
-      pc.fail(pc.has("count") ? "count" : "solid_fraction",
-              "give exactly one of particles.solid_fraction (of the box) or particles.count");
-    long count = 0;
-    if (pc.has("count")) {
-      count = pc.integer_in("count", 1, 1000000000L);
-      rs.solid_fraction = double(count) * vp / box;  // lround(phi V / V_p) gives count back
-      if (!(rs.solid_fraction <= 0.6))
-        pc.fail("count", "fills " + std::to_string(rs.solid_fraction) + " of the box; at most 0.6");
-    } else {
-      rs.solid_fraction = pc.number_in("solid_fraction", 1e-4, 0.6, "solid volume fraction of the box");
-      count = std::lround(rs.solid_fraction * box / vp);
-    }
-    rs.r_min = rs.r_max = r;
-    rs.density = rho_s;
-    rs.seed = seed;
-    // particles.packing: lattice (the default: one lattice over the box, every
-    // rank packs every particle) or blocks (dem/block_packing.hpp: the same
-    // particles whatever the rank count, each rank packing only its own).
-    const bool blocks = pc.choice("packing", "lattice", {"lattice", "blocks"}) == "blocks";
-    if (blocks) {
-      if (dim == 3) cases::check_particles_random(root, pc, s, rs.lo, rs.hi, rs.periodic, rs.solid_fraction, r, opt);
-      else cases::check_particles_memory(root, s, double(count), opt);
-      dem::BlockPackingSpec bs;
-      bs.dim = dim;
-      bs.lo = rs.lo;
-      bs.hi = rs.hi;
-      bs.periodic = rs.periodic;
-      bs.count = count;
-      bs.radius = r;
-      bs.density = rho_s;
-      bs.speed = random_speed;
-      bs.velocity = v0l;
-      bs.angular_velocity = w0l;
-      bs.seed = seed;
-      bs.displace = !opt.validate_only;
-      c.blocks = bs;
-    } else if (dim == 3) {
-      cases::check_particles_random(root, pc, s, rs.lo, rs.hi, rs.periodic, rs.solid_fraction, r, opt);
-      rs.displace = !opt.validate_only;  // lbdem check: lattice sites (dem/init.hpp)
-      c.particles = dem::random_packing(rs);
-    } else {
-      cases::check_particles_memory(root, s, double(count), opt);
-      c.particles = dem::random_disks(rs.lo, rs.hi, rs.periodic, count, r, rho_s, seed,
-                                        pc.full_key(pc.has("count") ? "count" : "solid_fraction"));
-    }
-    for (Index i = 0; i < c.particles.size(); ++i) {
-      c.particles.v[static_cast<std::size_t>(i)] = v0l;
-      c.particles.w[static_cast<std::size_t>(i)] = w0l;
-    }
-  }
-  dem::add_random_velocities(c.particles, dim, random_speed, seed);
-  if (dim == 2) {
-    // 2D: disks one cell deep (the first paper's Table 2: m = rho_s pi r^2 l),
-    // not the spheres HostParticles::add makes: mass x (pi r^2) / (4/3 pi r^3).
-    for (std::size_t i = 0; i < c.particles.mass.size(); ++i)
-      if (c.particles.mass[i] < 1e100) c.particles.mass[i] *= 0.75 / c.particles.r[i];
-  }
-  pc.finish();
-  {
-    double vol = 0, box = 1;
-    for (Index i = 0; i < c.particles.size(); ++i) {
-      const double ri = c.particles.r[static_cast<std::size_t>(i)];
-      vol += dim == 3 ? 4.0 / 3.0 * M_PI * ri * ri * ri : M_PI * ri * ri;
-    }
-    if (c.blocks) vol = double(c.blocks->count) * (dim == 3 ? 4.0 / 3.0 * M_PI * r * r * r : M_PI * r * r);
-    for (int a = 0; a < dim; ++a) box *= double(cells[static_cast<std::size_t>(a)]);
-    c.solid_fraction = vol / box;
-  }
   // DEM in lattice units: the fluid grid's box, walls where the fluid has walls, contact law.
   auto& p = c.dem;
-  dem::set_box_from_grid(p, s.domain);
-  if (dim == 2) {
-    // Disks move in the plane z = 0.5: the DEM's z axis is a closed slab a
-    // diameter either side (no walls, no motion along it), not the fluid's
-    // one-cell period, which no contact cutoff fits.
-    p.periodic[2] = false;
-    p.lo[2] = 0.5 - diam;
-    p.hi[2] = 0.5 + diam;
-  }
-  for (int a = 0; a < dim; ++a) {
-    if (periodic[static_cast<std::size_t>(a)]) continue;
-    Vec3d n{}, q{};
-    n[a] = 1;
-    q[a] = 1.0;
-    p.walls.push_back({q, n});
-    n[a] = -1;
-    q[a] = p.hi[static_cast<std::size_t>(a)] - 1.0;
-    p.walls.push_back({q, n});
-  }
+  imb::coupled_dem_box(p, s.domain, dim, diam);
   p.gravity = {c.coupling.gravity[0], c.coupling.gravity[1], c.coupling.gravity[2]};
   if (dim == 2) p.inertia_factor = 0.5;  // a disk about its axis
   p.external_forcing = true;
@@ -370,7 +247,8 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
   // With each rank's own particles, every rank refuses if one does.
   std::string refused;
   try {
-    cases::check_particles_scene(root, s, p, c.particles, c.coupling.gravity, c.balance, c.coupling.dem_substeps, c.steps, opt);
+    imb::check_particles_scene(root, s, p, c.particles, c.coupling.gravity, c.balance, c.coupling.dem_substeps, c.steps,
+                               cases::planned_backend(opt), opt.force, opt.steps ? "--steps" : "time.steps");
     imb::check_coupled_setup(s, p, c.particles, c.coupling, {}, split ? &world : nullptr);
   } catch (const ConfigError& e) {
     if (!split) throw;
@@ -406,24 +284,6 @@ imb::SuspensionStatsSpec suspension_stats_spec(const ParticlesCase& c) {
   return sp;
 }
 
-// Net weight (m - rho_f V_p) |g| of the mean particle (lattice units; a
-// disk's in 2D, or with `sphere` that of a sphere of the same diameter and
-// density), 0 without gravity.
-double mean_net_weight(const ParticlesCase& c, bool sphere = false) {
-  const auto& g = c.coupling.gravity;
-  const double gn = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
-  double w = 0;
-  const auto& p = c.particles;
-  for (std::size_t i = 0; i < p.r.size(); ++i) {
-    const double r = p.r[i], vs = 4.0 / 3.0 * M_PI * r * r * r;
-    const double own = c.dim == 3 ? vs : M_PI * r * r;  // the particle's volume (a disk's area in 2D)
-    const double v = sphere ? vs : own;
-    if (p.mass[i] > 1e100) continue;  // held
-    w += (p.mass[i] / own - c.coupling.fluid_density) * v * gn;
-  }
-  return p.r.empty() ? 0.0 : w / double(p.r.size());
-}
-
 // The Wen-Yu homogeneous slip of this suspension (cells per step). In 2D, of
 // spheres of the disks' diameter and density at the areal fraction: the first
 // paper's Table 2 gives its 2D and 3D suspensions one (the sphere's) terminal
@@ -431,37 +291,16 @@ double mean_net_weight(const ParticlesCase& c, bool sphere = false) {
 double wen_yu_prediction(const ParticlesCase& c) {
   const double nu = lbm::lattice_viscosity(c.setup.tau);
   return cfd::wen_yu_slip(c.solid_fraction, c.diameter, c.coupling.fluid_density, c.coupling.fluid_density * nu,
-                            mean_net_weight(c, true));
+                            imb::mean_net_weight(suspension_stats_spec(c), c.particles, true));
 }
 
-// One free sphere in a fully periodic cube of side L, its weight balanced:
-// in its own frame the flow through a simple cubic array of spheres. Stokes
-// drag of that array (Sangani & Acrivos 1982, Eq. 60): F = 3 pi mu d U K(d/L),
-// F the force that balances a mean pressure gradient over the whole period,
-// W / (1 - phi) for the weight W that the fluid's body force balances over
-// the fluid volume, and U the superficial velocity, (1 - phi) times the slip.
-// So the terminal slip is W / ((1 - phi)^2 3 pi mu d K). 0 where the scene is
-// not of that kind (accurate for Re_p << 1; the Oseen correction is 3/16 Re_p).
+// The Sangani-Acrivos terminal slip of one sphere in a periodic cube (0 otherwise), and the slip along -g.
 double periodic_settling_reference(const ParticlesCase& c) {
-  const auto& n = c.setup.domain.global;
-  const auto& per = c.setup.domain.periodic;
-  if (c.dim != 3 || c.particles.size() != 1 || !(per[0] && per[1] && per[2]) || n[0] != n[1] || n[1] != n[2])
-    return 0;
-  if (c.particles.mass[0] > 1e100) return 0;
-  const double chi = c.diameter / double(n[0]);
-  const double W = mean_net_weight(c);
-  if (!(chi <= 0.75) || !(W > 0)) return 0;
-  const double mu = c.coupling.fluid_density * (c.setup.tau - 0.5) / 3.0;
-  const double phi = c.solid_fraction;
-  return W / ((1 - phi) * (1 - phi) * 3 * M_PI * mu * c.diameter * imb::sangani_acrivos_K(chi));
+  return imb::periodic_settling_reference(suspension_stats_spec(c), c.particles, c.setup.domain.global, c.setup.tau,
+                                          c.solid_fraction);
 }
-
-// The last sample's slip along -g (along y without gravity).
 double last_slip_along_gravity(const ParticlesCase& c, const imb::SuspensionSample& s) {
-  const auto& g = c.coupling.gravity;
-  const double gn = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
-  if (!(gn > 0)) return s.slip[1];
-  return -(s.slip[0] * g[0] + s.slip[1] * g[1] + s.slip[2] * g[2]) / gn;
+  return imb::slip_along_gravity(suspension_stats_spec(c), s);
 }
 
 json::Value json_vec(const std::array<double, 3>& v) { return json::Value::array_of(std::vector<double>(v.begin(), v.end())); }

@@ -20,43 +20,6 @@ Backend planned_backend(const RunOptions& opt) {
 }
 
 // ----------------------------------------------------------------- per scene
-void check_particles_random(const Config& root, const Config& pc, const lbm::LbmSetup& fluid,
-                            const std::array<double, 3>& lo, const std::array<double, 3>& hi,
-                            const std::array<bool, 3>& periodic, double solid_fraction, double r,
-                            const RunOptions& opt) {
-  // The key is particles.diameter here.
-  for (int a = 0; a < 3; ++a) {
-    const auto k = static_cast<std::size_t>(a);
-    if (!(2 * r < hi[k] - lo[k]))
-      throw ConfigError(pc.where("diameter") + ": key 'particles.diameter' = " + pc.value_text("diameter") +
-                        ": the particles do not fit the box along " + axis_name(a) + " (" + num(hi[k] - lo[k]) +
-                        " cells" + (periodic[k] ? ", periodic" : "") +
-                        ", domain.cells); use smaller particles or more cells");
-  }
-  check_particles_memory(root, fluid, dem::random_packing_count(lo, hi, solid_fraction, r), opt);
-}
-
-void check_dem_scene(const Config& root, const dem::DemParams& p, const dem::HostParticles& hp, long steps,
-                     const RunOptions& opt) {
-  const dem::ParticleBox box = dem::particle_box(p, 3, "domain.lo, domain.hi", "walls");
-  dem::check_particles_in_box(root, hp, box);
-  dem::check_particle_overlaps(root, hp, box);
-  const double n = static_cast<double>(hp.x.size());
-  check_memory(root, planned_backend(opt), n * kDemDeviceBytesPerParticle, n * kDemHostBytesPerParticle, "particles",
-               num(n) + " particles", "use fewer particles");
-  std::string key = "time.steps";
-  double planned = double(steps);
-  if (opt.steps) {
-    key = "--steps";
-  } else if (const auto t = root.optional_section("time"); t && t->has(end_key(*t))) {
-    key = t->full_key(end_key(*t)) + " = " + t->value_text(end_key(*t)) + " s with dt = " + num(p.dt) + " s (" +
-          (t->has("dt") ? "time.dt" : "t_c / time.steps_per_collision, t_c from material.stiffness and the radii") +
-          ")";
-    planned = t->number(end_key(*t)) / p.dt;  // in double: the integer count may have overflowed
-  }
-  check_plan(root, opt.force, planned, 0, n, key);
-}
-
 void check_fluid_scene(const Config& root, const std::string& scene, const std::string& mode,
                        const std::vector<long>& cells, const Config& sc, double dx, double nu, double u_ref,
                        double max_mach, std::optional<double> tau, std::optional<double> dt) {
@@ -101,77 +64,6 @@ void check_fluid_plan(const Config& root, const RunOptions& opt, double steps, d
   if (opt.steps) key = "--steps";
   else if (const auto t = root.optional_section("time"); t && t->has(end_key(*t))) key = t->full_key(end_key(*t)) + " / dt";
   check_plan(root, opt.force, steps, fluid_cells, 0, key);
-}
-
-void check_fixed_sphere(const Config& root, int dim, double diameter, double chi, lbm::Precision precision,
-                        lbm::StreamKind streaming, long max_steps, const RunOptions& opt) {
-  lbm::LbmSetup fluid;
-  fluid.lattice = dim == 3 ? lbm::LatticeKind::D3Q19 : lbm::LatticeKind::D2Q9;
-  fluid.precision = precision;
-  fluid.streaming = streaming;
-  const long L = std::lround(diameter / chi);
-  if (L < 4)
-    throw ConfigError(root.source() + ": keys 'geometry.diameter' = " + num(diameter) + ", 'geometry.chi' = " +
-                      num(chi) + ": the array period L = d / chi = " + std::to_string(L) +
-                      " cells is too short to hold a resolved sphere and the flow around it; use L >= 4 (a larger "
-                      "diameter or a smaller chi)");
-  const double cells = dim == 3 ? double(L) * L * L : double(L) * L;
-  const double bytes = lbm::lbm_grid_bytes(fluid, cells);
-  check_memory(root, planned_backend(opt), bytes, cells * (1 + 5 * sizeof(double)), "geometry.diameter, geometry.chi",
-               "the grid of " + num(cells) + " cells (L = d / chi = " + std::to_string(L) + ")",
-               "use a smaller diameter or a larger chi");
-  check_plan(root, opt.force, double(max_steps), cells, 0, opt.steps ? "--steps" : "steady.max_steps");
-}
-
-void check_particles_memory(const Config& root, const lbm::LbmSetup& fluid, double particles, const RunOptions& opt) {
-  double cells = 1;
-  for (int a = 0; a < 3; ++a) cells *= static_cast<double>(fluid.domain.global[static_cast<std::size_t>(a)]);
-  const double dev = lbm::rank_grid_bytes(root, fluid) + particles * kDemDeviceBytesPerParticle;
-  // Host: the set-up fields of initialize() (flags, rho, u), the particles' host copies.
-  const double host = cells * (1 + 4 * sizeof(double)) + particles * kDemHostBytesPerParticle;
-  check_memory(root, planned_backend(opt), dev, host, particles > 0 ? "domain.cells, particles.solid_fraction" : "domain.cells",
-               "the grid of " + num(cells) + " cells" + (particles > 0 ? " with about " + num(particles) + " particles" : ""),
-               "use fewer cells" + std::string(particles > 0 ? ", a lower solid fraction or larger particles" : "") +
-                   lbm::or_fp32(fluid));
-}
-
-void check_particles_scene(const Config& root, const lbm::LbmSetup& fluid, const dem::DemParams& dem,
-                           const dem::HostParticles& p, const std::array<double, 3>& gravity, bool balance,
-                           int dem_substeps, long steps, const RunOptions& opt) {
-  const int dim = fluid.lattice == lbm::LatticeKind::D2Q9 ? 2 : 3;
-  dem::ParticleBox box = dem::particle_box(dem, dim, "domain.cells", "the wall");
-  dem::check_particles_in_box(root, p, box);
-  dem::check_particle_overlaps(root, p, box);
-  bool periodic = true;
-  for (int a = 0; a < dim; ++a) periodic = periodic && fluid.domain.periodic[static_cast<std::size_t>(a)];
-  const double g = std::sqrt(gravity[0] * gravity[0] + gravity[1] * gravity[1] + gravity[2] * gravity[2]);
-  if (periodic && !balance && g > 0)
-    throw ConfigError(root.source() + ": key 'physics.balance_weight' = false with physics.gravity = " +
-                      vec({gravity[0], gravity[1], gravity[2]}, 3) +
-                      " in a fully periodic domain: nothing holds the particles' weight, and the whole system "
-                      "accelerates without bound until the Mach limit; set physics.balance_weight: true (a fluid body "
-                      "force balances the weight, first paper Sec. 2) or physics.gravity: [0, 0, 0]");
-  // DEM sub-steps against the shortest contact, in double (a stiffness of
-  // 1e30 asks for more sub-steps than an int holds).
-  const double tc = dem::min_collision_time(dem, p);
-  if (std::isfinite(tc) && tc > 0 && double(dem_substeps) * tc < dem.min_steps_per_collision * (1 - 1e-12)) {
-    const double need = std::ceil(dem.min_steps_per_collision / tc - 1e-9);
-    throw ConfigError(root.source() + ": key 'dem.substeps' = " + std::to_string(dem_substeps) +
-                      ": the DEM time step 1/" + std::to_string(dem_substeps) +
-                      " (lattice units) is too long for the shortest contact, t_c = " + num(tc) + " (from dem.stiffness "
-                      "and the particle masses), which needs at least " + num(dem.min_steps_per_collision) +
-                      " DEM steps: use dem.substeps >= " + num(need) +
-                      (need > 100000 ? " (beyond its limit 100000: soften dem.stiffness)" : " or soften dem.stiffness"));
-  }
-  imb::check_particles_mach(root, fluid, dem, p, 1.0, gravity, imb::CoupledLimits{}.max_mach);
-  double cells = 1;
-  for (int a = 0; a < 3; ++a) cells *= static_cast<double>(fluid.domain.global[static_cast<std::size_t>(a)]);
-  const double n = static_cast<double>(p.x.size());
-  check_memory(root, planned_backend(opt), lbm::rank_grid_bytes(root, fluid) + n * kDemDeviceBytesPerParticle,
-               cells * (1 + 4 * sizeof(double)) + n * kDemHostBytesPerParticle, "domain.cells, particles",
-               "the grid of " + num(cells) + " cells with " + num(n) + " particles",
-               "use fewer cells or particles" + lbm::or_fp32(fluid));
-  check_plan(root, opt.force, double(steps), cells, n * dem_substeps, opt.steps ? "--steps" : "time.steps");
 }
 
 // ----------------------------------------------------------------- key names

@@ -1,12 +1,11 @@
 #pragma once
-// Each scene's checks, run while its case file is parsed (before any output
-// folder, grid or particle array is made): the modules' checks
-// (core/run_checks.hpp: grids, memory, the plan; lbm/fluid_checks.hpp: the
-// Mach number of a fluid scene, a rank's grid; dem/particle_checks.hpp:
-// particles against the box, overlaps, packings; imb/coupled_memory.hpp: a
-// coupled run's memory and Mach number) with the scene's keys; and the key
-// names of messages: the coupled and fixed-sphere code below the scenes names
-// its parameters by their C++ names (coupling.dem_substeps); with_user_keys()
+// What the scenes still check themselves while their case file is parsed:
+// the fluid scenes' geometry and Mach number with the key that set the speed,
+// and their plan (core/run_checks.hpp, lbm/fluid_checks.hpp). Each module
+// checks its own state (dem::check_dem_scene, imb::check_particles_scene,
+// imb::check_fixed_sphere, lbm::check_fluid_memory, ...). And the key names
+// of messages: the coupled and fixed-sphere code below the scenes names its
+// parameters by their C++ names (coupling.dem_substeps); with_user_keys()
 // rewrites them to the keys of the case file (dem.substeps), one table per
 // scene.
 #include <array>
@@ -38,11 +37,6 @@ Backend planned_backend(const RunOptions& opt);
 // ----------------------------------------------------------------- per scene
 // One call from each scene's parse (the checks above, with the scene's keys).
 
-// DEM scene: the particles against the box and walls, overlaps, device
-// memory and the plan.
-void check_dem_scene(const Config& root, const dem::DemParams& p, const dem::HostParticles& hp, long steps,
-                     const RunOptions& opt);
-
 // Fluid scenes (SI units): grid sizes that mean something, then the Mach
 // number with the key that set the speed (before derive_units()).
 void check_fluid_scene(const Config& root, const std::string& scene, const std::string& mode,
@@ -50,22 +44,6 @@ void check_fluid_scene(const Config& root, const std::string& scene, const std::
                        double u_ref, double max_mach, std::optional<double> tau, std::optional<double> dt);
 // ... and the plan, once the step count is known.
 void check_fluid_plan(const Config& root, const RunOptions& opt, double steps, double fluid_cells);
-
-// Fixed sphere: the period L = d / chi, memory, plan.
-void check_fixed_sphere(const Config& root, int dim, double diameter, double chi, lbm::Precision precision,
-                        lbm::StreamKind streaming, long max_steps, const RunOptions& opt);
-
-// Resolved particles: grid (+ `particles` estimated particles) memory before
-// anything is built; then, with the particles made, box, walls, overlaps,
-// Mach number and plan.
-void check_particles_memory(const Config& root, const lbm::LbmSetup& fluid, double particles, const RunOptions& opt);
-void check_particles_random(const Config& root, const Config& pc, const lbm::LbmSetup& fluid,
-                            const std::array<double, 3>& lo, const std::array<double, 3>& hi,
-                            const std::array<bool, 3>& periodic, double solid_fraction, double r,
-                            const RunOptions& opt);
-void check_particles_scene(const Config& root, const lbm::LbmSetup& fluid, const dem::DemParams& dem,
-                           const dem::HostParticles& p, const std::array<double, 3>& gravity, bool balance,
-                           int dem_substeps, long steps, const RunOptions& opt);
 
 // ----------------------------------------------------------------- key names
 using KeyMap = std::vector<std::pair<std::string, std::string>>;  // internal name -> key in the file

@@ -6,25 +6,12 @@
 
 namespace lbdem::cfd {
 
-using halo::load_run;
-using halo::save_run;
-
 void save_bed(ckpt::Writer& w, const GasSolver& gas, const dem::DemSystem& dem, const RunValues& values) {
-  save_run(w, values);
-  w.section("gas");
-  gas.save_state(w);
-  w.section("dem");
-  dem.save_state(w);
+  halo::save_sections(w, values, halo::section("gas", gas), halo::section("dem", dem));
 }
 
 RunValues load_bed(ckpt::Reader& r, GasSolver& gas, dem::DemSystem& dem) {
-  RunValues v = load_run(r);
-  r.section("gas");
-  gas.load_state(r);
-  r.section("dem");
-  dem.load_state(r);
-  r.finish();
-  return v;
+  return halo::load_sections(r, halo::section("gas", gas), halo::section("dem", dem));
 }
 
 }  // namespace lbdem::cfd

@@ -13,9 +13,7 @@ using halo::agree;
 using halo::BytesSource;
 using halo::ChunkSource;
 using halo::file_ranks;
-using halo::load_run;
 using halo::load_run_shared;
-using halo::save_run;
 using halo::SharedWriter;
 using halo::swap_chunk;
 
@@ -24,18 +22,10 @@ constexpr std::size_t kChunkBytes = halo::kCheckpointChunkBytes;
 }  // namespace
 
 void save_dem(ckpt::Writer& w, const DemSystem& dem, const RunValues& values) {
-  save_run(w, values);
-  w.section("dem");
-  dem.save_state(w);
+  halo::save_sections(w, values, halo::section("dem", dem));
 }
 
-RunValues load_dem(ckpt::Reader& r, DemSystem& dem) {
-  RunValues v = load_run(r);
-  r.section("dem");
-  dem.load_state(r);
-  r.finish();
-  return v;
-}
+RunValues load_dem(ckpt::Reader& r, DemSystem& dem) { return halo::load_sections(r, halo::section("dem", dem)); }
 
 void save_dem(ckpt::Run& run, const halo::Comm& comm, long step, double time, const DemSystem& dem,
               const RunValues& values) {

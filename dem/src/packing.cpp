@@ -94,7 +94,7 @@ HostParticles random_disks(const std::array<double, 3>& lo, const std::array<dou
     hp.add(x, r, density);
   }
   // Each centre moves by at most half the free gap along each axis from its
-  // own lattice site: no two disks overlap (tests/cases SuspensionSetup).
+  // own lattice site: no two disks overlap (tests/dem SuspensionSetup).
   hp.apart_by_construction = true;
   return hp;
 }

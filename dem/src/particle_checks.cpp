@@ -6,6 +6,7 @@
 
 #include "core/error.hpp"
 #include "core/run_checks.hpp"
+#include "core/run_length.hpp"
 
 namespace lbdem::dem {
 
@@ -217,6 +218,27 @@ void check_dem_random_packing(const Config& pc, const std::array<double, 3>& lo,
   check_random_fill(pc, lo, hi, periodic, r_max,
                     pc.has("region_hi") ? "particles.region_hi, domain.lo" : "domain.lo, domain.hi");
   check_dem_particle_count(pc, random_packing_count(lo, hi, solid_fraction, r_max), "solid_fraction");
+}
+
+void check_dem_scene(const Config& root, const DemParams& p, const HostParticles& hp, long steps, Backend backend,
+                     bool force, bool steps_given) {
+  const ParticleBox box = particle_box(p, 3, "domain.lo, domain.hi", "walls");
+  check_particles_in_box(root, hp, box);
+  check_particle_overlaps(root, hp, box);
+  const double n = static_cast<double>(hp.x.size());
+  check_memory(root, backend, n * kDemDeviceBytesPerParticle, n * kDemHostBytesPerParticle, "particles",
+               num(n) + " particles", "use fewer particles");
+  std::string key = "time.steps";
+  double planned = double(steps);
+  if (steps_given) {
+    key = "--steps";
+  } else if (const auto t = root.optional_section("time"); t && t->has(end_key(*t))) {
+    key = t->full_key(end_key(*t)) + " = " + t->value_text(end_key(*t)) + " s with dt = " + num(p.dt) + " s (" +
+          (t->has("dt") ? "time.dt" : "t_c / time.steps_per_collision, t_c from material.stiffness and the radii") +
+          ")";
+    planned = t->number(end_key(*t)) / p.dt;  // in double: the integer count may have overflowed
+  }
+  check_plan(root, force, planned, 0, n, key);
 }
 
 }  // namespace lbdem::dem

@@ -11,9 +11,7 @@ namespace lbdem::imb {
 using halo::agree;
 using halo::BytesSource;
 using halo::file_ranks;
-using halo::load_run;
 using halo::load_run_shared;
-using halo::save_run;
 using halo::SharedWriter;
 using lbm::load_fluid_shared;
 using lbm::save_fluid_piece;
@@ -21,25 +19,11 @@ using dem::load_dem_shared;
 
 void save_coupled(ckpt::Writer& w, lbm::LbmSolver& fluid, const dem::DemSystem& dem, const CoupledSolver& cs,
                   const RunValues& values) {
-  save_run(w, values);
-  w.section("lbm");
-  fluid.save_state(w);
-  w.section("dem");
-  dem.save_state(w);
-  w.section("coupling");
-  cs.save_state(w);
+  halo::save_sections(w, values, halo::section("lbm", fluid), halo::section("dem", dem), halo::section("coupling", cs));
 }
 
 RunValues load_coupled(ckpt::Reader& r, lbm::LbmSolver& fluid, dem::DemSystem& dem, CoupledSolver& cs) {
-  RunValues v = load_run(r);
-  r.section("lbm");
-  fluid.load_state(r);
-  r.section("dem");
-  dem.load_state(r);
-  r.section("coupling");
-  cs.load_state(r);
-  r.finish();
-  return v;
+  return halo::load_sections(r, halo::section("lbm", fluid), halo::section("dem", dem), halo::section("coupling", cs));
 }
 
 void save_coupled(ckpt::Run& run, const halo::Comm& comm, long step, double time, lbm::LbmSolver& fluid,

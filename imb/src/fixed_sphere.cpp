@@ -12,9 +12,11 @@
 
 #include "core/buffer.hpp"
 #include "core/error.hpp"
+#include "core/run_checks.hpp"
 #include "core/signals.hpp"
 #include "halo/simulation.hpp"
 #include "imb/psm_coupling.hpp"
+#include "lbm/fluid_checks.hpp"
 
 namespace lbdem::imb {
 
@@ -325,6 +327,27 @@ FixedSphereResult run_fixed_sphere(const FixedSphereSpec& c, Backend b) {
   r.rel_error = (r.K - K_ref) / K_ref;
   r.re_p = r.mean_u * c.diameter / nu;
   return r;
+}
+
+void check_fixed_sphere(const Config& root, int dim, double diameter, double chi, lbm::Precision precision,
+                        lbm::StreamKind streaming, long max_steps, Backend backend, bool force,
+                        const std::string& steps_key) {
+  lbm::LbmSetup fluid;
+  fluid.lattice = dim == 3 ? lbm::LatticeKind::D3Q19 : lbm::LatticeKind::D2Q9;
+  fluid.precision = precision;
+  fluid.streaming = streaming;
+  const long L = std::lround(diameter / chi);
+  if (L < 4)
+    throw ConfigError(root.source() + ": keys 'geometry.diameter' = " + checks::num(diameter) + ", 'geometry.chi' = " +
+                      checks::num(chi) + ": the array period L = d / chi = " + std::to_string(L) +
+                      " cells is too short to hold a resolved sphere and the flow around it; use L >= 4 (a larger "
+                      "diameter or a smaller chi)");
+  const double cells = dim == 3 ? double(L) * L * L : double(L) * L;
+  const double bytes = lbm::lbm_grid_bytes(fluid, cells);
+  check_memory(root, backend, bytes, cells * (1 + 5 * sizeof(double)), "geometry.diameter, geometry.chi",
+               "the grid of " + checks::num(cells) + " cells (L = d / chi = " + std::to_string(L) + ")",
+               "use a smaller diameter or a larger chi");
+  check_plan(root, force, double(max_steps), cells, 0, steps_key);
 }
 
 }  // namespace lbdem::imb

@@ -5,6 +5,7 @@
 #include "imb/suspension.hpp"
 #include "halo/comm.hpp"
 #include "imb/coupled.hpp"
+#include "imb/fixed_sphere.hpp"
 
 namespace lbdem::imb {
 
@@ -115,6 +116,41 @@ lbm::LbmDiagnostics ParticleSeries::append(long step) {
   }
   seconds_ += std::chrono::duration<double>(clk::now() - t0).count();
   return d;
+}
+
+// ----------------------------------------------------------------- references
+double mean_net_weight(const SuspensionStatsSpec& spec, const dem::HostParticles& p, bool sphere) {
+  const auto& g = spec.gravity;
+  const double gn = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+  double w = 0;
+  for (std::size_t i = 0; i < p.r.size(); ++i) {
+    const double r = p.r[i], vs = 4.0 / 3.0 * M_PI * r * r * r;
+    const double own = spec.dim == 3 ? vs : M_PI * r * r;  // the particle's volume (a disk's area in 2D)
+    const double v = sphere ? vs : own;
+    if (p.mass[i] > 1e100) continue;  // held
+    w += (p.mass[i] / own - spec.fluid_density) * v * gn;
+  }
+  return p.r.empty() ? 0.0 : w / double(p.r.size());
+}
+
+double periodic_settling_reference(const SuspensionStatsSpec& spec, const dem::HostParticles& p,
+                                   const std::array<long, 3>& n, double tau, double solid_fraction) {
+  const auto& per = spec.periodic;
+  if (spec.dim != 3 || p.size() != 1 || !(per[0] && per[1] && per[2]) || n[0] != n[1] || n[1] != n[2]) return 0;
+  if (p.mass[0] > 1e100) return 0;
+  const double chi = spec.diameter / double(n[0]);
+  const double W = mean_net_weight(spec, p);
+  if (!(chi <= 0.75) || !(W > 0)) return 0;
+  const double mu = spec.fluid_density * (tau - 0.5) / 3.0;
+  const double phi = solid_fraction;
+  return W / ((1 - phi) * (1 - phi) * 3 * M_PI * mu * spec.diameter * sangani_acrivos_K(chi));
+}
+
+double slip_along_gravity(const SuspensionStatsSpec& spec, const SuspensionSample& s) {
+  const auto& g = spec.gravity;
+  const double gn = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+  if (!(gn > 0)) return s.slip[1];
+  return -(s.slip[0] * g[0] + s.slip[1] * g[1] + s.slip[2] * g[2]) / gn;
 }
 
 }  // namespace lbdem::imb

@@ -14,9 +14,7 @@ namespace lbdem::lbm {
 
 using halo::agree;
 using halo::file_ranks;
-using halo::load_run;
 using halo::load_run_shared;
-using halo::save_run;
 using halo::SharedWriter;
 
 namespace {
@@ -58,18 +56,10 @@ ckpt::Identity fluid_identity(const std::string& scene, const LbmSetup& s) {
 }
 
 void save_fluid(ckpt::Writer& w, LbmSolver& fluid, const RunValues& values) {
-  save_run(w, values);
-  w.section("lbm");
-  fluid.save_state(w);
+  halo::save_sections(w, values, halo::section("lbm", fluid));
 }
 
-RunValues load_fluid(ckpt::Reader& r, LbmSolver& fluid) {
-  RunValues v = load_run(r);
-  r.section("lbm");
-  fluid.load_state(r);
-  r.finish();
-  return v;
-}
+RunValues load_fluid(ckpt::Reader& r, LbmSolver& fluid) { return halo::load_sections(r, halo::section("lbm", fluid)); }
 
 void save_fluid_piece(ckpt::Sink& out, LbmSolver& fluid) {
   const LbmSetup& s = fluid.setup();

@@ -1,23 +1,20 @@
-// The production suspension (imb/suspension.hpp, the particles scene in
-// physical units): the SI case against its lattice-unit twin, the paper's
-// Table 2 conversion, the random disks of the 2D suspension, the random
-// initial velocities, the Wen-Yu slip and the device statistics.
+// The production suspension through the particles scene (`lbdem`): the SI
+// case against its lattice-unit twin, the paper's Table 2 conversion, the 2D
+// random suspension, the default case's reference, the shipped suspension
+// cases. The library parts are tested in their modules: the packings in
+// tests/dem/test_suspension_packing.cpp, the Wen-Yu slip in
+// tests/cfd/test_homogeneous_slip.cpp, the statistics and references in
+// tests/imb/test_suspension_stats.cpp.
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <chrono>
-#include <ctime>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 
 #include "imb/fixed_sphere.hpp"
-#include "cfd/homogeneous_slip.hpp"
-#include "dem/packing.hpp"
-#include "imb/suspension.hpp"
 #include "core/output.hpp"
-#include "dem/system.hpp"
 #include "run_lbdem.hpp"
 
 namespace lbdem::test {
@@ -244,172 +241,6 @@ TEST(SuspensionUnits, TauAndDtTogetherAreRefused) {
   EXPECT_NE(r.out.find("time.dt"), std::string::npos) << r.out;
 }
 
-// The full 2D suspension of the paper: 1,166,400 disks of d = 10 cells in
-// 15360 x 61440 periodic cells, placed in well under 10 s, none overlapping.
-TEST(SuspensionSetup, PaperTwoDimensionalPackingIsFastAndValid) {
-  const long n = 1166400;
-  const double r = 5;
-  // CPU time of this (single-threaded) placement: a loaded machine does not fail it.
-  const std::clock_t c0 = std::clock();
-  const auto p = dem::random_disks({0, 0, 0}, {15360, 61440, 1}, {true, true, true}, n, r, 692.3, 1, "particles.count");
-  EXPECT_TRUE(p.apart_by_construction);
-  const double secs = double(std::clock() - c0) / CLOCKS_PER_SEC;
-  EXPECT_LT(secs, 10.0);
-  ASSERT_EQ(p.size(), n);
-  // Overlaps through a cell list of 10-cell bins (periodic).
-  const long bx = 1536, by = 6144;
-  std::vector<std::vector<std::size_t>> bins(static_cast<std::size_t>(bx * by));
-  for (std::size_t i = 0; i < p.x.size(); ++i) {
-    ASSERT_GE(p.x[i][0], 0.0);
-    ASSERT_LT(p.x[i][0], 15360.0);
-    ASSERT_GE(p.x[i][1], 0.0);
-    ASSERT_LT(p.x[i][1], 61440.0);
-    ASSERT_EQ(p.x[i][2], 0.5);
-    const long cx = static_cast<long>(p.x[i][0] / 10), cy = static_cast<long>(p.x[i][1] / 10);
-    bins[static_cast<std::size_t>(cx + bx * cy)].push_back(i);
-  }
-  long overlaps = 0;
-  double closest = 1e300;
-  for (std::size_t i = 0; i < p.x.size(); ++i) {
-    const long cx = static_cast<long>(p.x[i][0] / 10), cy = static_cast<long>(p.x[i][1] / 10);
-    for (long dy = -1; dy <= 1; ++dy)
-      for (long dx = -1; dx <= 1; ++dx)
-        for (std::size_t j : bins[static_cast<std::size_t>((cx + dx + bx) % bx + bx * ((cy + dy + by) % by))]) {
-          if (j <= i) continue;
-          double ddx = p.x[i][0] - p.x[j][0], ddy = p.x[i][1] - p.x[j][1];
-          ddx -= 15360 * std::round(ddx / 15360);
-          ddy -= 61440 * std::round(ddy / 61440);
-          const double dist = std::hypot(ddx, ddy);
-          closest = std::min(closest, dist);
-          if (dist < 2 * r) ++overlaps;
-        }
-  }
-  EXPECT_EQ(overlaps, 0) << "closest pair " << closest;
-  // Not a lattice: the pairs' distances vary (the closest is below the site spacing).
-  EXPECT_LT(closest, 20.0);
-}
-
-TEST(SuspensionSetup, DisksThatCannotFitAreRefused) {
-  EXPECT_THROW(dem::random_disks({0, 0, 0}, {100, 100, 1}, {true, true, true}, 200, 5, 1, 1, "particles.count"),
-               ConfigError);
-}
-
-TEST(SuspensionSetup, RandomVelocitiesHaveTheSpeedAndNoNetMomentum) {
-  for (int dim : {2, 3}) {
-    dem::HostParticles p;
-    for (int i = 0; i < 5000; ++i) p.add({double(i), 0, 0}, 1, 1);
-    dem::add_random_velocities(p, dim, 5e-3, 7);
-    Vec3d mean{0, 0, 0};
-    double worst = 0, zmax = 0;
-    for (const auto& v : p.v) {
-      mean = mean + v;
-      worst = std::max(worst, std::abs(std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]) - 5e-3));
-      zmax = std::max(zmax, std::abs(v[2]));
-    }
-    for (int k = 0; k < 3; ++k) EXPECT_NEAR(mean[k], 0.0, 1e-15) << dim;
-    // Removing the mean shifts each speed by about 5e-3 / sqrt(N).
-    EXPECT_LT(worst, 5e-3 * 0.05) << dim;
-    if (dim == 2) {
-      EXPECT_EQ(zmax, 0.0);
-    }
-    // Isotropic: each direction holds about 1/dim of the energy.
-    double ex = 0;
-    for (const auto& v : p.v) ex += v[0] * v[0];
-    EXPECT_NEAR(ex / (5000 * 25e-6), 1.0 / dim, 0.05) << dim;
-  }
-}
-
-TEST(SuspensionWenYu, StokesLimitAndDragBalance) {
-  const double phi = 0.128, d = 10, mu = 0.2462;
-  // Stokes limit: w = W (1 - phi)^2.65 / (3 pi mu d).
-  const double W = 1e-9;
-  const double ws = W * std::pow(1 - phi, 2.65) / (3 * M_PI * mu * d);
-  EXPECT_NEAR(cfd::wen_yu_slip(phi, d, 1.0, mu, W), ws, 1e-6 * ws);
-  // At a finite Reynolds number the drag of the returned slip is the weight,
-  // and the inertial correction makes the slip smaller than Stokes'.
-  const double W2 = 0.17;  // the 3D suspension of the first paper, lattice units
-  const double w = cfd::wen_yu_slip(phi, d, 1.0, mu, W2);
-  EXPECT_NEAR(cfd::wen_yu_drag(phi, d, 1.0, mu, w), W2, 1e-12 * W2);
-  EXPECT_LT(w, W2 * std::pow(1 - phi, 2.65) / (3 * M_PI * mu * d));
-  EXPECT_GT(w, 0.9 * W2 * std::pow(1 - phi, 2.65) / (3 * M_PI * mu * d));
-  EXPECT_EQ(cfd::wen_yu_slip(phi, d, 1.0, mu, 0.0), 0.0);
-}
-
-// The device statistics against sums done here, on known particles.
-TEST(SuspensionStatistics, ReductionsMatchHostSums) {
-  dem::HostParticles hp;
-  // Eight particles in one corner (2 d = 8 cells) of a 32^3 box, one far away.
-  const double r = 2;
-  int k = 0;
-  for (double x : {1.5, 5.5})
-    for (double y : {1.5, 5.5})
-      for (double z : {1.5, 5.5}) hp.add({x, y, z}, r, 10.0, {0.01 * k, -0.02 + 0.001 * k, 0.003 * (k % 2)}), ++k;
-  hp.add({20, 20, 20}, r, 10.0, {0, 0.05, 0});
-  dem::DemParams p;
-  p.lo = {0, 0, 0};
-  p.hi = {32, 32, 32};
-  p.periodic = {true, true, true};
-  p.material.stiffness = p.material.wall_stiffness = 1e3;
-  p.dt = 0.01;
-  p.external_forcing = true;
-  p.gravity = {0, -1e-5, 0};
-  dem::DemSystem dem(Exec(Backend::Host), p, hp);
-  const dem::ParticleView v = dem.view();
-  for (Index i = 0; i < v.n; ++i) v.ext_force[i] = {0.1 * double(i), 2.0 + double(i), -0.5, 0};
-  imb::SuspensionStatsSpec spec;
-  spec.fluid_lo = {0, 0, 0};
-  spec.fluid_hi = {32, 32, 32};
-  spec.gravity = {0, -1e-5, 0};
-  spec.body_force = {0, 3e-6, 0};
-  spec.diameter = 2 * r;
-  spec.filter_widths = {2, 4};
-  imb::SuspensionStatistics stats(Exec(Backend::Host), spec);
-  lbm::LbmDiagnostics d;
-  d.momentum = {1.0, -2.0, 0.5};
-  const auto s = stats.sample(dem, d);
-  // Host sums in the DEM's storage order.
-  const auto h = dem.download();
-  const double n = double(h.size()), vp = 4.0 / 3.0 * M_PI * r * r * r;
-  double mv[3] = {0, 0, 0}, vv[3] = {0, 0, 0}, f[3] = {0, 0, 0};
-  for (std::size_t i = 0; i < h.x.size(); ++i)
-    for (int a = 0; a < 3; ++a) {
-      mv[a] += h.v[i][a] / n;
-      vv[a] += h.v[i][a] * h.v[i][a] / n;
-      f[a] += dem::xyz(v.ext_force[i])[a] + vp * spec.gravity[static_cast<std::size_t>(a)];
-    }
-  const double vf = 32.0 * 32 * 32 - n * vp;
-  for (int a = 0; a < 3; ++a) {
-    const auto k3 = static_cast<std::size_t>(a);
-    EXPECT_NEAR(s.particle_velocity[k3], mv[a], 1e-15);
-    EXPECT_NEAR(s.velocity_variance[k3], vv[a] - mv[a] * mv[a], 1e-15);
-    EXPECT_NEAR(s.drag[k3], f[a], 1e-12);
-    EXPECT_NEAR(s.drag_per_particle[k3], f[a] / n, 1e-12);
-    const double uf = (d.momentum[k3] + 0.5 * spec.body_force[k3] * vf - n * vp * mv[a]) / vf;
-    EXPECT_NEAR(s.fluid_velocity[k3], uf, 1e-15);
-    EXPECT_NEAR(s.slip[k3], uf - mv[a], 1e-15);
-  }
-  EXPECT_NEAR(s.granular_temperature, (vv[0] - mv[0] * mv[0] + vv[1] - mv[1] * mv[1] + vv[2] - mv[2] * mv[2]) / 3, 1e-15);
-  EXPECT_NEAR(s.drag_over_weight, f[1] / (n * (10.0 - 1.0) * vp * 1e-5), 1e-12);
-  // Width 2 d = 8 cells: 4^3 coarse cells; the eight corner particles share one
-  // (fraction 8 vp / 512), the ninth another (vp / 512), the other 62 are empty.
-  ASSERT_EQ(s.bins.size(), 2u);
-  EXPECT_EQ(s.bins[0], (std::array<long, 3>{4, 4, 4}));
-  EXPECT_EQ(s.bins[1], (std::array<long, 3>{2, 2, 2}));
-  const double a8 = 8 * vp / 512, a1 = vp / 512, mean = (a8 + a1) / 64;
-  // (volumes are binned in fixed point, 2^-20 cells: relative error ~1e-9)
-  const double var = (a8 * a8 + a1 * a1) / 64 - mean * mean;
-  EXPECT_NEAR(s.phi_variance[0], var, 1e-7 * var);
-  EXPECT_NEAR(s.phi_variance_rel[0], var / (mean * vp / 512), 1e-7 * var / (mean * vp / 512));
-  EXPECT_GT(s.phi_variance_rel[0], 1.0);  // clustered
-  // The columns and the row agree in length.
-  EXPECT_EQ(stats.columns().size(), stats.row(s).size());
-}
-
-}  // namespace
-}  // namespace lbdem::test
-
-namespace lbdem::test {
-namespace {
 
 // The production suspensions (cases/suspension/; not in the shipped-case walks
 // of the key-name and fuzz tests, whose every check would place their

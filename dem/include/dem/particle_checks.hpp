@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "core/config.hpp"
+#include "core/exec.hpp"
 #include "dem/particles.hpp"
 #include "dem/system.hpp"
 
@@ -59,4 +60,10 @@ void check_random_fill(const Config& pc, const std::array<double, 3>& lo, const 
 void check_dem_random_packing(const Config& pc, const std::array<double, 3>& lo, const std::array<double, 3>& hi,
                               const std::array<bool, 3>& periodic, double solid_fraction, double r_max);
 
+// The dem scene's particles while its case is parsed: against the box and
+// walls (domain.lo, domain.hi; walls), overlaps, memory (`backend`: the one
+// the run will use) and the plan (`force`: --force; `steps_given`: --steps set
+// the step count, else time.steps or time.end over the DEM time step p.dt).
+void check_dem_scene(const Config& root, const DemParams& p, const HostParticles& hp, long steps, Backend backend,
+                     bool force, bool steps_given);
 }  // namespace lbdem::dem

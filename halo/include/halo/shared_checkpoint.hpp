@@ -27,6 +27,35 @@ using RunValues = std::vector<double>;
 void save_run(ckpt::Writer& w, const RunValues& values);
 RunValues load_run(ckpt::Reader& r);
 
+// One module's state in a one-rank checkpoint: the section's name and the
+// object whose save_state(ckpt::Sink&) writes it and load_state(ckpt::Source&)
+// reads it back (lbm::LbmSolver, dem::DemSystem, imb::CoupledSolver,
+// cfd::GasSolver).
+template <class T>
+struct Section {
+  const char* name;
+  T& state;
+};
+template <class T>
+Section<T> section(const char* name, T& state) {
+  return {name, state};
+}
+// A scene's one-rank checkpoint: "run", then each module's section in the
+// order given; the load reads them back in that order and checks that
+// nothing follows.
+template <class... T>
+void save_sections(ckpt::Writer& w, const RunValues& values, Section<T>... s) {
+  save_run(w, values);
+  ((w.section(s.name), s.state.save_state(w)), ...);
+}
+template <class... T>
+RunValues load_sections(ckpt::Reader& r, Section<T>... s) {
+  RunValues v = load_run(r);
+  ((r.section(s.name), s.state.load_state(r)), ...);
+  r.finish();
+  return v;
+}
+
 // A CSV time series at `path` with these columns: a fresh run starts it; a
 // restart keeps its rows up to the checkpoint (ckpt::Run::kept_rows, read
 // before the file is rewritten) and goes on appending.

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "lbm/distributed_fluid.hpp"
+#include "core/config.hpp"
 #include "core/exec.hpp"
 #include "imb/fraction_table.hpp"
 #include "imb/psm.hpp"
@@ -109,5 +110,13 @@ struct FixedSphereResult {
 };
 
 FixedSphereResult run_fixed_sphere(const FixedSphereSpec& spec, Backend backend);
+
+// The fixed_sphere scene while its case is parsed: the period L = d / chi
+// (geometry.diameter, geometry.chi) holds a resolved sphere (L >= 4), the
+// grid fits `backend`'s memory, and the plan of `max_steps` steps (`force`:
+// --force; `steps_key` names the step count).
+void check_fixed_sphere(const Config& root, int dim, double diameter, double chi, lbm::Precision precision,
+                        lbm::StreamKind streaming, long max_steps, Backend backend, bool force,
+                        const std::string& steps_key);
 
 }  // namespace lbdem::imb

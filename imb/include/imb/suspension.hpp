@@ -84,6 +84,25 @@ class SuspensionStatistics {
   std::unique_ptr<Impl> impl_;
 };
 
+// ----------------------------------------------------------------- references
+// Net weight (m - rho_f V_p) |g| of the mean particle of `p` (a disk's in 2D,
+// or with `sphere` that of a sphere of the same diameter and density), 0
+// without gravity; held particles (mass > 1e100) count 0.
+double mean_net_weight(const SuspensionStatsSpec& spec, const dem::HostParticles& p, bool sphere = false);
+// One free sphere in a fully periodic cube of side L (`cells`), its weight
+// balanced: in its own frame the flow through a simple cubic array of
+// spheres. Stokes drag of that array (Sangani & Acrivos 1982, Eq. 60):
+// F = 3 pi mu d U K(d/L), F the force that balances a mean pressure gradient
+// over the whole period, W / (1 - phi) for the weight W that the fluid's body
+// force balances over the fluid volume, and U the superficial velocity,
+// (1 - phi) times the slip. So the terminal slip is
+// W / ((1 - phi)^2 3 pi mu d K). 0 where the scene is not of that kind
+// (accurate for Re_p << 1; the Oseen correction is 3/16 Re_p).
+double periodic_settling_reference(const SuspensionStatsSpec& spec, const dem::HostParticles& p,
+                                   const std::array<long, 3>& cells, double tau, double solid_fraction);
+// The sample's slip along -g (along y without gravity).
+double slip_along_gravity(const SuspensionStatsSpec& spec, const SuspensionSample& s);
+
 // ----------------------------------------------------------------- series.csv
 // The particle scene's time series, one row per call (lattice units; the
 // run's summary.json gives dx, dt and dm to convert): step, time (seconds in
