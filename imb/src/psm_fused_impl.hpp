@@ -9,11 +9,11 @@
 #include "imb/psm_fused.hpp"
 #include "lbm/dispatch.hpp"
 
-namespace lbdem::imb {
-
 #if defined(__CUDACC__)
 #include <cuda_pipeline.h>
 #endif
+
+namespace lbdem::imb {
 
 #if defined(__CUDACC__)
 // The six force and torque sums of a warp by a tree that exchanges halves:
@@ -131,6 +131,18 @@ __global__ void __launch_bounds__(Kern::kCells, MinBlocks) psm_fused_kernel(Kern
 #endif
 
 #if defined(__CUDACC__)
+// A copy of the kernel with its population strides and grid extents hidden
+// from the optimiser: in a loop over tiles the compiler would form the 19
+// direction offsets q * stride and the wrap limits once before the loop and
+// hold them across every tile, which spills; formed per tile from the copy,
+// they live as in the one-block kernel.
+template <class Kern>
+__device__ LBDEM_FORCEINLINE Kern per_tile(const Kern& k) {
+  Kern c = k;
+  asm volatile("" : "+l"(c.src.stride), "+l"(c.dst.stride), "+r"(c.g.nx), "+r"(c.g.ny), "+r"(c.g.nz), "+l"(c.g.nxy));
+  return c;
+}
+
 // The persistent schedule (PsmFusedSchedule::Persistent): the same steps 1
 // to 4 per tile, each block taking the tiles blockIdx.x, blockIdx.x +
 // gridDim.x, ... of the launch box (x fastest, the order of the one-block-per-
@@ -152,18 +164,6 @@ __global__ void __launch_bounds__(Kern::kCells, MinBlocks) psm_fused_kernel(Kern
 // it), so warp 0 may refill cand[] at the start of tile i + 1; the candidate
 // count is double-buffered (tile_nc[parity]) because a tile without candidates
 // has no barrier after the first.
-// A copy of the kernel with its population strides and grid extents hidden
-// from the optimiser: in a loop over tiles the compiler would form the 19
-// direction offsets q * stride and the wrap limits once before the loop and
-// hold them across every tile, which spills; formed per tile from the copy,
-// they live as in the one-block kernel.
-template <class Kern>
-__device__ LBDEM_FORCEINLINE Kern per_tile(const Kern& k) {
-  Kern c = k;
-  asm volatile("" : "+l"(c.src.stride), "+l"(c.dst.stride), "+r"(c.g.nx), "+r"(c.g.ny), "+r"(c.g.nz), "+l"(c.g.nxy));
-  return c;
-}
-
 template <int MinBlocks, class Kern>
 __global__ void __launch_bounds__(Kern::kCells, MinBlocks) psm_fused_persistent_kernel(Kern k) {
   using R = typename Kern::R;
