@@ -13,6 +13,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <string>
 #include <vector>
 
@@ -207,6 +208,132 @@ TEST_P(PsmFused, CrowdedTileMatchesMapped) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Backends, PsmFused, ::testing::ValuesIn(lbdem::test::backends()), lbdem::test::backend_name);
+
+// The persistent schedule (PsmFusedSchedule::Persistent) against one block
+// per tile, both on the device. Same per-cell arithmetic, candidate order and
+// force sums, so populations and forces must be equal bit for bit; a wrong
+// prefetch (another tile's list, a stale candidate count, a candidate at the
+// wrong rank, cand[] refilled while a warp still reads it) changes them.
+// Scenes: (a) a small suspension, 120 moving, rotating spheres in a periodic
+// 96 x 60 x 50 box (3 x 15 x 25 tiles, some crossing the faces), the grid
+// capped at 7 blocks so that each block runs ~160 tiles in turn and prefetches
+// every next one (with the body force, both parities, fp32 and fp64, table and
+// linear fractions); (b) a tile with 52 candidates (more than the 32 staged
+// ahead: the in-tile path) beside tiles with few.
+std::vector<test::PsmSphere> small_suspension() {
+  std::vector<test::PsmSphere> s;
+  int i = 0;
+  for (int a = 0; a < 8; ++a)
+    for (int b = 0; b < 5; ++b)
+      for (int c = 0; c < 3; ++c, ++i) {
+        const double j = 0.37 * ((i * 7919) % 13) / 13.0;  // deterministic jitter
+        s.push_back({0.6 + 12.0 * a + 2.0 * j, 5.3 + 12.0 * b - 1.5 * j, 8.1 + 16.5 * c + j, 3.2 + 1.3 * j,
+                     0.008 * (1 - 2 * (i % 2)), 0.003 - 0.002 * j, 0.005 * j, 1e-3 * j, -2e-3, 1.5e-3 * (i % 3)});
+      }
+  return s;
+}
+std::vector<test::PsmSphere> crowded_rows() {
+  std::vector<test::PsmSphere> s;
+  for (int row = 0; row < 4; ++row)
+    for (int i = 0; i < 13; ++i) {
+      const double y = row % 2 == 0 ? 1.0 : 3.0, z = row < 2 ? 0.8 : 2.4, dx = row < 2 ? 0.0 : 1.25;
+      s.push_back({1.0 + dx + 2.5 * i, y, z, 0.7, 0.004, -0.001 * (i % 2), 0.0005, 0, 1e-3, 0});
+    }
+  s.push_back({40.3, 20.2, 12.6, 4.0, -0.003, 0.002, 0.001, 1e-3, 0, -1e-3});
+  return s;
+}
+
+struct ScheduleRun {
+  std::vector<double> forces, f;
+  bool overflow = true;
+};
+
+ScheduleRun run_schedule(const std::vector<test::PsmSphere>& base, std::array<long, 3> n, lbm::Precision prec,
+                         imb::FractionMethod method, imb::PsmFusedSchedule sched, int blocks) {
+  imb::PsmOptions opt;
+  opt.map.method = method;
+  opt.map.table = &table(3);
+  opt.pipeline = imb::PsmPipeline::Fused;
+  opt.fused_schedule = sched;
+  opt.persistent_blocks = blocks;
+  auto setup = test::psm_box(n[0], n[1], n[2], 0.6, 1e-3, {2e-6, -1e-6, 5e-7});
+  setup.precision = prec;
+  test::PsmScene scene(setup, Backend::Cuda, 4, base, opt, {0.002, 0.001, -0.001});
+  for (int step = 0; step < 12; ++step) {
+    auto moved = base;
+    for (auto& p : moved) {
+      p.x += p.vx * step;
+      p.y += p.vy * step;
+      p.z += p.vz * step;
+    }
+    scene.set_particles(moved);
+    scene.map();
+    scene.step();
+  }
+  ScheduleRun r;
+  r.forces = scene.forces();
+  r.f = scene.solver().populations();
+  r.overflow = scene.coupling().overflow().overflow;
+  return r;
+}
+
+TEST(PsmFusedSchedule, PersistentMatchesBlockOnCuda) {
+  if (!test::gpu_available()) GTEST_SKIP() << "no usable GPU";
+  struct Scene {
+    const char* name;
+    std::vector<test::PsmSphere> s;
+    std::array<long, 3> n;
+  };
+  const Scene scenes[] = {{"suspension", small_suspension(), {96, 60, 50}}, {"crowded", crowded_rows(), {64, 24, 16}}};
+  for (const auto& sc : scenes)
+    for (auto prec : {lbm::Precision::FP32, lbm::Precision::FP64})
+      for (auto method : {imb::FractionMethod::Table, imb::FractionMethod::Linear}) {
+        const std::string what = std::string(sc.name) + (prec == lbm::Precision::FP32 ? " fp32 " : " fp64 ") +
+                                 imb::to_string(method);
+        const auto b = run_schedule(sc.s, sc.n, prec, method, imb::PsmFusedSchedule::Block, 0);
+        const auto p = run_schedule(sc.s, sc.n, prec, method, imb::PsmFusedSchedule::Persistent, 7);
+        const auto full = run_schedule(sc.s, sc.n, prec, method, imb::PsmFusedSchedule::Persistent, 0);
+        EXPECT_FALSE(b.overflow) << what;
+        ASSERT_EQ(b.forces.size(), p.forces.size()) << what;
+        std::size_t force_diff = 0, pop_diff = 0, full_diff = 0, nonzero = 0;
+        for (std::size_t i = 0; i < b.forces.size(); ++i) {
+          force_diff += b.forces[i] != p.forces[i] ? 1 : 0;
+          full_diff += b.forces[i] != full.forces[i] ? 1 : 0;
+          nonzero += b.forces[i] != 0.0 ? 1 : 0;
+        }
+        for (std::size_t i = 0; i < b.f.size(); ++i) {
+          pop_diff += b.f[i] != p.f[i] ? 1 : 0;
+          full_diff += b.f[i] != full.f[i] ? 1 : 0;
+        }
+        EXPECT_EQ(force_diff, 0u) << what << ": forces that differ (7 blocks)";
+        EXPECT_EQ(pop_diff, 0u) << what << ": populations that differ (7 blocks)";
+        EXPECT_EQ(full_diff, 0u) << what << ": values that differ (full grid)";
+        EXPECT_GT(nonzero, b.forces.size() / 2) << what << ": most force components are not zero";
+      }
+}
+
+TEST(PsmFusedSchedule, EnvironmentChoiceAndRefusal) {
+  const char* old = std::getenv("LBDEM_PSM_FUSED_SCHEDULE");
+  const std::string saved = old ? old : "";
+  unsetenv("LBDEM_PSM_FUSED_SCHEDULE");
+  EXPECT_EQ(imb::fused_schedule_from_env(), imb::PsmFusedSchedule::Block);
+  setenv("LBDEM_PSM_FUSED_SCHEDULE", "persistent", 1);
+  EXPECT_EQ(imb::fused_schedule_from_env(), imb::PsmFusedSchedule::Persistent);
+  setenv("LBDEM_PSM_FUSED_SCHEDULE", "block", 1);
+  EXPECT_EQ(imb::fused_schedule_from_env(), imb::PsmFusedSchedule::Block);
+  setenv("LBDEM_PSM_FUSED_SCHEDULE", "persistant", 1);
+  try {
+    (void)imb::fused_schedule_from_env();
+    ADD_FAILURE() << "a misspelt schedule did not throw";
+  } catch (const ConfigError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("LBDEM_PSM_FUSED_SCHEDULE"), std::string::npos) << m;
+    EXPECT_NE(m.find("persistant"), std::string::npos) << m;
+    EXPECT_NE(m.find("block, persistent"), std::string::npos) << m;
+  }
+  if (old) setenv("LBDEM_PSM_FUSED_SCHEDULE", saved.c_str(), 1);
+  else unsetenv("LBDEM_PSM_FUSED_SCHEDULE");
+}
 
 TEST(PsmPipeline, ResolvesAndRefuses) {
   imb::PsmOptions o;
