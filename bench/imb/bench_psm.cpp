@@ -541,7 +541,7 @@ int drift(int argc, char** argv) {
               even);
   double first = 0;
   const double t0 = wall();
-  std::vector<double> ts, rs, uv;  // samples from step `every` on (the trend fit)
+  std::vector<double> ts, rv, uv;  // samples from step `every` on (the trend fit)
   for (long n = 0; n <= steps; n += every) {
     if (n > 0) cs.advance(every);
     std::vector<double> rho, u;
@@ -558,7 +558,7 @@ int drift(int argc, char** argv) {
     if (n == every) first = fm / fv;  // after the start-up (the pressure field forms in the first steps)
     if (n >= every) {
       ts.push_back(double(n));
-      rs.push_back(fm / fv);
+      rv.push_back(fm / fv);
       uv.push_back(-us / double(N));
     }
     std::printf("{\"step\": %ld, \"fluid_rho\": %.15f, \"drift\": %.3e, \"mean_rho\": %.15f, \"superficial_u\": %.6e, "
@@ -597,7 +597,7 @@ int drift(int argc, char** argv) {
   };
   if (ts.size() >= 3) {
     double a, ase, arms, am, b, bse, brms, bm;
-    fit(rs, a, ase, arms, am);
+    fit(rv, a, ase, arms, am);
     fit(uv, b, bse, brms, bm);
     std::printf("{\"trend\": \"fluid_rho\", \"from_step\": %ld, \"samples\": %zu, \"per_1e5_steps\": %.3e, "
                 "\"stderr_per_1e5\": %.2e, \"residual_rms\": %.2e, \"superficial_u_mean\": %.6e, "
