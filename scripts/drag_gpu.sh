@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Drag and mass checks of issue 29 on one GPU:
 #
-#   scripts/drag_gpu.sh BUILD_DIR [PART...]      PART: map | lambda | random | drift (default: map random)
+#   scripts/drag_gpu.sh BUILD_DIR [PART...]      PART: map | lambda | random | drift | drift-even (default: map random)
 #
 #   map     the fixed-sphere drag map of the default rule where d/l >= 16 (scripts/drag_map.sh gpu-e):
 #           d/l 16, 20, 30, 50 x tau {1.5, 1.25, 1.0, 0.8, 0.6}, chi 0.5, Re_p 0.2, exact fractions, fp64,
@@ -20,11 +20,17 @@
 #           physics (lbdem_bench_psm drift: tau 1.2386, d/l 10, solid fraction 0.128, density ratio 692.3,
 #           g 4.704e-7, random speeds 5e-3, the default rule), fp64, in the eighth box (64 x 252 x 64 cells,
 #           252 particles) for 1e5 steps, a sample every 5,000. Bar (issue 29): |fluid_rho(n) - fluid_rho(5,000)|
-#           <= 1e-6 up to n = 1e5. About 2-3 min. Output: $OUT/drift.jsonl.
+#           <= 1e-6 up to n = 1e5. About 2-3 min. Output: $OUT/drift.jsonl. The last line is the trend: the
+#           least-squares slope of the fluid density from step 5,000 on, per 1e5 steps, with its standard error
+#           and the residuals' RMS (the moving particles make the density fluctuate), and the same for the
+#           superficial velocity (relative).
+#   drift-even  the same run with psm.even_relaxation phi = 0 (off, the default), 0.02 and 1 (imb/psm.hpp, "Even
+#           relaxation"; DRIFT_EVEN="..." to choose others), one after another: about 30 s each on an H200 (3 x 1e5
+#           steps, ~1.5 min). Output: $OUT/drift_even<phi>.jsonl, the trend lines printed together at the end.
 # `map random` together: about 4 min on one H200 after the build. Prints the table rows.
 set -uo pipefail
 source "$(dirname "$0")/lib.sh"
-build="${1:?usage: scripts/drag_gpu.sh BUILD_DIR [map|lambda|random|drift]...}"
+build="${1:?usage: scripts/drag_gpu.sh BUILD_DIR [map|lambda|random|drift|drift-even]...}"
 shift
 parts=("$@")
 [ ${#parts[@]} -eq 0 ] && parts=(map random)
@@ -71,6 +77,17 @@ for p in "${parts[@]}"; do
       echo "drift: exit $?"
       cat "$OUT/drift.jsonl"
       ;;
-    *) echo "drag_gpu: unknown part $p (map, lambda, random, drift)"; exit 2 ;;
+    drift-even)
+      for phi in ${DRIFT_EVEN:-0 0.02 1}; do
+        timeout 300 "$bin" drift --backend cuda --precision fp64 --dims 64,252,64 --steps 100000 --every 5000 \
+          --even-relaxation "$phi" > "$OUT/drift_even$phi.jsonl" 2> "$OUT/drift_even$phi.log"
+        echo "drift-even $phi: exit $?"
+      done
+      for phi in ${DRIFT_EVEN:-0 0.02 1}; do
+        echo "phi $phi: $(head -n 1 "$OUT/drift_even$phi.jsonl")"
+        tail -n 1 "$OUT/drift_even$phi.jsonl"
+      done
+      ;;
+    *) echo "drag_gpu: unknown part $p (map, lambda, random, drift, drift-even)"; exit 2 ;;
   esac
 done

@@ -1,7 +1,7 @@
 // lbdem_bench_psm: speed against error of the PSM coupling.
 //
 //   lbdem_bench_psm sweep [--out FILE.json] [--d 4,6,8,...] [--tau 0.52] [--methods exact,table,linear]
-//                   [--precisions fp64,fp32,fp16s,fp16c] [--collisions trt,bgk] [--variants nebb,super] [--weights nt,eps]
+//                   [--precisions fp64,fp32,fp16s,fp16c] [--collisions trt,bgk] [--variants nebb,nebbe,super] [--weights nt,eps]
 //                   [--magic 1e-4 (or auto: by d/l and tau, imb::psm_magic_auto; auto*F: F times it)] [--offset 0.5,0,centre] [--re 0.2]
 //                   [--chi 0.5 (<= 0.75, or a dense point of Zick & Homsy: 0.8685, 0.9508, 1)] [--tol 1e-5]
 //                   [--start estimate|rest] [--check N] [--max-steps N] [--periods 0 (per axis; 0: as needed)]
@@ -13,7 +13,10 @@
 //                   [--tau 0.8] [--magic auto] [--seeds 1] [--sweeps 200] [--min-gap 1] [--weights ntw] [--tol 1e-5]
 //                   [--backend host|cuda]
 //   lbdem_bench_psm drift [--dims 64,252,64] [--steps 100000] [--every 5000] [--tau 1.2386] [--d 10] [--phi 0.128]
-//                   [--precision fp64] [--fraction table|exact] [--backend host|cuda]
+//                   [--precision fp64] [--fraction table|exact] [--even-relaxation 0|1] [--backend host|cuda]
+//
+// --variants nebbe: NEBB with even relaxation (imb::PsmOptions::even_relaxation); --even-relaxation 1 the same
+// in the drift run.
 //
 // sweep: fixed sphere in a simple cubic array (the first paper's Table 1
 // test) for every combination; per row the drag coefficient K against
@@ -108,6 +111,7 @@ int sweep(int argc, char** argv) {
   long max_steps = 4000000, check = 0;
   int periods = 0;
   bool verbose = false;
+  double even_phi = 1.0;
   for (int i = 2; i < argc; ++i) {
     const std::string k = argv[i];
     auto next = [&] { return option_value(argc, argv, i); };
@@ -130,6 +134,7 @@ int sweep(int argc, char** argv) {
     else if (k == "--max-steps") max_steps = std::stol(next());
     else if (k == "--check") check = std::stol(next());
     else if (k == "--periods") periods = std::stoi(next());
+    else if (k == "--even") even_phi = std::stod(next());
     else if (k == "-v") verbose = true;
     else throw ConfigError("unknown option " + k);
   }
@@ -193,6 +198,7 @@ int sweep(int argc, char** argv) {
                       s.precision = lbm::precision_from_string(pr);
                       s.collision = co == "bgk" ? lbm::CollisionKind::BGK : lbm::CollisionKind::TRT;
                       s.variant = va == "super" ? imb::PsmVariant::Superposition : imb::PsmVariant::NEBB;
+                      s.even_relaxation = va == "nebbe" ? even_phi : 0.0;
                       s.weight = we == "eps"    ? imb::PsmWeight::Linear
                                  : we == "ntw" ? imb::PsmWeight::NobleTorczynskiWall
                                                : imb::PsmWeight::NobleTorczynski;
@@ -455,6 +461,7 @@ int drift(int argc, char** argv) {
   std::array<long, 3> dims{64, 252, 64};  // the eighth box (cases/suspension/suspension_3d_eighth.yaml)
   long steps = 100000, every = 5000;
   double phi = 0.128, d = 10, tau = 1.2386;
+  double even = 0;
   for (int i = 2; i < argc; ++i) {
     const std::string k = argv[i];
     auto next = [&] { return option_value(argc, argv, i); };
@@ -469,6 +476,7 @@ int drift(int argc, char** argv) {
     else if (k == "--tau") tau = std::stod(next());
     else if (k == "--precision") prec = next();
     else if (k == "--fraction") fraction = next();
+    else if (k == "--even-relaxation") even = std::stod(next());
     else if (k == "--backend") backend = next();
     else throw ConfigError("unknown option " + k);
   }
@@ -515,6 +523,7 @@ int drift(int argc, char** argv) {
   dp.dt = 1.0 / cp.dem_substeps;
   cp.psm.weight = imb::PsmWeight::NobleTorczynskiWall;
   cp.psm.variant = imb::PsmVariant::NEBB;
+  cp.psm.even_relaxation = even;
   cp.psm.map.method = fraction == "exact" ? imb::FractionMethod::Exact : imb::FractionMethod::Table;
   imb::FractionTable table;
   if (cp.psm.map.method == imb::FractionMethod::Table) {
@@ -526,11 +535,13 @@ int drift(int argc, char** argv) {
   dem::DemSystem dem(Exec(b), dp, hp);
   imb::CoupledSolver cs(*fl, dem, cp);
   std::printf("{\"mode\": \"drift\", \"device\": \"%s\", \"dims\": [%ld, %ld, %ld], \"particles\": %ld, \"d\": %g, "
-              "\"tau\": %.6g, \"magic\": %.6g, \"precision\": \"%s\", \"fraction\": \"%s\", \"pipeline\": \"%s\"}\n",
+              "\"tau\": %.6g, \"magic\": %.6g, \"precision\": \"%s\", \"fraction\": \"%s\", \"pipeline\": \"%s\", \"even_relaxation\": %g}\n",
               bench::device_name(b).c_str(), dims[0], dims[1], dims[2], static_cast<long>(hp.size()), d, tau, s.magic,
-              prec.c_str(), fraction.c_str(), imb::to_string(cs.coupling().pipeline()));
+              prec.c_str(), fraction.c_str(), imb::to_string(cs.coupling().pipeline()),
+              even);
   double first = 0;
   const double t0 = wall();
+  std::vector<double> ts, rv, uv;  // samples from step `every` on (the trend fit)
   for (long n = 0; n <= steps; n += every) {
     if (n > 0) cs.advance(every);
     std::vector<double> rho, u;
@@ -545,10 +556,54 @@ int drift(int argc, char** argv) {
       us += w * u[3 * c + 1];
     }
     if (n == every) first = fm / fv;  // after the start-up (the pressure field forms in the first steps)
+    if (n >= every) {
+      ts.push_back(double(n));
+      rv.push_back(fm / fv);
+      uv.push_back(-us / double(N));
+    }
     std::printf("{\"step\": %ld, \"fluid_rho\": %.15f, \"drift\": %.3e, \"mean_rho\": %.15f, \"superficial_u\": %.6e, "
                 "\"seconds\": %.1f}\n",
                 n, fm / fv, n >= every ? fm / fv - first : 0.0, m / double(N), -us / double(N), wall() - t0);
     std::fflush(stdout);
+  }
+  // The fluid density moves with the particles (the covered cells sample the
+  // flow's pressure field, which the moving particles stir), so one sample
+  // against another mixes that noise with a drift. The trend: the least-squares
+  // slope of the samples from step `every` on, times 1e5 steps, with its
+  // standard error (residuals taken as independent: an estimate, the noise is
+  // correlated over ~10^3 steps), and the residuals' RMS; likewise for the
+  // superficial velocity (relative to its mean).
+  auto fit = [&](const std::vector<double>& y, double& slope, double& se, double& rms, double& mean) {
+    const double n = double(y.size());
+    double tm = 0, ym = 0;
+    for (std::size_t i = 0; i < y.size(); ++i) {
+      tm += ts[i] / n;
+      ym += y[i] / n;
+    }
+    double stt = 0, sty = 0;
+    for (std::size_t i = 0; i < y.size(); ++i) {
+      stt += (ts[i] - tm) * (ts[i] - tm);
+      sty += (ts[i] - tm) * (y[i] - ym);
+    }
+    slope = stt > 0 ? sty / stt : 0.0;
+    double ss = 0;
+    for (std::size_t i = 0; i < y.size(); ++i) {
+      const double r = y[i] - ym - slope * (ts[i] - tm);
+      ss += r * r;
+    }
+    rms = std::sqrt(ss / std::max(1.0, n));
+    se = n > 2 && stt > 0 ? std::sqrt(ss / (n - 2) / stt) : 0.0;
+    mean = ym;
+  };
+  if (ts.size() >= 3) {
+    double a, ase, arms, am, b, bse, brms, bm;
+    fit(rv, a, ase, arms, am);
+    fit(uv, b, bse, brms, bm);
+    std::printf("{\"trend\": \"fluid_rho\", \"from_step\": %ld, \"samples\": %zu, \"per_1e5_steps\": %.3e, "
+                "\"stderr_per_1e5\": %.2e, \"residual_rms\": %.2e, \"superficial_u_mean\": %.6e, "
+                "\"superficial_u_per_1e5_rel\": %.3e, \"superficial_u_stderr_rel\": %.2e, \"superficial_u_rms_rel\": %.2e}\n",
+                every, ts.size(), a * 1e5, ase * 1e5, arms, bm, b * 1e5 / std::abs(bm), bse * 1e5 / std::abs(bm),
+                brms / std::abs(bm));
   }
   return 0;
 }

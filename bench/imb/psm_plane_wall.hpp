@@ -129,7 +129,7 @@ inline PlaneWallResult run_plane_wall(const PlaneWallSpec& s) {
       if (B[j] > 0) {
         const R M1[3] = {B[j] * vel[j], 0, 0};
         const R M2[6] = {B[j] * vel[j] * vel[j], 0, 0, 0, 0, 0};
-        imb::psm_collide<L, R, true, imb::PsmVariant::NEBB>(coll, fc, B[j], M1, M2, rho, uu);
+        imb::psm_collide<L, R, true, imb::PsmVariant::NEBB>(coll, fc, B[j], R(0), M1, M2, rho, uu);
       } else {
         R d;
         coll(fc, d, uu);

@@ -94,6 +94,7 @@ int run_fixed_sphere(const Config& root, const RunOptions& opt) {
   s.method = po.map.method;
   s.pipeline = po.pipeline;
   s.variant = po.variant;
+  s.even_relaxation = po.even_relaxation;
   s.weight = po.weight;
   const Config st = root.section("steady");
   s.tolerance = st.number_in("tolerance", 1e-7, 1e-14, 1e-2, "estimated remaining relative change of the drag");
@@ -116,9 +117,10 @@ int run_fixed_sphere(const Config& root, const RunOptions& opt) {
     for (const auto& w : lbm::storage_warnings(fl, s.re_p * nu / s.diameter, s.diameter / s.chi, double(s.max_steps)))
       spdlog::warn("{}: {}", root.source(), w);
   }
-  if (s.dim == 3) imb::report_expected_drag_error(imb::drag_query(s.diameter, s.tau, s.collision, s.magic, po, s.precision),
-                                             max_drag_error, opt.validate_only, opt.quiet);
-  const auto psm = imb::psm_settings(root, imb::drag_query(s.diameter, s.tau, s.collision, s.magic, po, s.precision),
+  if (halo::Comm::world().root())  // 2D: "no estimate (2D ...)"
+    imb::report_expected_drag_error(imb::drag_query(s.diameter, s.tau, s.collision, s.magic, po, s.precision, s.dim),
+                                    max_drag_error, opt.validate_only, opt.quiet);
+  const auto psm = imb::psm_settings(root, imb::drag_query(s.diameter, s.tau, s.collision, s.magic, po, s.precision, s.dim),
                                 imb::to_string(s.pipeline == imb::PsmPipeline::Fused ? imb::PsmPipeline::Fused
                                                                                      : imb::PsmPipeline::Mapped),
                                 s.precision, halo::Comm::world().root());

@@ -396,12 +396,12 @@ int run_particles(const Config& root, const RunOptions& opt) {
     domain = imb::coupled_domain(root.source(), c.setup, c.dim, c.dem, c.particles.r, c.parallel, comm);
     c.dem.contact_order = dem::ContactOrder::GlobalId;
   }
-  if (c.setup.lattice == lbm::LatticeKind::D3Q19 && writer)
+  if (writer)  // 2D: "no estimate (2D ...)"
     imb::report_expected_drag_error(imb::drag_query(2 * c.particles.r[0], c.setup.tau, c.setup.collision, c.setup.magic,
-                                          c.coupling.psm, c.setup.precision),
-                               c.max_drag_error, opt.validate_only, opt.quiet);
+                                                    c.coupling.psm, c.setup.precision, c.dim),
+                                    c.max_drag_error, opt.validate_only, opt.quiet);
   c.psm = imb::psm_settings(root, imb::drag_query(c.diameter, c.setup.tau, c.setup.collision, c.setup.magic,
-                                        c.coupling.psm, c.setup.precision),
+                                        c.coupling.psm, c.setup.precision, c.dim),
                        imb::to_string(imb::resolve_pipeline(c.coupling.psm, c.coupling.slots)), c.setup.precision, writer);
   const Backend backend = resolve_backend(opt.backend);
   const MemoryUse planned = imb::coupled_memory(c.setup, c.coupling, static_cast<double>(c.particles.size()), backend);

@@ -181,6 +181,7 @@ FixedSphereResult run_fixed_sphere(const FixedSphereSpec& c, Backend b) {
   imb::PsmOptions opt;
   opt.variant = c.variant;
   opt.weight = c.weight;
+  opt.even_relaxation = c.even_relaxation;
   opt.map.method = c.method;
   opt.map.max_radius = a;
   opt.map.table = c.table;

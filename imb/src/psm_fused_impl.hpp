@@ -385,7 +385,7 @@ template <class L, class T, lbm::StreamKind S, int P, bool B, bool Force, PsmVar
 void fused_launch(const Exec& ex, const FusedArgs& a) {
   using Frac = FractionOf<L::D, M, PointerTableAccess, lbm::compute_t<T>>;  // fractions in the lattice's compute precision
   PsmFusedKernel<L, T, S, P, B, Force, V, Frac> k;
-  k.set_lattice(*a.raw, a.setup->tau, a.opt->weight, a.opt->body_force_on_solid);
+  k.set_lattice(*a.raw, a.setup->tau, a.opt->weight, a.opt->body_force_on_solid, a.opt->even_relaxation);
   k.K = a.K;
   k.tv = a.tv;
   k.tiles = a.tiles;

@@ -10,7 +10,7 @@ template <class L, class T, lbm::StreamKind S, int P, bool B, bool Force, PsmVar
 void psm_launch(const Exec& ex, const lbm::LbmSetup& s, const lbm::LbmRaw& raw, const CellSlotsView& slots,
                 const SlotForceView& sf, const PsmOptions& opt) {
   PsmStepKernel<L, T, S, P, B, Force, V> k;
-  k.set_lattice(raw, s.tau, opt.weight, opt.body_force_on_solid);
+  k.set_lattice(raw, s.tau, opt.weight, opt.body_force_on_solid, opt.even_relaxation);
   k.slots = slots;
   k.out = sf;
   // Three blocks of 256 per multiprocessor when computing in fp32 (<= 85

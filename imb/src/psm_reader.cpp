@@ -33,6 +33,12 @@ void read_psm(const Config& ps, PsmOptions& o, int& slots, double& max_drag_erro
                                                                              : FractionMethod::Exact;
   o.variant = ps.choice("operator", "nebb", {"nebb", "superposition"}) == "nebb" ? PsmVariant::NEBB
                                                                                  : PsmVariant::Superposition;
+  o.even_relaxation = ps.number_in("even_relaxation", 0.0, 0.0, 1.0,
+                                   "the least share phi of omega+ at which a cell's even populations relax "
+                                   "(0: off, the odd-part NEBB; 1: in full)");
+  if (o.even_relaxation > 0 && o.variant != PsmVariant::NEBB)
+    ps.fail("even_relaxation", "the superposition operator relaxes the even part already; even_relaxation applies "
+                               "to operator: nebb (give 0 or leave it out)");
   const auto we = ps.choice("weight", "noble_torczynski_wall", {"noble_torczynski_wall", "noble_torczynski", "linear"});
   o.weight = we == "linear"             ? PsmWeight::Linear
              : we == "noble_torczynski" ? PsmWeight::NobleTorczynski
@@ -76,14 +82,16 @@ void report_expected_drag_error(const DragErrorQuery& q, double max_drag_error, 
 }
 
 DragErrorQuery drag_query(double d, double tau, lbm::CollisionKind coll, double magic, const PsmOptions& o,
-                               lbm::Precision prec) {
+                               lbm::Precision prec, int dim) {
   DragErrorQuery q;
+  q.dim = dim;
   q.diameter = d;
   q.tau = tau;
   q.trt = coll == lbm::CollisionKind::TRT;
   q.magic = magic;
   q.weight = o.weight;
   q.variant = o.variant;
+  q.even_relaxation = o.even_relaxation;
   q.method = o.map.method;
   q.fp32 = prec == lbm::Precision::FP32;
   return q;

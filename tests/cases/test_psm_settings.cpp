@@ -100,6 +100,45 @@ TEST_F(PsmSettingsCli, RunWarnsAndSummaryRecordsEverySetting) {
     EXPECT_NE(js.find(key), std::string::npos) << key << "\n" << js;
 }
 
+// psm.even_relaxation (off by default) is recorded in summary.json; the
+// superposition operator refuses it, naming the key.
+TEST_F(PsmSettingsCli, EvenRelaxationIsRecordedAndRefusedWithSuperposition) {
+  const fs::path out = dir_ / "out";
+  auto r = run("run " + write_case(fixed_sphere("{tau: 0.8}", "psm: {even_relaxation: 0.02}\n"), "even.yaml") +
+               " --backend cpu --quiet --overwrite --output " + out.string());
+  // (20 steps do not reach the steady state: the run's code says so; the summary is written)
+  ASSERT_TRUE(fs::exists(out / "summary.json")) << r.out;
+  EXPECT_NE(read(out / "summary.json").find("\"even_relaxation\": 0.02"), std::string::npos);
+  const fs::path out0 = dir_ / "out0";
+  r = run("run " + write_case(fixed_sphere("{tau: 0.8}"), "default.yaml") + " --backend cpu --quiet --overwrite --output " +
+          out0.string());
+  ASSERT_TRUE(fs::exists(out0 / "summary.json")) << r.out;
+  EXPECT_NE(read(out0 / "summary.json").find("\"even_relaxation\": 0,"), std::string::npos);
+  r = run("check " + write_case(fixed_sphere("{tau: 0.8}", "psm: {operator: superposition, even_relaxation: 0.5}\n"),
+                                "super.yaml"));
+  EXPECT_NE(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("even_relaxation"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("operator: nebb"), std::string::npos) << r.out;
+  r = run("check " + write_case(fixed_sphere("{tau: 0.8}", "psm: {even_relaxation: 1.5}\n"), "range.yaml"));
+  EXPECT_NE(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("even_relaxation"), std::string::npos) << r.out;
+}
+
+// 2D scenes (disks) are outside the drag map: `check` says so instead of
+// printing nothing (the shipped 2D suspension and a 2D fixed-disk array).
+TEST_F(PsmSettingsCli, CheckSaysNoEstimateIn2D) {
+  auto r = run(std::string("check ") + LBDEM_SOURCE_DIR + "/cases/suspension/suspension_2d_small.yaml");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("expected drag error"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("no estimate (2D"), std::string::npos) << r.out;
+  r = run("check " + write_case("scene: fixed_sphere\nunits: lattice\ngeometry: {dim: 2, diameter: 8, chi: 0.5}\n"
+                                "fluid: {tau: 0.8}\nsteady: {tolerance: 1.0e-14, max_steps: 20}\n"
+                                "output: {directory: unused}\n",
+                                "disk.yaml"));
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("no estimate (2D"), std::string::npos) << r.out;
+}
+
 // The particle scene: the warning at check and the record in summary.json,
 // here with the rule's Lambda (from the rule, an estimate, no warning).
 TEST_F(PsmSettingsCli, ParticleSceneRecordsTheSettings) {

@@ -118,6 +118,14 @@ TEST(PsmDragError, OutsideTheMap) {
   o.method = imb::FractionMethod::Linear;
   EXPECT_FALSE(imb::expected_drag_error(o).known);
   o = q;
+  o.even_relaxation = 0.02;  // moves the drag (bench/imb/NOTES.md, "Even relaxation"); not mapped
+  EXPECT_FALSE(imb::expected_drag_error(o).known);
+  EXPECT_NE(imb::expected_drag_error(o).reason.find("even_relaxation"), std::string::npos);
+  o = q;
+  o.dim = 2;  // disks
+  EXPECT_FALSE(imb::expected_drag_error(o).known);
+  EXPECT_NE(imb::expected_drag_error(o).reason.find("2D"), std::string::npos);
+  o = q;
   o.fp32 = true;
   o.diameter = 30;
   o.magic = imb::psm_magic_auto(30, o.tau);

@@ -62,6 +62,7 @@ struct FixedSphereSpec {
   imb::FractionMethod method = imb::FractionMethod::Exact;
   imb::PsmVariant variant = imb::PsmVariant::NEBB;
   imb::PsmWeight weight = imb::PsmWeight::NobleTorczynski;
+  double even_relaxation = 0;    // NEBB's solid term relaxes the even part (PsmOptions::even_relaxation)
   const imb::FractionTable* table = nullptr;  // for FractionMethod::Table
   int slots = 4;
   // Auto runs the mapped pipeline here (a fixed sphere is mapped once); Fused on request.

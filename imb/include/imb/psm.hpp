@@ -38,6 +38,23 @@
 // cells"). Dropping the even part leaves the force (and so the torque), the
 // mass and the momentum of every step exactly as Eq. 2 gives them and
 // removes the source; a steady drag moves only at O(Re).
+//
+// Even relaxation (PsmOptions::even_relaxation = phi, NEBB; off by default).
+// Without it the even populations f+ of a cell relax only through the fluid
+// collision, at (1 - B) omega+: not at all in a covered cell (B = 1), slowly
+// where B is near 1, so covered cells keep a density of their own that they
+// exchange with the fluid over ~10^5 steps at tau 1.24 (bench/imb/NOTES.md).
+// With phi > 0 the solid term gets the even part
+//   Omega^S,even_q = -(Be / B) omega+ (f+_q - eq+_q(rho, u)),  Be = max(0, B - (1 - phi)),
+// summed over the slots -Be omega+ (f+_q - eq+_q), so that the even
+// populations relax at max(1 - B, phi) omega+ (phi = 1: at omega+ in every
+// cell, as in the fluid). It carries no mass (sum_q (f+_q - eq+_q) = rho -
+// rho = 0) and no momentum (f+ - eq+ is even in c, sum_q c_q (...) = 0): per
+// cell mass and momentum, hence the force and the torque on the particles
+// (minus the momentum the solid term gives the fluid), are those without it;
+// only the density and stress of nearly covered cells change. It does move a
+// steady drag (the partially covered cells' stress relaxes faster, a lower
+// effective viscosity there): bench/imb/NOTES.md, "Even relaxation".
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -209,10 +226,11 @@ LBDEM_HD LBDEM_FORCEINLINE R cM2(int q, const R (&M2)[6]) {
 template <class L, class R, bool Force, PsmVariant V, bool Hoist = false>
 struct PsmSolidUpdate {
   R B;
+  R Be;  // NEBB: weight of the solid term's even part -Be dp (max(0, B - (1 - phi)), phi = PsmOptions::even_relaxation)
   R M1[3], M2[6];
   R fw_ = 0, tr_ = 0;  // 1 - B and 1.5 tr M2 when hoisted
 
-  LBDEM_HD LBDEM_FORCEINLINE PsmSolidUpdate(R B_, const R (&M1_)[3], const R (&M2_)[6]) : B(B_) {
+  LBDEM_HD LBDEM_FORCEINLINE PsmSolidUpdate(R B_, R Be_, const R (&M1_)[3], const R (&M2_)[6]) : B(B_), Be(Be_) {
     for (int a = 0; a < 3; ++a) M1[a] = M1_[a];
     for (int a = 0; a < 6; ++a) M2[a] = M2_[a];
     if constexpr (Hoist) {
@@ -233,8 +251,12 @@ struct PsmSolidUpdate {
   LBDEM_HD LBDEM_FORCEINLINE void rest(R& f0, const lbm::TrtTerms<R>& t, const lbm::CellMoments<R>& m,
                                        const Src& src) const {
     const R fw = fluid_weight();
-    R solid = 0;  // NEBB: the rest direction has no odd part (formulas at the top)
-    if constexpr (V == PsmVariant::Superposition) {
+    // NEBB: the rest direction has no odd part (formulas at the top); the
+    // even part -Be dp where it is on (Be = 0: r - 0 = r, the same bits).
+    R solid = 0;
+    if constexpr (V == PsmVariant::NEBB) {
+      solid = -(Be * t.dp);
+    } else {
       const R seq0 = t.w * (B * m.d - m.rho * trace15());  // sum_k B_k f^eq_0(V_k)
       solid = seq0 - B * (t.eqp + t.dp);
     }
@@ -259,9 +281,12 @@ struct PsmSolidUpdate {
       // Omega_q = f_qb - f_q + 3 w rho c_q.(V + u), summed over the slots:
       // B (f_qb - f_q) + 3 w rho (c.M1 + B c.u) (the odd part of
       // f^eq_q(V) - f^eq_qb(u); formulas at the top).
+      // With even relaxation also -Be omega+ (f+_q - eq+_q) on both (Be = 0:
+      // x - 0 = x, the same bits as without).
       const R odd = R(3) * t.w * m.rho * (cM1 + B * t.cu);
-      solid_q = B * (fqb - fq) + odd;
-      solid_qb = B * (fq - fqb) - odd;
+      const R even = Be * t.dp;
+      solid_q = B * (fqb - fq) + odd - even;
+      solid_qb = B * (fq - fqb) - odd - even;
     } else {  // Omega_q = f^eq_q(V) - f^eq_q(u) - (f_q - f^post_q)
       // f^eq_q and f^eq_qb as w (even +- 3 rho c.u): the same as eqp +- eqm up to
       // round-off, and in this form the PSM kernels need fewer registers.
@@ -287,11 +312,12 @@ struct PsmSolidUpdate {
 // the total weight B and the solid moments M1 = sum B_k V_k, M2 = sum B_k V_k V_k^T:
 // the fluid collision `coll` with the solid update. Returns rho and the
 // (half-force shifted) velocity u that the force on the particles needs.
+// Be: the weight of NEBB's even part (PsmLatticeFields::even_weight; 0: off).
 template <class L, class R, bool Force, PsmVariant V, bool Hoist = false>
-LBDEM_HD LBDEM_FORCEINLINE void psm_collide(const lbm::Collider<L, R, Force>& coll, R (&f)[L::Q], R B,
+LBDEM_HD LBDEM_FORCEINLINE void psm_collide(const lbm::Collider<L, R, Force>& coll, R (&f)[L::Q], R B, R Be,
                                             const R (&M1)[3], const R (&M2)[6], R& rho, R (&u)[3]) {
   lbm::CellMoments<R> m;
-  coll.template collide<true>(f, m, PsmSolidUpdate<L, R, Force, V, Hoist>(B, M1, M2));
+  coll.template collide<true>(f, m, PsmSolidUpdate<L, R, Force, V, Hoist>(B, Be, M1, M2));
   rho = m.rho;
   for (int a = 0; a < 3; ++a) u[a] = m.u[a];
 }
@@ -311,13 +337,20 @@ struct PsmLatticeFields {
   C omega_p, omega_m, F[3];
   C G[3];  // the body force the particles take on their share B of a cell (psm_particle_force)
   C tm;    // the weighting's t (psm_weight_t: tau - 1/2 for NT)
+  C even_c;  // 1 - PsmOptions::even_relaxation: NEBB's even part acts where B > even_c (1: nowhere)
   PsmWeight weight;
+
+  // The weight Be of NEBB's even part in a cell of total weight B: the even
+  // populations then relax at max(1 - B, phi) omega+, phi =
+  // PsmOptions::even_relaxation = 1 - even_c (phi = 0: Be = 0, B <= 1).
+  LBDEM_HD LBDEM_FORCEINLINE C even_weight(C B) const { return B > even_c ? B - even_c : C(0); }
 
   // From the solver's raw view (lbm::LbmRaw), tau, the weighting and whether
   // the particles take the body force on their share of each cell
-  // (PsmOptions::body_force_on_solid); host side, once per launch.
+  // (PsmOptions::body_force_on_solid), and whether NEBB relaxes the even part
+  // (PsmOptions::even_relaxation); host side, once per launch.
   template <class Raw>
-  void set_lattice(const Raw& raw, double tau, PsmWeight w, bool body_force_on_solid) {
+  void set_lattice(const Raw& raw, double tau, PsmWeight w, bool body_force_on_solid, double even_relaxation) {
     src = lbm::PopView<T>{static_cast<T*>(raw.src), raw.stride};
     dst = lbm::PopView<T>{static_cast<T*>(raw.dst), raw.stride};
     g = raw.grid;
@@ -328,6 +361,7 @@ struct PsmLatticeFields {
     for (int a = 0; a < 3; ++a) F[a] = static_cast<C>(raw.body_force[static_cast<std::size_t>(a)]);
     for (int a = 0; a < 3; ++a) G[a] = body_force_on_solid ? F[a] : C(0);
     tm = static_cast<C>(psm_weight_t(tau, w));
+    even_c = static_cast<C>(1.0 - even_relaxation);
     weight = w;
   }
 
@@ -403,7 +437,7 @@ struct PsmStepKernel : PsmLatticeFields<T> {
       return;
     }
     R rho, u[3];
-    psm_collide<L, R, Force, V, true>(coll, f, B, M1, M2, rho, u);
+    psm_collide<L, R, Force, V, true>(coll, f, B, Lat::even_weight(B), M1, M2, rho, u);
     lbm::store_outgoing<L, T, R, S, Parity, Bnd>(dst, nb, cell, f, flags, bt, u);
     // 3. Force on each particle (psm_particle_force; torque: in the gather),
     // after the populations are stored (slot data re-read from cache).

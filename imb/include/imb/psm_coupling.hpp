@@ -75,6 +75,15 @@ struct PsmOptions {
   // CoupledSolver turns it on). Off: the particles feel the body force only
   // through the flow (the fixed-sphere drag's convention).
   bool body_force_on_solid = false;
+  // NEBB only (psm.even_relaxation = phi in [0, 1]): the solid term also
+  // relaxes the even part of the populations toward f^eq(rho, u), by
+  // -Be omega+ (f+_q - eq+_q), Be = max(0, B - (1 - phi)): a cell's even
+  // populations then relax at max(1 - B, phi) omega+ instead of (1 - B)
+  // omega+, so that covered cells keep no density and stress of their own
+  // (imb/psm.hpp, "Even relaxation"). Mass, momentum, the force and the
+  // torque of a step are unchanged. 0 (the default) is off, the operator every
+  // existing case ran with: the option moves a steady drag.
+  double even_relaxation = 0;
 };
 
 // The pipeline a step with these options and K slots per cell runs; throws

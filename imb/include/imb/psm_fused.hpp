@@ -307,7 +307,8 @@ struct PsmFusedKernel : PsmLatticeFields<T> {
       Lat::template collider<L, Force>()(f, drho, u);
       rho = R(1) + drho;
     } else {
-      psm_collide<L, R, Force, V>(Lat::template collider<L, Force>(), f, s.B, s.M1, s.M2, rho, u);
+      psm_collide<L, R, Force, V>(Lat::template collider<L, Force>(), f, s.B, Lat::even_weight(s.B), s.M1, s.M2,
+                                  rho, u);
     }
     lbm::store_outgoing<L, T, R, S, Parity, Bnd>(dst, nb, cell, f, flags, bt, u);
   }

@@ -49,8 +49,9 @@ void read_psm(const Config& ps, PsmOptions& o, int& slots, double& max_drag_erro
 // first paper's Table 1 error at this d/l).
 void report_expected_drag_error(const DragErrorQuery& q, double max_drag_error, bool validate_only, bool quiet);
 
+// The drag query of a scene of dimension dim (2: disks, no estimate).
 DragErrorQuery drag_query(double d, double tau, lbm::CollisionKind coll, double magic, const PsmOptions& o,
-                          lbm::Precision prec);
+                          lbm::Precision prec, int dim);
 
 // Every resolved PSM setting, where the rule's parameters came from (the case
 // file or the rule) and the warnings for a combination the default rule does

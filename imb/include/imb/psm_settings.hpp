@@ -106,7 +106,8 @@ inline std::string psm_settings_json(const PsmSettings& s) {
     << "\", \"collision\": \"" << (q.trt ? "trt" : "bgk") << "\", \"magic\": " << (q.trt ? q.magic : (q.tau - 0.5) * (q.tau - 0.5))
     << ", \"magic_from\": \"" << (!q.trt ? "bgk" : s.in.magic_from_file ? "file" : "rule")
     << "\", \"magic_rule\": " << s.magic_rule << ", \"weight_t\": " << psm_weight_t(q.tau, q.weight)
-    << ", \"operator\": \"" << to_string(q.variant) << "\", \"fraction\": \"" << to_string(q.method)
+    << ", \"operator\": \"" << to_string(q.variant) << "\", \"even_relaxation\": " << q.even_relaxation
+    << ", \"fraction\": \"" << to_string(q.method)
     << "\", \"pipeline\": \"" << s.in.pipeline << "\", \"precision\": \"" << s.in.precision << "\", \"tau\": " << q.tau
     << ", \"diameter\": " << q.diameter << ", \"expected_drag_error\": ";
   if (s.estimate.known) o << s.estimate.error;
