@@ -197,10 +197,6 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
     imb::read_psm(*ps, c.coupling.psm, c.coupling.slots, c.max_drag_error);
     ps->finish();
   }
-  // A measurement switch, not a case key: how the fused kernel's blocks take their tiles (same results).
-  c.coupling.psm.fused_schedule = imb::fused_schedule_from_env();
-  if (c.coupling.psm.fused_schedule != imb::PsmFusedSchedule::Block)
-    spdlog::info("psm: fused kernel schedule {} (LBDEM_PSM_FUSED_SCHEDULE)", imb::to_string(c.coupling.psm.fused_schedule));
   c.coupling.psm.map.max_radius = r;
   s.magic = imb::resolve_magic(s.magic, diam, s.tau);
   c.steps = imb::read_coupled_steps(t, U, c.physical);  // time.end in seconds with physical units

@@ -2,8 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdlib>
-#include <string>
 
 #include "psm_fused_impl.hpp"
 
@@ -41,17 +39,6 @@ const char* to_string(PsmPipeline p) {
     case PsmPipeline::Mapped: return "mapped";
   }
   return "?";
-}
-
-const char* to_string(PsmFusedSchedule s) { return s == PsmFusedSchedule::Persistent ? "persistent" : "block"; }
-
-PsmFusedSchedule fused_schedule_from_env() {
-  const char* v = std::getenv("LBDEM_PSM_FUSED_SCHEDULE");
-  if (!v || !*v) return PsmFusedSchedule::Block;
-  const std::string s(v);
-  if (s == "block") return PsmFusedSchedule::Block;
-  if (s == "persistent") return PsmFusedSchedule::Persistent;
-  throw ConfigError("LBDEM_PSM_FUSED_SCHEDULE = '" + s + "': valid values are block, persistent");
 }
 
 PsmPipeline resolve_pipeline(const PsmOptions& o, int K) {

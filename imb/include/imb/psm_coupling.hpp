@@ -44,28 +44,12 @@ struct ForceOut {
 //  Auto:   Fused where it applies, else Mapped.
 enum class PsmPipeline { Auto, Fused, Mapped };
 
-// How the fused kernel's blocks take their tiles (same results bit for bit):
-//  Block:      one block per tile (the default).
-//  Persistent: a grid that fills the GPU once, each block taking tiles
-//              blockIdx, blockIdx + gridDim, ...; while one tile collides,
-//              warp 0 copies the next tile's list and then its candidates'
-//              particle data into shared memory asynchronously, so the block's
-//              first barrier no longer waits on the dependent list -> particle
-//              reads. D3Q19 in fp32 and fp64 on the device; the host runs
-//              tiles as in Block.
-// Chosen at set-up from the environment (LBDEM_PSM_FUSED_SCHEDULE: block |
-// persistent, read once by the particles scene), a switch for measuring the
-// two; not a case key.
-enum class PsmFusedSchedule { Block, Persistent };
-
 struct PsmOptions {
   PsmVariant variant = PsmVariant::NEBB;
   PsmWeight weight = PsmWeight::NobleTorczynski;
   MapOptions map;  // fraction method, max radius, table
   PsmPipeline pipeline = PsmPipeline::Auto;
   int tile_capacity = 64;  // fused: candidate particles per tile (overflow is reported)
-  PsmFusedSchedule fused_schedule = PsmFusedSchedule::Block;
-  int persistent_blocks = 0;  // Persistent: blocks in the grid (0: as many as the GPU holds at once)
   // The fluid's body force F stands for a mean pressure gradient, which acts
   // on the particles' volume too: each particle also receives B_k F from
   // every cell it covers (psm_particle_force), the part the (1 - B) weighting
@@ -90,10 +74,6 @@ struct PsmOptions {
 // ConfigError (naming the key) if Fused is asked for where it does not apply.
 PsmPipeline resolve_pipeline(const PsmOptions& o, int K);
 const char* to_string(PsmPipeline p);
-const char* to_string(PsmFusedSchedule s);
-// The schedule named by LBDEM_PSM_FUSED_SCHEDULE (unset or empty: Block);
-// throws ConfigError naming the variable, its value and the valid ones.
-PsmFusedSchedule fused_schedule_from_env();
 
 class PsmCoupling {
  public:

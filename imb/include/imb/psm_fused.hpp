@@ -66,7 +66,6 @@ struct FusedSolid {
 template <class L, class T, lbm::StreamKind S, int Parity, bool Bnd, bool Force, PsmVariant V, class Frac>
 struct PsmFusedKernel : PsmLatticeFields<T> {
   using R = lbm::compute_t<T>;
-  using Stored = T;
   using Lattice = L;
   static constexpr int Dim = L::D;
   static constexpr int kQ = L::Q;
@@ -168,38 +167,6 @@ struct PsmFusedKernel : PsmLatticeFields<T> {
     c.w[0] = R(p.wx ? p.wx[o] : 0.0);
     c.w[1] = R(p.wy ? p.wy[o] : 0.0);
     c.w[2] = R(p.wz ? p.wz[o] : 0.0);
-  }
-
-  // The particle data a candidate takes, as stored (doubles): centre x, y, z,
-  // radius, velocity, angular velocity. The persistent schedule copies them
-  // into shared memory ahead of the tile (psm_fused_impl.hpp) and forms the
-  // candidate with candidate_from: the values load_candidate forms.
-  static constexpr int kRaw = 10;
-  // Where raw value a of particle `particle` is stored; null for an absent
-  // array (its value is 0).
-  LBDEM_HD const double* raw_source(int particle, int a) const {
-    const Index o = static_cast<Index>(particle) * p.stride;
-    const double* base[kRaw] = {p.x, p.y, Dim == 3 ? p.z : nullptr, p.r, p.vx, p.vy, Dim == 3 ? p.vz : nullptr,
-                                p.wx, p.wy, p.wz};
-    return base[a] ? base[a] + o : nullptr;
-  }
-  LBDEM_HD void candidate_from(const TileId& tile, int particle, int entry, const double* d, FusedCand<R>& c) const {
-    c.p = particle;
-    c.entry = entry;
-    int org[3];
-    tile_origin(tile, org);
-    c.o[0] = R(wrap_centre(g.nearest_image(0, d[0]), g.nx, g.periodic[0]) - (org[0] + g.shift[0]));
-    c.o[1] = R(wrap_centre(g.nearest_image(1, d[1]), g.ny, g.periodic[1]) - (org[1] + g.shift[1]));
-    c.o[2] = Dim == 3 ? R(wrap_centre(g.nearest_image(2, d[2]), g.nz, g.periodic[2]) - (org[2] + g.shift[2])) : R(0.5);
-    const double rad = d[3];
-    c.r = R(rad);
-    c.aux = R(frac.prepare(rad));
-    c.v[0] = R(d[4]);
-    c.v[1] = R(d[5]);
-    c.v[2] = R(d[6]);
-    c.w[0] = R(d[7]);
-    c.w[1] = R(d[8]);
-    c.w[2] = R(d[9]);
   }
 
   LBDEM_HD static double wrap_centre(double c, int n, bool periodic) {
