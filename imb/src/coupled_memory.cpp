@@ -99,13 +99,14 @@ void check_coupled_memory(const Config& root, const lbm::LbmSetup& fluid, const 
                           double particles, Backend b) {
   double cells = 1;
   for (int a = 0; a < 3; ++a) cells *= static_cast<double>(fluid.domain.global[static_cast<std::size_t>(a)]);
-  // The device holds this rank's piece; the host set-up builds whole-grid
-  // fields (flags, rho, u) on every rank, and every rank reads every particle.
+  // The device holds this rank's piece, and so does the host set-up (flags,
+  // rho, u of the piece: DistributedFluid::initialize_uniform); every rank may
+  // read every particle (a list in the case file).
   const lbm::LbmSetup mine = rank_fluid(root, fluid);
   const double piece_cells = static_cast<double>(mine.domain.storage_cells());
   // Absurd sizes first, in double (the exact sum below is in 64-bit integers).
   check_memory(root, b, lbm_grid_bytes(mine, piece_cells) + particles * kDemDeviceBytesPerParticle,
-               cells * (1 + 4 * sizeof(double)) + particles * kDemHostBytesPerParticle, "domain.cells, particles",
+               piece_cells * (1 + 4 * sizeof(double)) + particles * kDemHostBytesPerParticle, "domain.cells, particles",
                "the grid of " + num(cells) + " cells with " + num(particles) + " particles",
                "use fewer cells or particles" + or_fp32(fluid));
   const MemoryUse m = coupled_memory(mine, cp, particles, b);
@@ -114,9 +115,9 @@ void check_coupled_memory(const Config& root, const lbm::LbmSetup& fluid, const 
   std::string parts;
   for (std::size_t i = 0; i < big.size() && i < 3; ++i)
     parts += (i ? ", " : "") + big[i].name + " " + num(static_cast<double>(big[i].bytes) / piece_cells) + " B/cell";
-  // Host: the set-up fields of initialize() (flag byte, rho, u per cell) and the particles' host copies.
+  // Host: the set-up fields of the piece (flag byte, rho, u per cell) and the particles' host copies.
   check_memory(root, b, static_cast<double>(m.total()),
-               cells * (1 + 4 * sizeof(double)) + particles * kDemHostBytesPerParticle, "domain.cells, particles",
+               piece_cells * (1 + 4 * sizeof(double)) + particles * kDemHostBytesPerParticle, "domain.cells, particles",
                "the grid of " + num(cells) + " cells with " + num(particles) + " particles (" +
                    num(static_cast<double>(m.total()) / piece_cells) + " B/cell: " + parts + ")" +
                    (mine.domain.storage_cells() < fluid.domain.storage_cells()

@@ -211,12 +211,11 @@ TEST_F(RunControl, CheckMemoryIsTheTargetMachinesHostMemoryToo) {
   EXPECT_NE(small.out.find("memory but 8192 MiB are free"), std::string::npos) << small.out;
 }
 
-// Under mpirun each rank's device holds its piece of the grid: the memory
-// checks count the largest piece (the host set-up still builds whole-grid
-// fields on every rank). A particle box of 64 x 64 x 128 cells needs ~180 MiB
-// of device memory on one rank (on the host backend that is host memory,
-// plus ~17 MiB of set-up fields), about half on each of 2: a 150 MiB machine
-// takes it on 2 ranks only.
+// Under mpirun each rank's device holds its piece of the grid, and its host
+// the piece's set-up fields: the memory checks count the largest piece. A
+// particle box of 64 x 64 x 128 cells needs ~180 MiB of device memory on one
+// rank (on the host backend that is host memory, plus ~17 MiB of set-up
+// fields), about half on each of 2: a 150 MiB machine takes it on 2 ranks only.
 TEST_F(RunControl, MemoryChecksCountOneRanksPiece) {
   if (std::string(LBDEM_MPIEXEC).empty()) GTEST_SKIP() << "built without an MPI launcher";
   const std::string c = write_case(R"(scene: particles
