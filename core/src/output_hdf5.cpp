@@ -397,33 +397,82 @@ std::vector<DatasetDiff> compare_datasets(const std::string& a, const std::strin
   silence_hdf5_errors();
   std::error_code ec;
   if (!fs::is_regular_file(a, ec)) throw Error("HDF5 file '" + a + "' does not exist");
-  std::vector<std::string> names;
-  {
-    H5Id h5(H5Fopen(a.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
-    if (!h5.ok()) h5_fail(a, "H5Fopen");
-    H5G_info_t gi;
-    h5_check(H5Gget_info(h5.get(), &gi), a, "H5Gget_info");
-    for (hsize_t i = 0; i < gi.nlinks; ++i) {
-      char buf[256] = {};
-      if (H5Lget_name_by_idx(h5.get(), ".", H5_INDEX_NAME, H5_ITER_INC, i, buf, sizeof buf, H5P_DEFAULT) < 0)
-        h5_fail(a, "H5Lget_name_by_idx");
-      H5Id d(H5Dopen2(h5.get(), buf, H5P_DEFAULT), H5Dclose);  // groups do not open as datasets
-      if (d.ok()) names.emplace_back(buf);
-    }
+  H5Id fa(H5Fopen(a.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
+  if (!fa.ok()) h5_fail(a, "H5Fopen");
+  std::error_code ecb;
+  if (!fs::is_regular_file(b, ecb)) throw Error("HDF5 file '" + b + "' does not exist");
+  H5Id fb(H5Fopen(b.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
+  if (!fb.ok()) h5_fail(b, "H5Fopen");
+  std::vector<std::string> names;  // the datasets at the root of `a`
+  H5G_info_t gi;
+  h5_check(H5Gget_info(fa.get(), &gi), a, "H5Gget_info");
+  for (hsize_t i = 0; i < gi.nlinks; ++i) {
+    char buf[256] = {};
+    if (H5Lget_name_by_idx(fa.get(), ".", H5_INDEX_NAME, H5_ITER_INC, i, buf, sizeof buf, H5P_DEFAULT) < 0)
+      h5_fail(a, "H5Lget_name_by_idx");
+    H5Id d(H5Dopen2(fa.get(), buf, H5P_DEFAULT), H5Dclose);  // groups do not open as datasets
+    if (d.ok()) names.emplace_back(buf);
   }
+  // Dataset by dataset, a band of the slowest axis at a time (at most kBand
+  // values of each file in memory): a whole-grid file is never held whole.
+  constexpr hsize_t kBand = hsize_t{1} << 22;
   std::vector<DatasetDiff> out;
+  std::vector<double> va, vb;
   for (const std::string& n : names) {
-    const std::vector<double> va = read_dataset(a, n), vb = read_dataset(b, n);
-    if (va.size() != vb.size())
-      throw Error("dataset '" + n + "' holds " + std::to_string(va.size()) + " values in '" + a + "' but " +
-                  std::to_string(vb.size()) + " in '" + b + "'");
-    DatasetDiff d{n, va.size()};
-    d.bitwise = va.empty() || std::memcmp(va.data(), vb.data(), va.size() * sizeof(double)) == 0;
-    for (std::size_t i = 0; i < va.size(); ++i) {
-      d.max_abs = std::max(d.max_abs, std::abs(va[i] - vb[i]));
-      // a NaN on one side only: an infinite difference (std::max would drop it)
-      if (std::isnan(va[i]) != std::isnan(vb[i])) d.max_abs = std::numeric_limits<double>::infinity();
-      d.scale = std::max(d.scale, std::abs(va[i]));
+    auto open = [&n](hid_t f, const std::string& path, std::vector<hsize_t>& dims) {
+      htri_t exists = H5Lexists(f, n.c_str(), H5P_DEFAULT);
+      if (exists <= 0) throw Error("HDF5 file '" + path + "' has no dataset '" + n + "'");
+      H5Id d(H5Dopen2(f, n.c_str(), H5P_DEFAULT), H5Dclose);
+      if (!d.ok()) h5_fail(path, "H5Dopen2 '" + n + "'");
+      H5Id sp(H5Dget_space(d.get()), H5Sclose);
+      const int rank = H5Sget_simple_extent_ndims(sp.get());
+      if (rank < 0) h5_fail(path, "H5Sget_simple_extent_ndims '" + n + "'");
+      dims.assign(static_cast<std::size_t>(rank), 0);
+      if (rank > 0) H5Sget_simple_extent_dims(sp.get(), dims.data(), nullptr);
+      return d;
+    };
+    std::vector<hsize_t> da, db;
+    H5Id sa = open(fa.get(), a, da), sb = open(fb.get(), b, db);
+    hsize_t total = 1, row = 1;
+    for (std::size_t k = 0; k < da.size(); ++k) {
+      total *= da[k];
+      if (k > 0) row *= da[k];
+    }
+    if (da != db) {
+      hsize_t tb = 1;
+      for (hsize_t x : db) tb *= x;
+      throw Error("dataset '" + n + "' holds " + std::to_string(total) + " values in '" + a + "' but " +
+                  std::to_string(tb) + " (or another shape) in '" + b + "'");
+    }
+    DatasetDiff d{n, static_cast<std::size_t>(total)};
+    const hsize_t rows = da.empty() ? 1 : da[0];
+    const hsize_t band = std::max<hsize_t>(1, kBand / std::max<hsize_t>(row, 1));
+    for (hsize_t r0 = 0; r0 < rows && total > 0; r0 += band) {
+      const hsize_t m = std::min(band, rows - r0);
+      auto read = [&](hid_t dset, const std::string& path, std::vector<double>& v) {
+        v.resize(static_cast<std::size_t>(m * row));
+        H5Id fsp(H5Dget_space(dset), H5Sclose);
+        if (!da.empty()) {
+          std::vector<hsize_t> start(da.size(), 0), count = da;
+          start[0] = r0;
+          count[0] = m;
+          h5_check(H5Sselect_hyperslab(fsp.get(), H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr), path,
+                   "H5Sselect_hyperslab '" + n + "'");
+        }
+        const hsize_t cnt = m * row;
+        H5Id msp(H5Screate_simple(1, &cnt, nullptr), H5Sclose);
+        h5_check(H5Dread(dset, H5T_NATIVE_DOUBLE, msp.get(), fsp.get(), H5P_DEFAULT, v.data()), path,
+                 "H5Dread '" + n + "'");
+      };
+      read(sa.get(), a, va);
+      read(sb.get(), b, vb);
+      d.bitwise = d.bitwise && std::memcmp(va.data(), vb.data(), va.size() * sizeof(double)) == 0;
+      for (std::size_t i = 0; i < va.size(); ++i) {
+        d.max_abs = std::max(d.max_abs, std::abs(va[i] - vb[i]));
+        // a NaN on one side only: an infinite difference (std::max would drop it)
+        if (std::isnan(va[i]) != std::isnan(vb[i])) d.max_abs = std::numeric_limits<double>::infinity();
+        d.scale = std::max(d.scale, std::abs(va[i]));
+      }
     }
     out.push_back(d);
   }
