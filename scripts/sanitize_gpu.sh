@@ -14,6 +14,11 @@
 #                       steps run uninstrumented. initcheck checks every launch: with a limit, the writes of the
 #                       uninstrumented launches are not recorded and its host-copy check then reports bytes
 #                       they did write (the false reports of the last sweep)
+#   SANITIZE_NOLIMIT    a regular expression on run names that check every launch whatever SANITIZE_LAUNCHES says
+#                       (default: the gas-solid bed scenes and the CFD tests: a launch limit cut inside a CUDA graph
+#                       with a conditional (WHILE) node leaves the tool's instrumented and plain kernels mixed in one
+#                       graph, and its reports there are the tool's, not the program's)
+#   SANITIZE_GPUS       the GPUs to use, e.g. "1 2 3" (default: all; another job can then time itself on the rest)
 #   SANITIZE_FILTER     an extra regular expression on the test names (default: all)
 #   SCENE_STEPS         steps of each scene (default 5)
 #   SANITIZER           compute-sanitizer (default: the one beside nvcc, else on PATH)
@@ -47,6 +52,8 @@ fi
 [ -n "$cs" ] && [ -x "$cs" ] || { echo "sanitize_gpu: compute-sanitizer not found (set SANITIZER)"; exit 2; }
 ngpu=$(gpu_count)
 [ "$ngpu" -gt 0 ] || { echo "sanitize_gpu: no GPU (nvidia-smi -L lists none)"; exit 1; }
+gpus="${SANITIZE_GPUS:-$(seq -s ' ' 0 $((ngpu - 1)))}"
+ngpu=$(echo $gpus | wc -w)
 cores=$(nproc)
 jobs="${SANITIZE_JOBS:-$((8 * ngpu < cores / 2 ? 8 * ngpu : cores / 2))}"
 [ "$jobs" -ge 1 ] || jobs=1
@@ -58,13 +65,16 @@ echo "sanitize_gpu: $ngpu GPUs, $jobs runs at once, tools ${tools[*]}, budget ${
 ctest --test-dir "$build" -L gpu --show-only=json-v1 > "$dir/ctest.json" 2> "$dir/ctest.err" ||
   { echo "sanitize_gpu: ctest could not list the tests"; tail -5 "$dir/ctest.err"; exit 1; }
 
-python3 - "$dir" "$cs" "$build" "$LBDEM_ROOT" "$ngpu" "$jobs" "${tools[@]}" <<'PY'
+python3 - "$dir" "$cs" "$build" "$LBDEM_ROOT" "$gpus" "$jobs" "${tools[@]}" <<'PY'
 import json, os, re, subprocess, sys, tempfile, threading, time, glob, shutil
-out, cs, build, root, ngpu, jobs = sys.argv[1], sys.argv[2], sys.argv[3], sys.argv[4], int(sys.argv[5]), int(sys.argv[6])
+out, cs, build, root, gpus, jobs = sys.argv[1], sys.argv[2], sys.argv[3], sys.argv[4], sys.argv[5].split(), int(sys.argv[6])
+ngpu = len(gpus)
 tools = sys.argv[7:]
 budget = float(os.environ.get("SANITIZE_BUDGET_S", "330"))
 run_cap = float(os.environ.get("SANITIZE_RUN_S", "240"))
 launches = int(os.environ.get("SANITIZE_LAUNCHES", "400"))
+nolimit = re.compile(os.environ.get("SANITIZE_NOLIMIT", r"^fluidized_bed|FluidizedBed|^All/(Gas|Pressure|Settling|VoidFraction)"))
+commit = os.environ.get("LBDEM_COMMIT", "")
 flt = re.compile(os.environ.get("SANITIZE_FILTER", ""))
 steps = os.environ.get("SCENE_STEPS", "5")
 t0 = time.time()
@@ -99,7 +109,7 @@ runs_file = os.path.join(out, "runs.jsonl")
 if os.environ.get("SANITIZE_RESUME") == "1" and os.path.exists(runs_file):
     for line in open(runs_file):
         r = json.loads(line)
-        if r["status"] == "clean":
+        if r["status"] == "clean" and r["name"] in {w["name"] for w in runs}:  # still a target of this build
             earlier.append(r)
 done_before = {(r["tool"], r["name"]) for r in earlier}
 work = []
@@ -116,7 +126,7 @@ nxt = [0]
 
 def one(w, gpu):
     left = t0 + budget - time.time()
-    rec = dict(tool=w["tool"], target=w["target"], name=w["name"], gpu=gpu)
+    rec = dict(tool=w["tool"], target=w["target"], name=w["name"], gpu=gpu, commit=commit)
     if left < 10:
         rec.update(status="not_run", summary="", exit=None, seconds=0)
         return rec
@@ -125,7 +135,7 @@ def one(w, gpu):
         opts += ["--leak-check", "full"]
     if w["tool"] == "racecheck":
         opts += ["--racecheck-report", "hazard"]
-    if launches > 0 and w["tool"] != "initcheck":
+    if launches > 0 and w["tool"] != "initcheck" and not nolimit.search(w["name"]):
         opts += ["--launch-count", str(launches)]
     tmp = tempfile.mkdtemp(prefix="lbdem_san_")
     env = dict(os.environ, CUDA_VISIBLE_DEVICES=str(gpu), TMPDIR=tmp)
@@ -151,6 +161,8 @@ def one(w, gpu):
     nonzero = [s for s in sums if not re.search(r"SUMMARY: 0 (errors|hazards)", s)]
     if code == 124:
         status = "cut"
+    elif "terminated before first instrumented API call" in text:
+        status = "no_cuda"  # the run made no CUDA call: nothing for the tool to check (listed, not clean)
     elif nonzero or code == 99:
         status = "errors"
     elif not sums:
@@ -173,7 +185,7 @@ def one(w, gpu):
     return rec
 
 def worker(k):
-    gpu = k % ngpu
+    gpu = gpus[k % ngpu]
     while True:
         with lock:
             if nxt[0] >= len(work):
@@ -202,18 +214,18 @@ for r in results:
 lines, bad = [], 0
 with open(os.path.join(out, "..", "sanitize.jsonl"), "a") as jf:
     for (tool, target), rs in sorted(groups.items()):
-        count = {s: [r["name"] for r in rs if r["status"] == s] for s in ("clean", "errors", "test_failed", "cut", "not_run")}
+        count = {s: [r["name"] for r in rs if r["status"] == s] for s in ("clean", "errors", "test_failed", "cut", "not_run", "no_cuda")}
         ok = len(count["clean"]) == len(rs)
         bad += not ok
         line = f"{tool} {target}: {len(count['clean'])}/{len(rs)} clean"
-        for s in ("errors", "test_failed", "cut", "not_run"):
+        for s in ("errors", "test_failed", "cut", "not_run", "no_cuda"):
             if count[s]:
                 shown = ", ".join(count[s][:6]) + (f" (+{len(count[s]) - 6})" if len(count[s]) > 6 else "")
                 line += f"; {s.replace('_', ' ')} {len(count[s])}: {shown}"
         lines.append(line)
         jf.write(json.dumps(dict(what="sanitizer", tool=tool, target=target, runs=len(rs),
                                  clean=len(count["clean"]), errors=count["errors"], test_failed=count["test_failed"],
-                                 cut=count["cut"], not_run=count["not_run"],
+                                 cut=count["cut"], not_run=count["not_run"], no_cuda=count["no_cuda"],
                                  device=os.environ.get("LBDEM_DEVICE", ""), commit=os.environ.get("LBDEM_COMMIT", ""),
                                  seconds=round(time.time() - t0))) + "\n")
 head = f"# compute-sanitizer sweep: {len(results)} runs ({len(earlier)} clean in an earlier call) on {ngpu} GPUs, {jobs} at once, {round(time.time() - t0)} s"
