@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
+#include <cstring>
 
 #if defined(__CUDACC__)
 #include <cub/block/block_reduce.cuh>
@@ -296,7 +298,118 @@ struct TailArgs {
 };
 static_assert(sizeof(TailArgs) <= 4000, "kernel parameters beyond 4 KB");
 
+// Shared-memory doubles of one tail level: its three face arrays, diagonal,
+// right-hand side and iterate (the same layout on the host, which sizes the
+// launch, and in the kernel, which lays the arrays out).
+LBDEM_HD inline Index tail_level_doubles(const LevelView& L) {
+  Index n = 3 * L.cells();
+  for (int a = 0; a < 3; ++a) n += static_cast<Index>(L.fext(a, 0)) * L.fext(a, 1) * L.fext(a, 2);
+  return n;
+}
+
 #if defined(__CUDACC__)
+// The same stages on copies in shared memory: every stage of the tail is a
+// chain of dependent loads over a few thousand cells in one block, so their
+// latency, not their bandwidth, sets its time. The face arrays and diagonals
+// of every tail level and the top level's right-hand side are loaded once,
+// the coarser right-hand sides and all iterates live only here, and the top
+// level's iterate (the coarse correction the levels above read) is written
+// back at the end. The functors and their order are those of mg_tail_kernel:
+// the same bits.
+__global__ void __launch_bounds__(kTailThreads) mg_tail_shared_kernel(const TailArgs a) {
+  extern __shared__ double sm[];
+  if (a.co.scal[slot::kDone] != 0) return;
+  const Index t0 = threadIdx.x, dt = blockDim.x;
+  // Level k's arrays: af[3], dg, b, x (k = a.count: the coarsest grid).
+  struct Arrays {
+    double* af[3];
+    double *dg, *b, *x;
+  };
+  auto arrays = [&](int k) {
+    Arrays r{};
+    double* p = sm;
+    for (int j = 0; j <= k; ++j) {
+      const LevelView L = j < a.count ? a.pre[j].L : a.co.L;
+      for (int ax = 0; ax < 3; ++ax) {
+        r.af[ax] = p;
+        p += static_cast<Index>(L.fext(ax, 0)) * L.fext(ax, 1) * L.fext(ax, 2);
+      }
+      r.dg = p;
+      r.b = p + L.cells();
+      r.x = p + 2 * L.cells();
+      p += 3 * L.cells();
+    }
+    return r;
+  };
+  for (int k = 0; k <= a.count; ++k) {
+    const LevelView L = k < a.count ? a.pre[k].L : a.co.L;
+    const Arrays s = arrays(k);
+    for (int ax = 0; ax < 3; ++ax) {
+      const Index nf = static_cast<Index>(L.fext(ax, 0)) * L.fext(ax, 1) * L.fext(ax, 2);
+      for (Index i = t0; i < nf; i += dt) s.af[ax][i] = L.af[ax][i];
+    }
+    if (k < a.count)
+      for (Index i = t0; i < a.cells[k]; i += dt) s.dg[i] = a.pre[k].dg[i];
+  }
+  {
+    const Arrays s = arrays(0);
+    const Index n = a.count > 0 ? a.cells[0] : a.co.L.cells();
+    const double* b = a.count > 0 ? a.pre[0].b : a.co.b;
+    for (Index i = t0; i < n; i += dt) s.b[i] = b[i];
+  }
+  __syncthreads();
+  auto view = [&](LevelView L, const Arrays& s) {
+    for (int ax = 0; ax < 3; ++ax) L.af[ax] = s.af[ax];
+    return L;
+  };
+  for (int k = 0; k < a.count; ++k) {
+    const Arrays s = arrays(k), c = arrays(k + 1);
+    PreSmooth pre = a.pre[k];
+    pre.L = view(pre.L, s);
+    pre.dg = s.dg;
+    pre.b = s.b;
+    pre.x = s.x;
+    for (Index i = t0; i < a.cells[k]; i += dt) pre(i);
+    __syncthreads();
+    Restrict res = a.res[k];
+    res.F = view(res.F, s);
+    res.bf = s.b;
+    res.xf = s.x;
+    res.bc = c.b;
+    for (Index i = t0; i < a.ccells[k]; i += dt) res(i);
+    __syncthreads();
+  }
+  if (t0 == 0) {
+    const Arrays s = arrays(a.count);
+    Coarsest co = a.co;
+    co.L = view(co.L, s);
+    co.b = s.b;
+    co.x = s.x;
+    co(0);
+  }
+  __syncthreads();
+  for (int k = a.count - 1; k >= 0; --k) {
+    const Arrays s = arrays(k), c = arrays(k + 1);
+    PostBlack pb = a.pb[k];
+    pb.F = view(pb.F, s);
+    pb.b = s.b;
+    pb.x = s.x;
+    pb.e = c.x;
+    for (Index i = t0; i < a.cells[k]; i += dt) pb(i);
+    __syncthreads();
+    PostRed pr = a.pr[k];
+    pr.F = view(pr.F, s);
+    pr.b = s.b;
+    pr.x = s.x;
+    for (Index i = t0; i < a.cells[k]; i += dt) pr(i);
+    __syncthreads();
+  }
+  const Arrays s = arrays(0);
+  const Index n = a.count > 0 ? a.cells[0] : a.co.L.cells();
+  double* x = a.count > 0 ? a.pre[0].x : a.co.x;
+  for (Index i = t0; i < n; i += dt) x[i] = s.x[i];
+}
+
 __global__ void __launch_bounds__(kTailThreads) mg_tail_kernel(const TailArgs a) {
   if (a.co.scal[slot::kDone] != 0) return;
   const Index t0 = threadIdx.x, dt = blockDim.x;
@@ -403,6 +516,29 @@ void PressureSolver::init_multigrid() {
     if (c > kTailCells) break;
     tail_ = l;
   }
+  // The tail in shared memory where its levels fit in a block's (the
+  // device's opt-in limit); else it reads them where they are.
+  tail_shared_bytes_ = 0;
+#if defined(__CUDACC__)
+  const char* env = std::getenv("LBDEM_PRESSURE_TAIL_SHARED");
+  if (ex_.on_device() && tail_ < nl && !(env && std::strcmp(env, "0") == 0)) {
+    Index doubles = 0;
+    for (int l = tail_; l <= nl; ++l) {
+      const GasGridView& lg = l == 0 ? g : lv_[static_cast<std::size_t>(l - 1)].g;
+      const double* none[3] = {nullptr, nullptr, nullptr};
+      doubles += tail_level_doubles(level_view(lg, none));
+    }
+    int dev = 0, optin = 0;
+    LBDEM_CUDA_CHECK(cudaGetDevice(&dev));
+    LBDEM_CUDA_CHECK(cudaDeviceGetAttribute(&optin, cudaDevAttrMaxSharedMemoryPerBlockOptin, dev));
+    const Index bytes = doubles * static_cast<Index>(sizeof(double));
+    if (bytes <= optin) {
+      LBDEM_CUDA_CHECK(cudaFuncSetAttribute(mg_tail_shared_kernel, cudaFuncAttributeMaxDynamicSharedMemorySize,
+                                            static_cast<int>(bytes)));
+      tail_shared_bytes_ = static_cast<int>(bytes);
+    }
+  }
+#endif
 }
 
 void PressureSolver::setup_mg(const Exec& ex, const double* const af[3]) {
@@ -471,7 +607,10 @@ void PressureSolver::vcycle(const Exec& ex, const double* const af[3], const dou
       t.pr[k] = post_red(top + k);
     }
     t.co = coarsest;
-    mg_tail_kernel<<<1, kTailThreads, 0, ex.stream()>>>(t);
+    if (tail_shared_bytes_ > 0)
+      mg_tail_shared_kernel<<<1, kTailThreads, tail_shared_bytes_, ex.stream()>>>(t);
+    else
+      mg_tail_kernel<<<1, kTailThreads, 0, ex.stream()>>>(t);
     LBDEM_CUDA_CHECK(cudaGetLastError());
 #else
     for_each(ex, 1, coarsest);  // not reached: a device Exec needs the CUDA build

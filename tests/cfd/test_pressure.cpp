@@ -17,6 +17,7 @@
 //    converged or stopped by the iteration limit; the test that ends both
 //    loops (keep_iterating) is checked on every backend.
 //  * Bad input names the key.
+#include <array>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -180,6 +181,20 @@ TEST_P(Pressure, LaunchSavingsGiveTheSameBits) {
   ASSERT_TRUE(fused.rep.converged);
   EXPECT_EQ(fused.rep.iterations, plain.rep.iterations);
   EXPECT_EQ(fused.x, plain.x);
+  // The one-block tail of the V-cycle (on the device: in shared memory) from
+  // level 0 (a grid of at most 2,048 cells) and from level 2 (Link's bed).
+  // The host has no tail (its fused and plain paths are one path).
+  for (const auto& n : {std::array<int, 3>{12, 6, 20}, std::array<int, 3>{30, 10, 128}}) {
+    if (!ex.on_device()) break;
+    GasGridView h = g;
+    for (int a = 0; a < 3; ++a) h.n[a] = n[static_cast<std::size_t>(a)];
+    System t(ex.backend(), h, 13);
+    const Result tf = solve(ex, t, PressureSolverKind::Multigrid, 1e-12, true);
+    const Result tp = solve(ex, t, PressureSolverKind::Multigrid, 1e-12, false);
+    ASSERT_TRUE(tf.rep.converged) << n[0] << "x" << n[1] << "x" << n[2];
+    EXPECT_EQ(tf.rep.iterations, tp.rep.iterations);
+    EXPECT_EQ(tf.x, tp.x) << n[0] << "x" << n[1] << "x" << n[2];
+  }
   // The host-polled loop of graphs (polls every poll_every = 5 iterations,
   // past convergence by up to 4 no-op iterations) against the device loop.
   const Result polled = solve(ex, s, PressureSolverKind::Multigrid, 1e-12, true, false);

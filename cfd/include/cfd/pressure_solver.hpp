@@ -154,6 +154,10 @@ class PressureSolver {
   Buffer<unsigned int> ticket_;  // one-launch dot products on the device
   int expected_iterations_ = 0;
   int tail_ = 0;  // the first level of the V-cycle's one-block kernel (device)
+  // Bytes of shared memory of that kernel when its levels are copied there
+  // (0: it reads them in global memory). LBDEM_PRESSURE_TAIL_SHARED=0 keeps
+  // them in global memory (the same bits; for comparison).
+  int tail_shared_bytes_ = 0;
   // The device's CUDA graphs (0: the start of a solve, 1: `poll_every`
   // iterations, 2: those iterations in a device-side loop), the stream they
   // were captured on, and the pointers each was captured with (unused by a
