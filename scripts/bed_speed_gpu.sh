@@ -23,7 +23,10 @@
 #                dem_tests)
 #   env  MULLER_STEPS (default 8000: 1.2 s simulated, ~40 s at 32 s per simulated s), LINK_STEPS (default 14000:
 #        0.42 s simulated, ~40 s at 95 s per simulated s), PHASE_STEPS (default 2000), NSYS_STEPS (default 600),
-#        GPU (default 0), BASE_BUILD (default none: step 4 left out; built here if needed), BASE_STEPS (default 1000)
+#        GPU (default 0), BASE_BUILD (default none: step 4 left out; built here if needed), BASE_STEPS (default 1000);
+#        PAIR=tail compares the pressure solve's one-block tail in shared memory (the default) with the tail in global
+#        memory (LBDEM_PRESSURE_TAIL_SHARED=0) in steps 1-2 instead of the two pressure loops; PHASE_STEPS=0 and
+#        NSYS_STEPS=0 leave steps 3 and 5 out
 # Output under $OUT/bed_speed: speed.jsonl (one JSON line per run: seconds per simulated second, simulated time,
 # mean pressure drop over bed weight, per gas step the DEM's rebuilds, report reads and waits; a line per bed
 # "match": whether the two paths' final checkpoint, series and profiles are the same bytes), phases.jsonl (ms per
@@ -56,15 +59,17 @@ yaml() {
 }
 # bed NAME LOOP YAML: one run (LOOP 0: the host-polled pressure loop), its line into speed.jsonl.
 bed() {
-  local name="$1" loop="$2" y="$3"
-  CUDA_VISIBLE_DEVICES="$g" LBDEM_PRESSURE_DEVICE_LOOP="$loop" timeout -s TERM -k 30 240 "$exe" run "$y" \
+  local name="$1" loop="$2" y="$3" var=LBDEM_PRESSURE_DEVICE_LOOP
+  [ "${PAIR:-loop}" = tail ] && var=LBDEM_PRESSURE_TAIL_SHARED
+  CUDA_VISIBLE_DEVICES="$g" env "$var=$loop" timeout -s TERM -k 30 240 "$exe" run "$y" \
     --backend cuda --output "$out/$name" --overwrite --quiet > "$out/$name.log" 2>&1
   local rc=$? s="$out/$name/summary.json"
   [ -f "$s" ] || { echo "$name exit $rc, no summary"; tail_log "$out/$name.log" 8; return; }
   get() { grep -o "\"$1\": [^,}]*" "$s" | head -1 | sed 's/^[^:]*: //; s/"//g'; }
   local gs; gs="$(get gas_steps)"
   per() { awk -v a="$1" -v b="$gs" 'BEGIN { printf "%.4g", (b > 0 ? a / b : 0) }'; }
-  json_line "$out/speed.jsonl" run="$name" pressure_device_loop="$loop" exit="$rc" gas_steps="$gs" \
+  local which=pressure_device_loop; [ "${PAIR:-loop}" = tail ] && which=pressure_tail_shared
+  json_line "$out/speed.jsonl" run="$name" "$which=$loop" exit="$rc" gas_steps="$gs" \
     simulated_s="$(get time_s)" s_per_simulated_s="$(get seconds_per_simulated_second)" \
     particle_steps_per_s="$(get particle_steps_per_second)" dp_over_weight="$(get mean_pressure_drop_over_weight)" \
     statistics_samples="$(get statistics_samples)" dem_substeps="$(get dem_substeps)" \
@@ -110,16 +115,20 @@ if [ "${TESTS:-1}" = 1 ]; then
   echo "dem_tests (GPU against host, sub-step graphs) exit $?"
   grep -a -E "^\[  (PASSED|FAILED) |^\[  FAILED  \]" "$out/cfd_tests.log" "$out/dem_tests.log"
 fi
+off=polled on=device_loop
+[ "${PAIR:-loop}" = tail ] && off=tail_global on=tail_shared
 ym="$(yaml fluidized_bed_muller_u09.yaml u09 "$muller_steps" 0.3)"
-bed u09_polled 0 "$ym"
-bed u09_device_loop 1 "$ym"
-match u09 u09_polled u09_device_loop
+bed u09_$off 0 "$ym"
+bed u09_$on 1 "$ym"
+match u09 u09_$off u09_$on
 yl="$(yaml fluidized_bed_link_spout.yaml link "$link_steps" 0.1)"
-bed link_polled 0 "$yl"
-bed link_device_loop 1 "$yl"
-match link link_polled link_device_loop
-phases u09_phases "$(yaml fluidized_bed_muller_u09.yaml u09_p "$phase_steps" 0.3)"
-phases link_phases "$(yaml fluidized_bed_link_spout.yaml link_p "$phase_steps" 0.1)"
+bed link_$off 0 "$yl"
+bed link_$on 1 "$yl"
+match link link_$off link_$on
+if [ "$phase_steps" -gt 0 ]; then
+  phases u09_phases "$(yaml fluidized_bed_muller_u09.yaml u09_p "$phase_steps" 0.3)"
+  phases link_phases "$(yaml fluidized_bed_link_spout.yaml link_p "$phase_steps" 0.1)"
+fi
 if [ -n "${BASE_BUILD:-}" ]; then
   lbdem_build "$BASE_BUILD" lbdem || exit 1
   yb="$(yaml fluidized_bed_muller_u09.yaml u09_b "${BASE_STEPS:-1000}" 0.0)"
@@ -138,7 +147,7 @@ if [ -n "${BASE_BUILD:-}" ]; then
   tail -1 "$out/speed.jsonl"
   clean u09_base; clean u09_this
 fi
-if command -v nsys > /dev/null 2>&1; then
+if [ "$nsys_steps" -gt 0 ] && command -v nsys > /dev/null 2>&1; then
   yn="$(yaml fluidized_bed_muller_u09.yaml u09_n "$nsys_steps" 0.3)"
   CUDA_VISIBLE_DEVICES="$g" timeout -s TERM -k 30 180 nsys profile -t cuda --force-overwrite true \
     -o "$out/u09_nsys" "$exe" run "$yn" --backend cuda --output "$out/u09_nsys_run" --overwrite --quiet \
