@@ -12,7 +12,10 @@
 # Environment: STEPS (200), GPUS (the GPU counts to run, default "1 2 4" less those the host lacks), PRECISIONS
 # ("fp32 fp64"), BUDGET (seconds of runs after which the remaining ones are skipped, 420), WORK (run folders,
 # removed after each run; default /tmp/lbdem_suspension_2d), OUT (results; default ./out); CASE2D and BACKEND
-# (a smaller 2D case and the cpu backend: a try of the script on a host without GPUs).
+# (a smaller 2D case and the cpu backend: a try of the script on a host without GPUs). NSYS=1: rank 0 of every run
+# on several GPUs runs under `nsys profile` (CUDA API, OS runtime, MPI): the per-call host time of the CUDA API and
+# the runtime, the GPU time per kernel, top lines printed and kept as <run>.nsys_*.txt (where time goes that the
+# phase clocks do not see: host waits, copies, MPI).
 # Writes $OUT/suspension_2d/{suspension_2d.jsonl, table.txt, <run>.log, <run>.summary.json}; never field files.
 # Time on a 2-GPU H200 host (the model's estimate, bench/results/scaling_model.md: one GPU 39 ms per step in
 # fp32, 63 in fp64; set-up of 9.4e8 cells a few seconds): four runs of 30-50 s each, about 3 minutes after the
@@ -62,9 +65,27 @@ run_one() {
   yaml=$(case_in "$prec")
   rm -rf "${work:?}/$name"
   local t=$SECONDS
-  timeout 240 "${MPIRUN[@]}" -np "$n" "$lbdem" run "$yaml" --backend "$backend" --steps "$steps" --output "$work/$name" \
+  local pre=()
+  if [ -n "${NSYS:-}" ] && [ "$n" -gt 1 ] && command -v nsys > /dev/null 2>&1; then
+    # Rank 0 under the profiler, the others as they are.
+    cat > "$work/nsys_rank0.sh" <<SH
+#!/bin/bash
+if [ "\${OMPI_COMM_WORLD_RANK:-0}" = 0 ]; then exec nsys profile -t cuda,osrt,mpi --force-overwrite true -o "$work/$name.r0" "\$@"; fi
+exec "\$@"
+SH
+    chmod +x "$work/nsys_rank0.sh"
+    pre=("$work/nsys_rank0.sh")
+  fi
+  timeout 240 "${MPIRUN[@]}" -np "$n" "${pre[@]}" "$lbdem" run "$yaml" --backend "$backend" --steps "$steps" --output "$work/$name" \
     --quiet > "$out/$name.log" 2>&1
   local rc=$? wall=$((SECONDS - t))
+  if [ -f "$work/$name.r0.nsys-rep" ]; then
+    for r in cuda_api_sum osrt_sum cuda_gpu_kern_sum mpi_event_sum; do
+      timeout 120 nsys stats -r "$r" "$work/$name.r0.nsys-rep" > "$out/$name.nsys_$r.txt" 2>&1
+      echo "== $name rank 0: $r"; grep -a -v '^\s*$' "$out/$name.nsys_$r.txt" | head -16 | cut -c1-200
+    done
+    rm -f "$work/$name.r0.nsys-rep" "$work/$name.r0.sqlite"
+  fi
   cp "$work/$name/summary.json" "$out/$name.summary.json" 2>/dev/null
   local fields
   fields=$(python3 "$LBDEM_ROOT/scripts/coupled_summary.py" "$work/$name/summary.json")
