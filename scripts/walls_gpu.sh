@@ -5,10 +5,10 @@
 #
 #   brenner  a sphere of d/l 10 moving toward a bounce-back wall (tau 0.8, the default weighting
 #            noble_torczynski_wall with Lambda auto, exact fractions, fp64, Re_p 0.1), gaps 1, 2, 4, 8 cells and
-#            2 d, in a box of 8 d (80^3 cells, walls on both z faces, periodic x and y); then gaps 1, 8 and 2 d in a
-#            box of 12 d (120^3) for the box's residual. F / F_inf against Brenner (1961) lambda(h/a); F_inf the
-#            same sphere's unbounded drag (its simple-cubic-array K over Sangani & Acrivos at chi 0.25). Bar
-#            (issue 29): 3 % for gaps >= 1 cell. At most 150 s.
+#            2 d, in a box of 8 d (80^3 cells, walls on both z faces, periodic x and y); then the same gaps in a box
+#            of 12 d (120^3) for the box's residual (largest gap last: a timeout cuts the slowest). F / F_inf
+#            against Brenner (1961) lambda(h/a); F_inf the same sphere's unbounded drag (its simple-cubic-array
+#            K over Sangani & Acrivos at chi 0.25). Bar (issue 29): 3 % for gaps >= 1 cell. At most 140 s.
 #   tube     the same sphere on the axis of a tube of PSM solid (exact cell cover), k = d/D 0.3, 0.2, 0.15
 #            (then 0.1, 2.1 M cells, if time is left), length 2 D, zero net flux; K / K_inf against Haberman &
 #            Sayre (1958). Bar: 2 %. At most 90 s.
@@ -30,9 +30,9 @@ for p in "${parts[@]}"; do
   case "$p" in
     brenner)
       {
-        timeout 90 "$bin" brenner "${common[@]}" --box 8 --gaps 1,2,4,8,2d --out "$OUT/walls.jsonl"
+        timeout 60 "$bin" brenner "${common[@]}" --box 8 --gaps 1,2,4,8,2d --out "$OUT/walls.jsonl"
         echo "brenner box 8: exit $?" >&2
-        timeout 60 "$bin" brenner "${common[@]}" --box 12 --gaps 1,8,2d --out "$OUT/walls.jsonl"
+        timeout 80 "$bin" brenner "${common[@]}" --box 12 --gaps 1,2,4,8,2d --out "$OUT/walls.jsonl"
         echo "brenner box 12: exit $?" >&2
       } > "$OUT/walls_brenner.md" 2> "$OUT/walls_brenner.log"
       cat "$OUT/walls_brenner.md"
@@ -40,9 +40,9 @@ for p in "${parts[@]}"; do
       ;;
     tube)
       {
-        timeout 50 "$bin" tube "${common[@]}" --k 0.3,0.2,0.15 --length 2 --out "$OUT/walls.jsonl"
+        timeout 40 "$bin" tube "${common[@]}" --k 0.3,0.2,0.15 --length 2 --out "$OUT/walls.jsonl"
         echo "tube: exit $?" >&2
-        timeout 40 "$bin" tube "${common[@]}" --k 0.1 --length 2 --out "$OUT/walls.jsonl"
+        timeout 50 "$bin" tube "${common[@]}" --k 0.1 --length 2 --out "$OUT/walls.jsonl"
         echo "tube k 0.1: exit $?" >&2
       } > "$OUT/walls_tube.md" 2> "$OUT/walls_tube.log"
       cat "$OUT/walls_tube.md"
