@@ -724,6 +724,28 @@ int wall_cases(const std::string& mode, int argc, char** argv) {
   if (!(base.tau > 0.5)) throw ConfigError("--tau " + jnum(base.tau) + ": must be > 0.5");
   base.weight = weight == "ntw" ? imb::PsmWeight::NobleTorczynskiWall : imb::PsmWeight::NobleTorczynski;
   base.precision = lbm::precision_from_string(prec);
+  // Every value checked before any run (a bad one names its option).
+  for (const auto& dstr : split(ds)) {
+    const double d = std::stod(dstr);
+    if (!(d >= 2)) throw ConfigError("--diameter " + dstr + ": must be >= 2 cells");
+    if (mode == "brenner")
+      for (const auto& bx : split(boxes)) {
+        const long W = std::lround(std::stod(bx) * d);
+        if (double(W) < d + 4) throw ConfigError("--box " + bx + ": the box (" + std::to_string(W) + " cells) must be at least d + 4");
+        for (const auto& gs : split(gaps)) {
+          const double gap = gs.back() == 'd' ? std::stod(gs.substr(0, gs.size() - 1)) * d : std::stod(gs);
+          if (!(gap >= 0.5) || 1.0 + d + gap > double(W - 1) - 1.0)
+            throw ConfigError("--gaps " + gs + ": the gap must be >= 0.5 cells and leave the sphere a cell below the top "
+                              "wall of the box of " + std::to_string(W) + " cells (--box " + bx + ")");
+        }
+      }
+    else
+      for (const auto& kstr : split(ks)) {
+        const double k = std::stod(kstr);
+        if (!(k > 0 && k <= 0.5)) throw ConfigError("--k " + kstr + ": k = d/D must be in (0, 0.5]");
+      }
+  }
+  if (mode == "tube" && !(length >= 0.5)) throw ConfigError("--length " + jnum(length) + ": must be >= 0.5 (tube lengths D)");
   const Backend b = resolve_backend(backend);
   const std::string dev = bench::device_name(b);
   auto emit = [&](const std::string& line) {
