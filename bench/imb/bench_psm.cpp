@@ -12,6 +12,12 @@
 //   lbdem_bench_psm random [--out FILE.jsonl] [--n 3 (n^3 spheres)] [--d 8] [--phi 0.1,0.2,0.3] [--re 0.2]
 //                   [--tau 0.8] [--magic auto] [--seeds 1] [--sweeps 200] [--min-gap 1] [--weights ntw] [--tol 1e-5]
 //                   [--backend host|cuda]
+//   lbdem_bench_psm brenner [--out FILE.jsonl] [--diameter 10] [--gaps 1,2,4,8,2d (cells; Nd: N diameters)]
+//                   [--box 8 (W = H = box * d, a list)] [--tau 0.8] [--magic auto] [--weights ntw] [--re 0.1]
+//                   [--chi-ref 0.25] [--tol 1e-5] [--max-steps N] [--precision fp64] [--backend host|cuda]
+//   lbdem_bench_psm tube [--out FILE.jsonl] [--diameter 10] [--k 0.1,0.2,0.3] [--length 2 (tube length / D)]
+//                   [--tau 0.8] [--magic auto] [--weights ntw] [--re 0.1] [--chi-ref 0.25] [--tol 1e-5]
+//                   [--max-steps N] [--precision fp64] [--backend host|cuda]
 //   lbdem_bench_psm drift [--dims 64,252,64] [--steps 100000] [--every 5000] [--tau 1.2386] [--d 10] [--phi 0.128]
 //                   [--precision fp64] [--fraction table|exact] [--even-relaxation 0|1] [--backend host|cuda]
 //
@@ -36,6 +42,7 @@
 #include "bench_support.hpp"
 #include "psm_plane_wall.hpp"
 #include "random_array.hpp"
+#include "wall_cases.hpp"
 #include "imb/fixed_sphere.hpp"
 #include "core/error.hpp"
 #include "core/exec.hpp"
@@ -680,6 +687,135 @@ int random_arrays(int argc, char** argv) {
   return 0;
 }
 
+
+// Walls (wall_cases.hpp): a sphere moving toward a plane wall against
+// Brenner (1961), a sphere moving along the axis of a tube against Haberman &
+// Sayre (1958). One JSON line per run (appended to --out) and a table. Both
+// drags are divided by the same sphere's unbounded drag (unbounded_factor:
+// its simple-cubic-array K over Sangani & Acrivos's, at --chi-ref), so what
+// is left is the wall's share; the raw ratio to Stokes's drag is printed too.
+int wall_cases(const std::string& mode, int argc, char** argv) {
+  std::string out, ds = "10", gaps = "1,2,4,8,2d", boxes = "8", ks = "0.1,0.2,0.3", magic = "auto", weight = "ntw",
+                   backend = "auto", prec = "fp64";
+  bench::WallCaseSpec base;
+  double chi_ref = 0.25, length = 2;
+  for (int i = 2; i < argc; ++i) {
+    const std::string k = argv[i];
+    auto next = [&] { return option_value(argc, argv, i); };
+    if (k == "--out") out = next();
+    else if (k == "--diameter") ds = next();
+    else if (k == "--gaps" && mode == "brenner") gaps = next();
+    else if (k == "--box" && mode == "brenner") boxes = next();
+    else if (k == "--k" && mode == "tube") ks = next();
+    else if (k == "--length" && mode == "tube") length = std::stod(next());
+    else if (k == "--tau") base.tau = std::stod(next());
+    else if (k == "--magic") magic = next();
+    else if (k == "--weights") weight = next();
+    else if (k == "--re") base.re = std::stod(next());
+    else if (k == "--chi-ref") chi_ref = std::stod(next());
+    else if (k == "--tol") base.tolerance = std::stod(next());
+    else if (k == "--max-steps") base.max_steps = std::stol(next());
+    else if (k == "--precision") prec = next();
+    else if (k == "--backend") backend = next();
+    else throw ConfigError(mode + ": unknown option " + k);
+  }
+  if (weight != "ntw" && weight != "nt") throw ConfigError("--weights " + weight + ": must be ntw or nt");
+  if (!(chi_ref > 0 && chi_ref <= 0.5)) throw ConfigError("--chi-ref " + jnum(chi_ref) + ": must be in (0, 0.5]");
+  if (!(base.tau > 0.5)) throw ConfigError("--tau " + jnum(base.tau) + ": must be > 0.5");
+  base.weight = weight == "ntw" ? imb::PsmWeight::NobleTorczynskiWall : imb::PsmWeight::NobleTorczynski;
+  base.precision = lbm::precision_from_string(prec);
+  // Every value checked before any run (a bad one names its option).
+  for (const auto& dstr : split(ds)) {
+    const double d = std::stod(dstr);
+    if (!(d >= 2)) throw ConfigError("--diameter " + dstr + ": must be >= 2 cells");
+    if (mode == "brenner")
+      for (const auto& bx : split(boxes)) {
+        const long W = std::lround(std::stod(bx) * d);
+        if (double(W) < d + 4) throw ConfigError("--box " + bx + ": the box (" + std::to_string(W) + " cells) must be at least d + 4");
+        for (const auto& gs : split(gaps)) {
+          const double gap = gs.back() == 'd' ? std::stod(gs.substr(0, gs.size() - 1)) * d : std::stod(gs);
+          if (!(gap >= 0.5) || 1.0 + d + gap > double(W - 1) - 1.0)
+            throw ConfigError("--gaps " + gs + ": the gap must be >= 0.5 cells and leave the sphere a cell below the top "
+                              "wall of the box of " + std::to_string(W) + " cells (--box " + bx + ")");
+        }
+      }
+    else
+      for (const auto& kstr : split(ks)) {
+        const double k = std::stod(kstr);
+        if (!(k > 0 && k <= 0.5)) throw ConfigError("--k " + kstr + ": k = d/D must be in (0, 0.5]");
+      }
+  }
+  if (mode == "tube" && !(length >= 0.5)) throw ConfigError("--length " + jnum(length) + ": must be >= 0.5 (tube lengths D)");
+  const Backend b = resolve_backend(backend);
+  const std::string dev = bench::device_name(b);
+  auto emit = [&](const std::string& line) {
+    if (out.empty()) return;
+    std::ofstream(out, std::ios::app) << line << "\n";
+  };
+  for (const auto& dstr : split(ds)) {
+    bench::WallCaseSpec s = base;
+    s.diameter = std::stod(dstr);
+    s.magic = magic == "auto" ? imb::psm_magic_auto(s.diameter, s.tau) : std::stod(magic);
+    const double t0 = wall();
+    const double unb = bench::unbounded_factor(s, chi_ref, b);
+    std::printf("# d/l %s, tau %g, Lambda %.3g, %s, %s: unbounded drag / Stokes = %.5f (array K / Sangani & Acrivos "
+                "at chi %g, %.1f s)\n",
+                dstr.c_str(), s.tau, s.magic, weight.c_str(), prec.c_str(), unb, chi_ref, wall() - t0);
+    std::fflush(stdout);
+    std::ostringstream common;
+    common << "\"device\": \"" << dev << "\", \"d\": " << jnum(s.diameter) << ", \"tau\": " << jnum(s.tau)
+           << ", \"magic\": " << jnum(s.magic) << ", \"weight\": \"" << weight << "\", \"precision\": \"" << prec
+           << "\", \"re\": " << jnum(s.re) << ", \"unbounded\": " << jnum(unb) << ", \"chi_ref\": " << jnum(chi_ref);
+    if (mode == "brenner") {
+      std::printf("| d/l | box W=H | gap | h/a | F/F_St | F/F_inf | Brenner | err %% | steps | s | MLUPS |\n");
+      std::printf("|---|---|---|---|---|---|---|---|---|---|---|\n");
+      for (const auto& bx : split(boxes)) {
+        const long W = std::lround(std::stod(bx) * s.diameter);
+        for (const auto& gs : split(gaps)) {
+          const double gap = gs.back() == 'd' ? std::stod(gs.substr(0, gs.size() - 1)) * s.diameter : std::stod(gs);
+          const auto r = bench::run_brenner(s, W, W, gap, b);
+          const double lam = r.F / r.F_stokes / unb, err = 100 * (lam / r.lambda - 1);
+          std::printf("| %s | %ld | %g | %.4f | %.5f | %.5f | %.5f | %+.2f | %ld%s | %.1f | %.1f |\n", dstr.c_str(), W,
+                      gap, r.h_over_a, r.F / r.F_stokes, lam, r.lambda, err, r.run.steps, r.run.converged ? "" : "*",
+                      r.run.seconds, r.run.mlups);
+          std::fflush(stdout);
+          std::ostringstream o;
+          o << "{\"bench\": \"brenner\", " << common.str() << ", \"box\": " << W << ", \"gap\": " << jnum(gap)
+            << ", \"h_over_a\": " << jnum(r.h_over_a) << ", \"F_over_stokes\": " << jnum(r.F / r.F_stokes)
+            << ", \"lambda\": " << jnum(lam) << ", \"brenner\": " << jnum(r.lambda) << ", \"error\": " << jnum(err / 100)
+            << ", \"steps\": " << r.run.steps << ", \"converged\": " << (r.run.converged ? "true" : "false")
+            << ", \"remaining\": " << jnum(r.run.remaining) << ", \"seconds\": " << jnum(r.run.seconds)
+            << ", \"cells\": " << r.run.cells << ", \"mlups\": " << jnum(r.run.mlups) << "}";
+          emit(o.str());
+        }
+      }
+    } else {
+      std::printf("| d/l | k | D | W | Lz | K/K_St | K/K_inf | Haberman-Sayre | err %% | steps A+B | s | MLUPS |\n");
+      std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+      for (const auto& kstr : split(ks)) {
+        const auto r = bench::run_tube(s, std::stod(kstr), length, b);
+        const double K = r.K / unb, err = 100 * (K / r.K_ref - 1);
+        const long steps = r.a.steps + r.b.steps;
+        const double secs = r.a.seconds + r.b.seconds;
+        const bool conv = r.a.converged && r.b.converged;
+        std::printf("| %s | %s | %.2f | %ld | %ld | %.5f | %.5f | %.5f | %+.2f | %ld%s | %.1f | %.1f |\n", dstr.c_str(),
+                    kstr.c_str(), r.D, r.W, r.Lz, r.K, K, r.K_ref, err, steps, conv ? "" : "*", secs,
+                    double(r.a.cells) * double(steps) / secs / 1e6);
+        std::fflush(stdout);
+        std::ostringstream o;
+        o << "{\"bench\": \"tube\", " << common.str() << ", \"k\": " << jnum(r.k) << ", \"D\": " << jnum(r.D)
+          << ", \"W\": " << r.W << ", \"Lz\": " << r.Lz << ", \"K_over_stokes\": " << jnum(r.K) << ", \"K\": " << jnum(K)
+          << ", \"haberman_sayre\": " << jnum(r.K_ref) << ", \"error\": " << jnum(err / 100)
+          << ", \"g_zero_flux\": " << jnum(r.g) << ", \"steps\": " << steps << ", \"converged\": " << (conv ? "true" : "false")
+          << ", \"remaining\": " << jnum(std::max(r.a.remaining, r.b.remaining)) << ", \"seconds\": " << jnum(secs)
+          << ", \"cells\": " << r.a.cells << ", \"mlups\": " << jnum(double(r.a.cells) * double(steps) / secs / 1e6) << "}";
+        emit(o.str());
+      }
+    }
+  }
+  return 0;
+}
+
 int main(int argc, char** argv) {
   try {
     const std::string mode = argc > 1 ? argv[1] : "sweep";
@@ -688,7 +824,8 @@ int main(int argc, char** argv) {
     if (mode == "drift") return drift(argc, argv);
     if (mode == "wall") return plane_wall(argc, argv);
     if (mode == "random") return random_arrays(argc, argv);
-    std::fprintf(stderr, "usage: lbdem_bench_psm sweep|suspension|wall|random|drift [options]\n");
+    if (mode == "brenner" || mode == "tube") return wall_cases(mode, argc, argv);
+    std::fprintf(stderr, "usage: lbdem_bench_psm sweep|suspension|wall|random|brenner|tube|drift [options]\n");
     return 2;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "error: %s\n", e.what());

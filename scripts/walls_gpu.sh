@@ -1,0 +1,53 @@
+#!/usr/bin/env bash
+# The wall cases of issue 29 at d/l 10 on ONE GPU (lbdem_bench_psm brenner / tube, bench/imb/wall_cases.hpp):
+#
+#   scripts/walls_gpu.sh BUILD_DIR [PART...]      PART: brenner | tube (default: both)
+#
+#   brenner  a sphere of d/l 10 moving toward a bounce-back wall (tau 0.8, the default weighting
+#            noble_torczynski_wall with Lambda auto, exact fractions, fp64, Re_p 0.1), gaps 1, 2, 4, 8 cells and
+#            2 d, in a box of 8 d (80^3 cells, walls on both z faces, periodic x and y); then the same gaps in a box
+#            of 12 d (120^3) for the box's residual (largest gap last: a timeout cuts the slowest). F / F_inf
+#            against Brenner (1961) lambda(h/a); F_inf the same sphere's unbounded drag (its simple-cubic-array
+#            K over Sangani & Acrivos at chi 0.25). Bar (issue 29): 3 % for gaps >= 1 cell. At most 140 s.
+#   tube     the same sphere on the axis of a tube of PSM solid (exact cell cover), k = d/D 0.3, 0.2, 0.15
+#            (then 0.1, 2.1 M cells, if time is left), length 2 D, zero net flux; K / K_inf against Haberman &
+#            Sayre (1958). Bar: 2 %. At most 90 s.
+# Both: at most 4 min on one H200 after the build. Output: $OUT/walls.jsonl (one JSON line per run: the gap or k,
+# the ratio, the reference, error, steps, seconds, MLUPS), $OUT/walls_brenner.md and $OUT/walls_tube.md (the
+# tables), logs $OUT/walls_*.log. Prints the tables.
+set -uo pipefail
+source "$(dirname "$0")/lib.sh"
+build="${1:?usage: scripts/walls_gpu.sh BUILD_DIR [brenner|tube]...}"
+shift
+parts=("$@")
+[ ${#parts[@]} -eq 0 ] && parts=(brenner tube)
+lbdem_env
+lbdem_build "$build" lbdem_bench_psm || exit 1
+bin="$(realpath "$build")/bench/imb/lbdem_bench_psm"
+common=(--backend cuda --diameter 10 --tau 0.8 --magic auto --weights ntw --re 0.1 --tol 1e-5 --precision fp64)
+
+for p in "${parts[@]}"; do
+  case "$p" in
+    brenner)
+      {
+        timeout 60 "$bin" brenner "${common[@]}" --box 8 --gaps 1,2,4,8,2d --out "$OUT/walls.jsonl"
+        echo "brenner box 8: exit $?" >&2
+        timeout 80 "$bin" brenner "${common[@]}" --box 12 --gaps 1,2,4,8,2d --out "$OUT/walls.jsonl"
+        echo "brenner box 12: exit $?" >&2
+      } > "$OUT/walls_brenner.md" 2> "$OUT/walls_brenner.log"
+      cat "$OUT/walls_brenner.md"
+      tail_log "$OUT/walls_brenner.log" 4
+      ;;
+    tube)
+      {
+        timeout 40 "$bin" tube "${common[@]}" --k 0.3,0.2,0.15 --length 2 --out "$OUT/walls.jsonl"
+        echo "tube: exit $?" >&2
+        timeout 50 "$bin" tube "${common[@]}" --k 0.1 --length 2 --out "$OUT/walls.jsonl"
+        echo "tube k 0.1: exit $?" >&2
+      } > "$OUT/walls_tube.md" 2> "$OUT/walls_tube.log"
+      cat "$OUT/walls_tube.md"
+      tail_log "$OUT/walls_tube.log" 4
+      ;;
+    *) echo "walls_gpu: unknown part $p (brenner, tube)"; exit 2 ;;
+  esac
+done
