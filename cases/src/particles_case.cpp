@@ -470,7 +470,13 @@ int run_particles(const Config& root, const RunOptions& opt) {
                               dfluid.piece_boxes(), *fluid, dem, cs, comm);
   // A restart keeps the series rows up to its checkpoint and the series' accumulators.
   imb::SuspensionStatsSpec spec = suspension_stats_spec(c);
-  if (ranks) spec.comm = &comm;
+  if (ranks) {  // each rank keeps the coarse cells near its own piece (imb/suspension.hpp)
+    spec.comm = &comm;
+    for (const io::PieceBox& p : dfluid.piece_boxes()) {
+      spec.piece_offset.push_back(p.offset);
+      spec.piece_cells.push_back(p.cells);
+    }
+  }
   imb::ParticleSeries series(c.outdir + "/series.csv", cs, spec, c.units.dt, &ck, c.series_interval,
                                ranks ? std::function<lbm::LbmDiagnostics()>([&dfluid] { return dfluid.diagnostics(); })
                                      : std::function<lbm::LbmDiagnostics()>());
