@@ -206,7 +206,7 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
   c.output_interval = o.interval;
   c.series_interval = o.series_interval;
   c.fields_fp32 = o.field_precision == "fp32" || (o.field_precision == "storage" && s.precision != lbm::Precision::FP64);
-  c.async_output = o.background;  // host copy: 40 B per cell
+  c.async_output = o.background;  // a device pack and a host copy of the piece: 20 or 40 B per cell each
   c.final_output = o.final;
   c.checkpoint = ckpt::read_policy(root);
   c.parallel = halo::parse_parallel(root);
@@ -265,7 +265,8 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
     for (const auto& w : lbm::storage_warnings(s, 0.0, scale, double(c.steps))) spdlog::warn("{}: {}", root.source(), w);
   }
   // Every device allocation of the run, by component, before any is made (exit 4 when it does not fit).
-  imb::check_coupled_memory(root, s, c.coupling, static_cast<double>(c.particles.size()), cases::planned_backend(opt));
+  imb::check_coupled_memory(root, s, c.coupling, static_cast<double>(c.particles.size()), cases::planned_backend(opt),
+                            {c.async_output, c.fields_fp32});
   return c;
 }
 
@@ -400,7 +401,8 @@ int run_particles(const Config& root, const RunOptions& opt) {
                                         c.coupling.psm, c.setup.precision, c.dim),
                        imb::to_string(imb::resolve_pipeline(c.coupling.psm, c.coupling.slots)), c.setup.precision, writer);
   const Backend backend = resolve_backend(opt.backend);
-  const MemoryUse planned = imb::coupled_memory(c.setup, c.coupling, static_cast<double>(c.particles.size()), backend);
+  const MemoryUse planned = imb::coupled_memory(c.setup, c.coupling, static_cast<double>(c.particles.size()), backend,
+                                                {c.async_output, c.fields_fp32});
   const double cells = static_cast<double>(c.setup.domain.global_cells());
   if (opt.validate_only) {
     if (!writer) return 0;
@@ -468,7 +470,13 @@ int run_particles(const Config& root, const RunOptions& opt) {
                               dfluid.piece_boxes(), *fluid, dem, cs, comm);
   // A restart keeps the series rows up to its checkpoint and the series' accumulators.
   imb::SuspensionStatsSpec spec = suspension_stats_spec(c);
-  if (ranks) spec.comm = &comm;
+  if (ranks) {  // each rank keeps the coarse cells near its own piece (imb/suspension.hpp)
+    spec.comm = &comm;
+    for (const io::PieceBox& p : dfluid.piece_boxes()) {
+      spec.piece_offset.push_back(p.offset);
+      spec.piece_cells.push_back(p.cells);
+    }
+  }
   imb::ParticleSeries series(c.outdir + "/series.csv", cs, spec, c.units.dt, &ck, c.series_interval,
                                ranks ? std::function<lbm::LbmDiagnostics()>([&dfluid] { return dfluid.diagnostics(); })
                                      : std::function<lbm::LbmDiagnostics()>());
@@ -546,6 +554,7 @@ int run_particles(const Config& root, const RunOptions& opt) {
     // component (on several ranks: summed over the ranks, per component).
     MemoryUse held = fluid->memory_use();
     held.add(cs.memory_use());
+    held.add(snaps.memory_use());
     std::vector<double> bytes;
     for (const auto& it : held.items) bytes.push_back(double(it.bytes));
     if (ranks) {
@@ -564,9 +573,16 @@ int run_particles(const Config& root, const RunOptions& opt) {
     // background the rank's own piece (five values per cell).
     long out_buffer = static_cast<long>(snaps.largest_buffer_values());
     long piece_cells = static_cast<long>(fluid->setup().domain.cells());
+    // Background snapshots' wall time, the largest rank's: what held the run
+    // (the device pack and copy, waits for an earlier write) and the writer
+    // thread's writes beside it.
+    double bg_take = snaps.times().take, bg_wait = snaps.times().wait, bg_write = snaps.times().write;
     if (ranks) {
       out_buffer = comm.max(out_buffer);
       piece_cells = comm.max(piece_cells);
+      bg_take = comm.max(bg_take);
+      bg_wait = comm.max(bg_wait);
+      bg_write = comm.max(bg_write);
     }
     json::Value& mem = js["memory_bytes"] = json::Value::object();
     for (const auto& it : held.items) mem.set(it.name, it.bytes);
@@ -575,6 +591,9 @@ int run_particles(const Config& root, const RunOptions& opt) {
         .set("snapshots", snaps.count())
         .set("seconds", output_secs)
         .set("background", snaps.background())
+        .set("background_copy_seconds", bg_take)
+        .set("background_wait_seconds", bg_wait)
+        .set("background_write_seconds", bg_write)
         .set("largest_host_buffer_values", out_buffer)
         .set("largest_piece_cells", piece_cells)
         .set("stepping_seconds", secs)
@@ -583,7 +602,10 @@ int run_particles(const Config& root, const RunOptions& opt) {
         .set("checkpoint_seconds", checkpoint_secs)
         .set("note",
              "wall time in snapshot output (device copies and, unless background, the HDF5 writes) and in checkpoint "
-             "writes; stepping_seconds includes the snapshots and checkpoints taken inside the loop");
+             "writes; stepping_seconds includes the snapshots and checkpoints taken inside the loop; background: "
+             "background_copy_seconds (device pack, one copy to host, particles) and background_wait_seconds (for an "
+             "earlier write) hold the run, background_write_seconds is the writer thread's time beside it (max over "
+             "ranks)");
     if (ranks) js.set("decomposition", dfluid.decomposition().describe());
     imb::timing_json(js, cs, dfluid, comm, {packing_secs, distribution_secs, fluid_init_secs, first_map_secs}, secs,
                 output_secs, snaps.count(), ppr_max, ppr_mean, ppr_step);

@@ -172,6 +172,10 @@ void CoupledSolver::solid_fraction_box(const CellBox& box, double* eps) {
   psm_->solid_fraction_box(particle_view(), p_.psm, box, eps);
 }
 
+void CoupledSolver::solid_fraction_device(const CellBox& box, double* out) {
+  psm_->solid_fraction_device(particle_view(), p_.psm, box, out);
+}
+
 const CellSlots& CoupledSolver::output_slots() { return psm_->output_slots(particle_view(), p_.psm); }
 
 std::vector<double> CoupledSolver::hydro_force_host() const {

@@ -9,6 +9,7 @@
 #include "dem/particle_checks.hpp"
 #include "halo/comm.hpp"
 #include "imb/coupled_checks.hpp"
+#include "imb/snapshot_pack.hpp"
 #include "lbm/fluid_checks.hpp"
 
 namespace lbdem::imb {
@@ -86,17 +87,22 @@ void check_particles_mach(const Config& root, const lbm::LbmSetup& fluid, const 
 // grid of the DEM (a few bytes per particle cell) is not counted.
 constexpr double kCoupledDemBytesPerParticle = 23 * 32 + 2 * (8 + 4) + 8 * 4 + 32 * 2 * (4 + 24);
 
-MemoryUse coupled_memory(const lbm::LbmSetup& fluid, const CoupledParams& cp, double particles, Backend b) {
+MemoryUse coupled_memory(const lbm::LbmSetup& fluid, const CoupledParams& cp, double particles, Backend b,
+                         SnapshotMemory snapshots) {
   const auto n = static_cast<Index>(std::max(0.0, std::ceil(particles)));
   MemoryUse m = lbm::lbm_memory(fluid);
   m.add(psm_memory(fluid, cp.slots, cp.psm, n, b == Backend::Cuda));
   if (n > 0)
     m.add("DEM particles and lists", static_cast<std::size_t>(static_cast<double>(n) * kCoupledDemBytesPerParticle));
+  if (snapshots.background) {
+    const std::size_t pack = SnapshotPack::device_bytes(b, fluid.domain.owned().size(), snapshots.fp32);
+    if (pack > 0) m.add("snapshot pack (output.background)", pack);
+  }
   return m;
 }
 
 void check_coupled_memory(const Config& root, const lbm::LbmSetup& fluid, const CoupledParams& cp,
-                          double particles, Backend b) {
+                          double particles, Backend b, SnapshotMemory snapshots) {
   double cells = 1;
   for (int a = 0; a < 3; ++a) cells *= static_cast<double>(fluid.domain.global[static_cast<std::size_t>(a)]);
   // The device holds this rank's piece, and so does the host set-up (flags,
@@ -109,7 +115,10 @@ void check_coupled_memory(const Config& root, const lbm::LbmSetup& fluid, const 
                piece_cells * (1 + 4 * sizeof(double)) + particles * kDemHostBytesPerParticle, "domain.cells, particles",
                "the grid of " + num(cells) + " cells with " + num(particles) + " particles",
                "use fewer cells or particles" + or_fp32(fluid));
-  const MemoryUse m = coupled_memory(mine, cp, particles, b);
+  const MemoryUse m = coupled_memory(mine, cp, particles, b, snapshots);
+  // Background snapshots keep the owned box's fields in host memory too.
+  const double pinned =
+      snapshots.background ? static_cast<double>(SnapshotPack::host_bytes(mine.domain.owned().size(), snapshots.fp32)) : 0.0;
   std::vector<MemoryItem> big = m.items;
   std::sort(big.begin(), big.end(), [](const MemoryItem& x, const MemoryItem& y) { return x.bytes > y.bytes; });
   std::string parts;
@@ -117,7 +126,8 @@ void check_coupled_memory(const Config& root, const lbm::LbmSetup& fluid, const 
     parts += (i ? ", " : "") + big[i].name + " " + num(static_cast<double>(big[i].bytes) / piece_cells) + " B/cell";
   // Host: the set-up fields of the piece (flag byte, rho, u per cell) and the particles' host copies.
   check_memory(root, b, static_cast<double>(m.total()),
-               piece_cells * (1 + 4 * sizeof(double)) + particles * kDemHostBytesPerParticle, "domain.cells, particles",
+               piece_cells * (1 + 4 * sizeof(double)) + particles * kDemHostBytesPerParticle + pinned,
+               snapshots.background ? "domain.cells, particles, output.background" : "domain.cells, particles",
                "the grid of " + num(cells) + " cells with " + num(particles) + " particles (" +
                    num(static_cast<double>(m.total()) / piece_cells) + " B/cell: " + parts + ")" +
                    (mine.domain.storage_cells() < fluid.domain.storage_cells()

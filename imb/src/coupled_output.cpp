@@ -2,6 +2,7 @@
 #include "imb/coupled_output.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cstring>
 #include <span>
 
@@ -11,15 +12,20 @@
 #include "dem/system.hpp"
 #include "halo/comm.hpp"
 #include "imb/coupled.hpp"
+#include "imb/snapshot_pack.hpp"
 #include "lbm/solver.hpp"
 
 namespace lbdem::imb {
 
-// The piece's host copy of one background snapshot. The fields lie in one
-// array per precision, x fastest over the owned box: density (M), velocity
-// (3M), solid fraction (M). In float only when the files store float: the
-// double -> float rounding is then the one the writer would do, so the bytes
-// on disk are those of the foreground path.
+namespace {
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+}  // namespace
+
+// What one background snapshot hands to the writer thread besides the
+// fields, which lie in the SnapshotPack's host array (imb/snapshot_pack.hpp)
+// until the next snapshot, which waits for this one's write first.
 struct CoupledSnapshots::Copy {
   long step = 0;
   double time = 0;
@@ -27,10 +33,6 @@ struct CoupledSnapshots::Copy {
   std::vector<double> force;
   std::vector<long> counts;                        // particles per rank (rank 0)
   std::vector<std::pair<std::string, int>> names;  // the particle fields written (set by the job)
-  std::size_t cells = 0;                           // M
-  std::unique_ptr<float[]> f;                      // 5M values (fp32 files)
-  std::unique_ptr<double[]> d;                     // 5M values (fp64 files)
-  std::vector<double> stage;                       // fp32: one slab of the three fields in double
 };
 
 CoupledSnapshots::CoupledSnapshots(const Settings& s, const Grid& whole, std::vector<io::PieceBox> pieces,
@@ -44,7 +46,12 @@ CoupledSnapshots::CoupledSnapshots(const Settings& s, const Grid& whole, std::ve
       gw_(s.dir, "fields", whole, std::move(pieces), comm.rank(), fluid.setup().domain.owned()),
       fields_{{"density", 1, "lattice"}, {"velocity", 3, "lattice (cells per step)"}, {"solid_fraction", 1, "1"}} {
   gw_.set_float32(s.fields_fp32);
-  if (s.background) bg_ = std::make_unique<io::BackgroundWriter>();
+  if (s.background) {
+    // Reserved now, once: the device pack and the page-locked host array of
+    // the owned box (coupled_memory counts the device part).
+    pack_ = std::make_unique<SnapshotPack>(fluid.backend(), fluid.setup().domain.owned().size(), s.fields_fp32);
+    bg_ = std::make_unique<io::BackgroundWriter>();
+  }
 }
 
 CoupledSnapshots::~CoupledSnapshots() = default;
@@ -55,7 +62,7 @@ void CoupledSnapshots::resume(long step) {
 }
 
 std::size_t CoupledSnapshots::largest_buffer_values() const {
-  return std::max(gw_.largest_buffer_values(), copy_ ? 5 * copy_->cells + copy_->stage.size() : std::size_t{0});
+  return std::max(gw_.largest_buffer_values(), pack_ ? 5 * static_cast<std::size_t>(pack_->cells()) : std::size_t{0});
 }
 
 std::vector<long> CoupledSnapshots::gather_counts(long mine) {
@@ -79,6 +86,8 @@ void CoupledSnapshots::index_job(const std::shared_ptr<Copy>& snap) {
   });
 }
 
+MemoryUse CoupledSnapshots::memory_use() const { return pack_ ? pack_->memory_use() : MemoryUse{}; }
+
 void CoupledSnapshots::finish() {
   if (!bg_) return;
   bg_->wait();
@@ -94,7 +103,11 @@ void CoupledSnapshots::finish() {
 void CoupledSnapshots::write(long step) {
   const double t = double(step) * s_.dt;
   const bool ranks = comm_.distributed();
-  if (bg_) finish();  // one host copy of the piece at a time
+  if (bg_) {  // one host copy of the piece at a time: the previous one written first
+    const auto w0 = std::chrono::steady_clock::now();
+    finish();
+    times_.wait += seconds_since(w0);
+  }
   if (comm_.root()) {  // every piece named in the manifest before any rank creates one
     gw_.record(step);
     pw_.record(step);
@@ -125,61 +138,43 @@ void CoupledSnapshots::write(long step) {
     }
     return;
   }
-  // Background: the piece copied out slab by slab (x fastest, the order of
-  // the writer's slabs) into the kept buffers, then handed to the thread.
+  // Background: the owned box packed on the device and brought to the
+  // pack's host array in one copy (the part that holds the run), then
+  // written by the thread from there while the run steps on.
+  const auto t0 = std::chrono::steady_clock::now();
   if (!copy_) copy_ = std::make_shared<Copy>();
   Copy& c = *copy_;
-  const auto M = static_cast<std::size_t>(own.size());
-  if (c.cells != M) {  // first snapshot: allocated once, not zero-filled (every value is written below)
-    c.cells = M;
-    if (s_.fields_fp32) {
-      c.f = std::make_unique_for_overwrite<float[]>(5 * M);
-      c.stage.resize(5 * static_cast<std::size_t>(std::min<Index>(slab, own.size())));
-    } else {
-      c.d = std::make_unique_for_overwrite<double[]>(5 * M);
-    }
-  }
   c.step = step;
   c.time = t;
   c.force = cs_.hydro_force_host();
   c.particles = dem_.download();
-  for (const CellBox& b : slabs_of(own, slab)) {
-    const std::size_t c0 = offset(b), m = static_cast<std::size_t>(b.size());
-    if (s_.fields_fp32) {
-      double* rho = c.stage.data();
-      double* u = rho + m;
-      double* eps = u + 3 * m;
-      fluid_.macroscopic_box(b, rho, u);
-      cs_.solid_fraction_box(b, eps);
-      std::copy_n(rho, m, c.f.get() + c0);  // double -> float: the writer's own rounding
-      std::copy_n(u, 3 * m, c.f.get() + M + 3 * c0);
-      std::copy_n(eps, m, c.f.get() + 4 * M + c0);
-    } else {
-      fluid_.macroscopic_box(b, c.d.get() + c0, c.d.get() + M + 3 * c0);
-      cs_.solid_fraction_box(b, c.d.get() + 4 * M + c0);
-    }
-  }
+  pack_->take(fluid_, cs_);
   c.counts = gather_counts(static_cast<long>(c.particles.size()));
+  times_.take += seconds_since(t0);
   bg_->submit([this, snap = copy_, offset, slab, one = !ranks] {
+    const auto w0 = std::chrono::steady_clock::now();
     snap->names = dem::write_particle_piece(pw_, snap->step, snap->time, snap->particles,
                                             {{"hydrodynamic_force", 3, snap->force.data()}});
-    const std::size_t M = snap->cells;
+    const auto M = static_cast<std::size_t>(pack_->cells());
     gw_.write_piece(snap->step, snap->time, fields_, slab, [&](const CellBox& b, const std::vector<double*>& out) {
       const std::size_t c0 = offset(b), m = static_cast<std::size_t>(b.size());
-      if (snap->f) {  // float -> double -> float in the writer: the same bits
-        std::copy_n(snap->f.get() + c0, m, out[0]);
-        std::copy_n(snap->f.get() + M + 3 * c0, 3 * m, out[1]);
-        std::copy_n(snap->f.get() + 4 * M + c0, m, out[2]);
+      if (pack_->fp32()) {  // float -> double -> float in the writer: the same bits
+        const float* f = pack_->host_f();
+        std::copy_n(f + c0, m, out[0]);
+        std::copy_n(f + M + 3 * c0, 3 * m, out[1]);
+        std::copy_n(f + 4 * M + c0, m, out[2]);
       } else {
-        std::copy_n(snap->d.get() + c0, m, out[0]);
-        std::copy_n(snap->d.get() + M + 3 * c0, 3 * m, out[1]);
-        std::copy_n(snap->d.get() + 4 * M + c0, m, out[2]);
+        const double* d = pack_->host_d();
+        std::copy_n(d + c0, m, out[0]);
+        std::copy_n(d + M + 3 * c0, 3 * m, out[1]);
+        std::copy_n(d + 4 * M + c0, m, out[2]);
       }
     });
     if (one) {  // one rank: its own pieces are all there is
       gw_.index(snap->step, snap->time, fields_);
       pw_.index(snap->step, snap->time, snap->counts, snap->names);
     }
+    times_.write += seconds_since(w0);  // read by the caller only after wait()
   });
   unindexed_ = ranks;
 }

@@ -259,23 +259,28 @@ const CellSlots& PsmCoupling::output_slots(const PsmParticles& p, const PsmOptio
   return *slots_;
 }
 
+void PsmCoupling::solid_fraction_device(const PsmParticles& p, const PsmOptions& opt, const CellBox& box,
+                                        double* out) {
+  if (box.empty()) return;
+  if (pipeline_ == PsmPipeline::Fused && tiles_) {
+    const float* values = nullptr;
+    if (opt.map.method == FractionMethod::Table && opt.map.table)
+      values = ex_.on_device() ? table_.data() : opt.map.table->values.data();
+    tiles_->total_eps(ex_, p, opt.map.method, opt.map.table, values, opt.map.linear_normalised, box, out);
+  } else if (slots_ && p.n > 0) {
+    slots_->total_eps_box(ex_, box, out);
+  } else {  // nothing mapped: no solid
+    backend_memset(ex_.backend(), out, 0, static_cast<std::size_t>(box.size()) * sizeof(double));
+  }
+}
+
 void PsmCoupling::solid_fraction_box(const PsmParticles& p, const PsmOptions& opt, const CellBox& box, double* eps) {
   if (box.empty()) return;
   if (box.size() > stage_.size())
     throw Error("PsmCoupling::solid_fraction_box: a box of " + std::to_string(box.size()) +
                 " cells exceeds the output staging buffer of " + std::to_string(stage_.size()) + " cells");
   const auto m = static_cast<std::size_t>(box.size());
-  if (pipeline_ == PsmPipeline::Fused && tiles_) {
-    const float* values = nullptr;
-    if (opt.map.method == FractionMethod::Table && opt.map.table)
-      values = ex_.on_device() ? table_.data() : opt.map.table->values.data();
-    tiles_->total_eps(ex_, p, opt.map.method, opt.map.table, values, opt.map.linear_normalised, box, stage_.data());
-  } else if (slots_ && p.n > 0) {
-    slots_->total_eps_box(ex_, box, stage_.data());
-  } else {
-    std::fill(eps, eps + m, 0.0);  // nothing mapped: no solid
-    return;
-  }
+  solid_fraction_device(p, opt, box, stage_.data());
   ex_.synchronize();
   backend_copy_to_host(ex_.backend(), eps, stage_.data(), m * sizeof(double));
 }

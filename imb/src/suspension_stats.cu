@@ -1,9 +1,14 @@
 // The suspension statistics of imb/suspension.hpp on the particles' backend:
 // one reduction over the particles for velocities, variances, drag and
 // weights, and per filter width a binning of the particle volumes into coarse
-// cells (integer atomics: the sums do not depend on the order) followed by a
-// reduction over the coarse cells. A sample reads back a few dozen numbers.
+// cells (integer atomics: the sums do not depend on the order) followed by
+// exact integer moments over the coarse cells. On several ranks each rank
+// holds only the coarse cells near its own piece (never the whole domain's):
+// the counts of cells that straddle a cut go to their owners, and the
+// moments are one small sum over ranks.
+#include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <string>
 
 #include "imb/suspension.hpp"
@@ -88,33 +93,50 @@ LBDEM_HD inline void atomic_add_u64(unsigned long long* p, unsigned long long v)
 #endif
 }
 
-// Coarse cells of every filter width, one after the other in `bins`.
+// Coarse cells of every filter width. Width w has n[w][a] coarse cells along
+// axis a over the fluid box, coarse cell k spanning [lo + k len / n,
+// lo + (k + 1) len / n). A rank holds a box of them per width: ext[w][a] cells
+// from klo[w][a] on (unwrapped: on a periodic axis coarse cell k is held as
+// the one of k, k - n, k + n that falls in the box; ext <= n), one box after
+// the other in `bins` (offset[w]).
 struct BinLayout {
   static constexpr int kMaxWidths = 8;
   int widths = 0;
   long n[kMaxWidths][3] = {};
+  long klo[kMaxWidths][3] = {};
+  long ext[kMaxWidths][3] = {};
   long offset[kMaxWidths] = {};
   double lo[3] = {0, 0, 0}, len[3] = {1, 1, 1};
 };
 
+// Each particle's volume (in quanta) to the coarse cell of its centre, in
+// the rank's box; a centre whose coarse cell the box misses counts in *stray.
 struct BinParticles {
   dem::ParticleView p;
   int dim;
   BinLayout b;
   unsigned long long* bins;
+  unsigned long long* stray;
   LBDEM_HD void operator()(Index i) const {
     const double x[3] = {p.pos_r[i].x, p.pos_r[i].y, p.pos_r[i].z};
     const unsigned long long q =
         static_cast<unsigned long long>(volume_of(p.pos_r[i].w, dim) / kVolumeQuantum + 0.5);
     for (int w = 0; w < b.widths; ++w) {
       long c[3] = {0, 0, 0};
+      bool in = true;
       for (int a = 0; a < 3; ++a) {
         double s = (x[a] - b.lo[a]) / b.len[a];
         s -= floor(s);  // periodic images and centres a hair outside the box
-        long k = static_cast<long>(s * double(b.n[w][a]));
-        c[a] = k < 0 ? 0 : (k >= b.n[w][a] ? b.n[w][a] - 1 : k);
+        const long n = b.n[w][a];
+        long k = static_cast<long>(s * double(n));
+        k = k < 0 ? 0 : (k >= n ? n - 1 : k);
+        long d = (k - b.klo[w][a]) % n;  // the held image of k
+        if (d < 0) d += n;
+        in = in && d < b.ext[w][a];
+        c[a] = d;
       }
-      atomic_add_u64(bins + b.offset[w] + c[0] + b.n[w][0] * (c[1] + b.n[w][1] * c[2]), q);
+      if (in) atomic_add_u64(bins + b.offset[w] + c[0] + b.ext[w][0] * (c[1] + b.ext[w][1] * c[2]), q);
+      else atomic_add_u64(stray, 1);
     }
   }
 };
@@ -122,21 +144,6 @@ struct BinParticles {
 struct ZeroBins {
   unsigned long long* bins;
   LBDEM_HD void operator()(Index i) const { bins[i] = 0; }
-};
-
-struct Moments {
-  double s = 0, ss = 0;
-};
-struct MomentsOp {
-  LBDEM_HD Moments operator()(const Moments& a, const Moments& b) const { return {a.s + b.s, a.ss + b.ss}; }
-};
-struct BinMoments {
-  const unsigned long long* bins;
-  double scale;  // solid fraction per quantum
-  LBDEM_HD Moments operator()(Index i) const {
-    const double phi = double(bins[i]) * scale;
-    return {phi, phi * phi};
-  }
 };
 
 std::string width_tag(double w) {
@@ -147,44 +154,179 @@ std::string width_tag(double w) {
 
 }  // namespace
 
+namespace {
+
+long floor_div(long a, long b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
+
+// The coarse cells [klo, klo + ext) along one axis of `n` over the fluid box
+// [lo, lo + len) that a rank whose piece spans cells [plo, phi) holds: those
+// within `margin` cells of the piece, rounded out to whole coarse cells; the
+// whole axis when that spans it; never beyond a closed face.
+void held_range(long n, long lo, long len, long plo, long phi, long margin, bool periodic, long& klo, long& ext) {
+  long k0 = floor_div((plo - margin - lo) * n, len);
+  long k1 = -floor_div(-(phi + margin - lo) * n, len);  // ceiling
+  if (!periodic) {
+    k0 = std::max(k0, 0L);
+    k1 = std::min(k1, n);
+  }
+  if (k1 - k0 >= n) {
+    k0 = 0;
+    k1 = n;
+  }
+  klo = k0;
+  ext = std::max(k1 - k0, 0L);
+}
+
+// The first cell of coarse cell k (0 <= k < n): its owner is the rank whose piece holds it.
+long anchor_cell(long k, long n, long lo, long len) { return lo + k * len / n; }
+
+long wrap(long k, long n) { return (k % n + n) % n; }
+
+}  // namespace
+
 struct SuspensionStatistics::Impl {
   Exec ex;
   Scratch scratch;
-  Buffer<unsigned long long> bins;
+  Buffer<unsigned long long> bins;   // the held coarse cells of every width (BinLayout)
+  Buffer<unsigned long long> stray;  // particles whose coarse cell this rank does not hold
   BinLayout layout;
   double box_volume = 1;
+  int rank = 0, ranks = 1;
+  // Global coarse cells of the widths before w (all widths in one index space, for the exchange).
+  long global_offset[BinLayout::kMaxWidths] = {};
+  // Per width and axis, the held coarse cells (local index) whose first cell lies in this rank's piece.
+  std::vector<char> owned[BinLayout::kMaxWidths][3];
+  std::vector<std::array<long, 3>> plo, phi;  // every rank's piece [plo, phi) in cells
+  std::vector<int> peers;  // ranks that hold coarse cells this rank owns, or own some it holds
+  std::vector<unsigned long long> host;  // the held coarse cells on the host
+  std::vector<std::vector<std::byte>> sends;
+
+  int owner_of(const long k[3], int w) const {
+    long c[3];
+    for (int a = 0; a < 3; ++a) c[a] = anchor_cell(k[a], layout.n[w][a], long(layout.lo[a]), long(layout.len[a]));
+    for (int r = 0; r < ranks; ++r) {
+      const auto& l = plo[static_cast<std::size_t>(r)];
+      const auto& h = phi[static_cast<std::size_t>(r)];
+      if (c[0] >= l[0] && c[0] < h[0] && c[1] >= l[1] && c[1] < h[1] && c[2] >= l[2] && c[2] < h[2]) return r;
+    }
+    return -1;
+  }
+  bool owns(int w, const long d[3]) const {
+    return owned[w][0][static_cast<std::size_t>(d[0])] && owned[w][1][static_cast<std::size_t>(d[1])] &&
+           owned[w][2][static_cast<std::size_t>(d[2])];
+  }
+  std::size_t local_index(int w, const long d[3]) const {
+    return static_cast<std::size_t>(layout.offset[w] + d[0] + layout.ext[w][0] * (d[1] + layout.ext[w][1] * d[2]));
+  }
 };
 
 SuspensionStatistics::SuspensionStatistics(const Exec& ex, const SuspensionStatsSpec& spec)
     : spec_(spec), impl_(std::make_unique<Impl>()) {
-  impl_->ex = ex;
+  Impl& m = *impl_;
+  m.ex = ex;
   if (spec_.filter_widths.size() > static_cast<std::size_t>(BinLayout::kMaxWidths))
     throw ConfigError("suspension statistics: at most " + std::to_string(BinLayout::kMaxWidths) + " filter widths");
-  BinLayout& b = impl_->layout;
+  BinLayout& b = m.layout;
   b.widths = static_cast<int>(spec_.filter_widths.size());
+  long flo[3], flen[3];
   for (int a = 0; a < 3; ++a) {
-    b.lo[a] = double(spec_.fluid_lo[static_cast<std::size_t>(a)]);
-    b.len[a] = double(spec_.fluid_hi[static_cast<std::size_t>(a)] - spec_.fluid_lo[static_cast<std::size_t>(a)]);
-    impl_->box_volume *= b.len[a];
+    flo[a] = spec_.fluid_lo[static_cast<std::size_t>(a)];
+    flen[a] = spec_.fluid_hi[static_cast<std::size_t>(a)] - flo[a];
+    b.lo[a] = double(flo[a]);
+    b.len[a] = double(flen[a]);
+    m.box_volume *= b.len[a];
   }
-  long total = 0;
+  // Every rank's piece; one piece: the fluid box.
+  const bool distributed = spec_.comm && spec_.comm->distributed();
+  m.rank = distributed ? spec_.comm->rank() : 0;
+  m.ranks = distributed ? spec_.comm->size() : 1;
+  if (distributed) {
+    if (spec_.piece_offset.size() != static_cast<std::size_t>(m.ranks) ||
+        spec_.piece_cells.size() != spec_.piece_offset.size())
+      throw Error("suspension statistics: " + std::to_string(spec_.piece_offset.size()) + " pieces given for " +
+                  std::to_string(m.ranks) + " ranks");
+    for (int r = 0; r < m.ranks; ++r) {
+      const auto& o = spec_.piece_offset[static_cast<std::size_t>(r)];
+      const auto& c = spec_.piece_cells[static_cast<std::size_t>(r)];
+      m.plo.push_back(o);
+      m.phi.push_back({o[0] + c[0], o[1] + c[1], o[2] + c[2]});
+    }
+  } else {
+    m.plo.push_back({flo[0], flo[1], flo[2]});
+    m.phi.push_back({flo[0] + flen[0], flo[1] + flen[1], flo[2] + flen[2]});
+  }
+  // A particle belongs to the rank whose piece held its centre when the DEM
+  // last sorted the particles, and moves less than its skin between sorts:
+  // a diameter of margin holds the coarse cell of every centre a rank owns.
+  const long margin = std::max<long>(1, static_cast<long>(std::ceil(spec_.diameter)));
+  auto piece_lo = [&](int r, int a) { return m.plo[static_cast<std::size_t>(r)][static_cast<std::size_t>(a)]; };
+  auto piece_hi = [&](int r, int a) { return m.phi[static_cast<std::size_t>(r)][static_cast<std::size_t>(a)]; };
+  auto held = [&](int r, int w, int a, long& klo, long& ext) {
+    held_range(b.n[w][a], flo[a], flen[a], piece_lo(r, a), piece_hi(r, a), margin,
+               spec_.periodic[static_cast<std::size_t>(a)], klo, ext);
+  };
+  // Does rank r own coarse cell klo + d (of width w along axis a)?
+  auto owns_at = [&](int r, int w, int a, long k) {
+    const long c = anchor_cell(wrap(k, b.n[w][a]), b.n[w][a], flo[a], flen[a]);
+    return c >= piece_lo(r, a) && c < piece_hi(r, a);
+  };
+  auto owns_some = [&](int r, int w, int a, long klo, long ext) {
+    for (long d = 0; d < ext; ++d)
+      if (owns_at(r, w, a, klo + d)) return true;
+    return false;
+  };
+  long total = 0, global = 0;
   for (int w = 0; w < b.widths; ++w) {
     const double width = spec_.filter_widths[static_cast<std::size_t>(w)] * spec_.diameter;
-    long cells = 1;
+    long cells = 1, all = 1;
     for (int a = 0; a < 3; ++a) {
       // Whole coarse cells of about the filter width (at least one) per axis;
       // a 2D scene's slab is one coarse cell thick.
       const long n = a < spec_.dim ? std::max<long>(1, static_cast<long>(std::floor(b.len[a] / width))) : 1;
       b.n[w][a] = n;
-      cells *= n;
+      held(m.rank, w, a, b.klo[w][a], b.ext[w][a]);
+      cells *= b.ext[w][a];
+      all *= n;
+      auto& own = m.owned[w][a];
+      own.assign(static_cast<std::size_t>(b.ext[w][a]), 0);
+      for (long d = 0; d < b.ext[w][a]; ++d) own[static_cast<std::size_t>(d)] = owns_at(m.rank, w, a, b.klo[w][a] + d);
     }
     b.offset[w] = total;
+    m.global_offset[w] = global;
     total += cells;
+    global += all;
   }
-  impl_->bins = Buffer<unsigned long long>(ex.backend(), std::max<long>(1, total));
+  // Peers: this rank holds a coarse cell rank r owns, or r holds one this
+  // rank owns (both ways: each pair exchanges one message, empty or not).
+  for (int r = 0; distributed && r < m.ranks; ++r) {
+    if (r == m.rank) continue;
+    bool peer = false;
+    for (int w = 0; w < b.widths && !peer; ++w) {
+      bool to = true, from = true;
+      for (int a = 0; a < 3; ++a) {
+        long klo = 0, ext = 0;
+        held(r, w, a, klo, ext);
+        to = to && owns_some(r, w, a, b.klo[w][a], b.ext[w][a]);
+        from = from && owns_some(m.rank, w, a, klo, ext);
+      }
+      peer = to || from;
+    }
+    if (peer) m.peers.push_back(r);
+  }
+  m.bins = Buffer<unsigned long long>(ex.backend(), std::max<long>(1, total));
+  m.stray = Buffer<unsigned long long>(ex.backend(), 1);
+  m.host.resize(static_cast<std::size_t>(std::max<long>(1, total)));
+  m.sends.resize(m.peers.size());
 }
 
 SuspensionStatistics::~SuspensionStatistics() = default;
+
+Index SuspensionStatistics::bins_held() const {
+  const BinLayout& b = impl_->layout;
+  Index n = 0;
+  for (int w = 0; w < b.widths; ++w) n += b.ext[w][0] * b.ext[w][1] * b.ext[w][2];
+  return n;
+}
 
 SuspensionSample SuspensionStatistics::sample(dem::DemSystem& dem, const lbm::LbmDiagnostics& d) {
   Impl& m = *impl_;
@@ -236,30 +378,101 @@ SuspensionSample SuspensionStatistics::sample(dem::DemSystem& dem, const lbm::Lb
     const double along = -(ps.drag[0] * g[0] + ps.drag[1] * g[1] + ps.drag[2] * g[2]) / gn;
     s.drag_over_weight = along / (ps.net_mass * gn);
   }
-  // Coarse-grained solid fraction per filter width.
+  // Coarse-grained solid fraction per filter width: each rank bins its own
+  // particles into the coarse cells it holds, sends the counts of those it
+  // does not own to their owners, and sums over those it owns. The counts
+  // are whole quanta and the moments exact integers (sum q and sum q^2 in 128
+  // bits), summed over ranks exactly: the same bits on any rank count.
   const BinLayout& b = m.layout;
   const Index nbins = m.bins.size();
   for_each(m.ex, nbins, ZeroBins{m.bins.data()});
-  if (v.n > 0) for_each(m.ex, v.n, BinParticles{v, dim, b, m.bins.data()});
+  for_each(m.ex, 1, ZeroBins{m.stray.data()});
+  if (v.n > 0) for_each(m.ex, v.n, BinParticles{v, dim, b, m.bins.data(), m.stray.data()});
+  m.ex.synchronize();
+  unsigned long long stray = 0;
+  m.stray.copy_to_host(&stray, 1);
+  if (stray > 0)
+    throw Error("suspension statistics: " + std::to_string(stray) + " particle centre(s) lie more than a diameter "
+                "outside the piece of the rank that owns them (rank " + std::to_string(m.rank) + ")");
+  m.bins.copy_to_host(m.host.data(), nbins);
   if (ranks) {
-    // The bins hold whole quanta: their sum over ranks is exact in doubles
-    // (below 2^53), and the moments below see the one-rank bins.
-    m.ex.synchronize();
-    std::vector<unsigned long long> h(static_cast<std::size_t>(nbins));
-    m.bins.copy_to_host(h.data(), nbins);
-    std::vector<double> hd(h.begin(), h.end());
-    spec_.comm->sum(hd);
-    for (std::size_t i = 0; i < h.size(); ++i) h[i] = static_cast<unsigned long long>(hd[i]);
-    m.bins.copy_from_host(h.data(), nbins);
+    for (auto& q : m.sends) q.clear();
+    for (int w = 0; w < b.widths; ++w) {
+      long d[3];
+      for (d[2] = 0; d[2] < b.ext[w][2]; ++d[2])
+        for (d[1] = 0; d[1] < b.ext[w][1]; ++d[1])
+          for (d[0] = 0; d[0] < b.ext[w][0]; ++d[0]) {
+            const unsigned long long q = m.host[m.local_index(w, d)];
+            if (q == 0 || m.owns(w, d)) continue;
+            long k[3];
+            for (int a = 0; a < 3; ++a) k[a] = wrap(b.klo[w][a] + d[a], b.n[w][a]);
+            const int owner = m.owner_of(k, w);
+            const auto at = std::find(m.peers.begin(), m.peers.end(), owner);
+            if (at == m.peers.end())
+              throw Error("suspension statistics: a coarse cell of rank " + std::to_string(m.rank) +
+                          " belongs to rank " + std::to_string(owner) + ", not one of its peers");
+            const unsigned long long pair[2] = {
+                static_cast<unsigned long long>(m.global_offset[w] + k[0] + b.n[w][0] * (k[1] + b.n[w][1] * k[2])), q};
+            auto& out = m.sends[static_cast<std::size_t>(at - m.peers.begin())];
+            const auto* bytes = reinterpret_cast<const std::byte*>(pair);
+            out.insert(out.end(), bytes, bytes + sizeof pair);
+          }
+    }
+    constexpr int kTag = 4711;
+    const std::vector<int> tags(m.peers.size(), kTag);
+    const auto got = spec_.comm->exchange(m.peers, tags, m.sends, tags);
+    for (const auto& msg : got)
+      for (std::size_t o = 0; o + 2 * sizeof(unsigned long long) <= msg.size(); o += 2 * sizeof(unsigned long long)) {
+        unsigned long long pair[2];
+        std::memcpy(pair, msg.data() + o, sizeof pair);
+        int w = b.widths - 1;
+        while (w > 0 && static_cast<long>(pair[0]) < m.global_offset[w]) --w;
+        long g = static_cast<long>(pair[0]) - m.global_offset[w], d[3];
+        bool mine = true;
+        for (int a = 0; a < 3; ++a) {
+          const long k = g % b.n[w][a];
+          g /= b.n[w][a];
+          d[a] = wrap(k - b.klo[w][a], b.n[w][a]);
+          mine = mine && d[a] < b.ext[w][a];
+        }
+        if (!mine || !m.owns(w, d))
+          throw Error("suspension statistics: rank " + std::to_string(m.rank) + " received a coarse cell it does not own");
+        m.host[m.local_index(w, d)] += pair[1];
+      }
   }
+  // Exact sums over the owned coarse cells, over ranks in 32-bit limbs (a
+  // limb's sum stays below 2^53 up to 2^21 ranks: exact in double).
+  constexpr int kLimbs = 6;  // sum q: 2 limbs; sum q^2: 4
+  std::vector<double> limbs(static_cast<std::size_t>(kLimbs * b.widths), 0.0);
+  for (int w = 0; w < b.widths; ++w) {
+    unsigned long long sum = 0;
+    unsigned __int128 sum2 = 0;
+    long d[3];
+    for (d[2] = 0; d[2] < b.ext[w][2]; ++d[2])
+      for (d[1] = 0; d[1] < b.ext[w][1]; ++d[1])
+        for (d[0] = 0; d[0] < b.ext[w][0]; ++d[0]) {
+          if (!m.owns(w, d)) continue;
+          const unsigned long long q = m.host[m.local_index(w, d)];
+          sum += q;
+          sum2 += static_cast<unsigned __int128>(q) * q;
+        }
+    double* l = limbs.data() + kLimbs * w;
+    l[0] = double(sum & 0xffffffffULL);
+    l[1] = double(sum >> 32);
+    for (int j = 0; j < 4; ++j) l[2 + j] = double(static_cast<unsigned long long>(sum2 >> (32 * j)) & 0xffffffffULL);
+  }
+  if (ranks) spec_.comm->sum(limbs);
   const double mean_vol = ps.n > 0 ? ps.vol / ps.n : 0;
   for (int w = 0; w < b.widths; ++w) {
+    const double* l = limbs.data() + kLimbs * w;
+    auto limb = [&](int j) { return static_cast<unsigned __int128>(static_cast<unsigned long long>(l[j])); };
+    const unsigned __int128 sum = limb(0) + (limb(1) << 32);
+    const unsigned __int128 sum2 = limb(2) + (limb(3) << 32) + (limb(4) << 64) + (limb(5) << 96);
     const long cells = b.n[w][0] * b.n[w][1] * b.n[w][2];
     const double vbin = m.box_volume / double(cells);
-    const Moments mo = transform_reduce(m.ex, cells, Moments{}, MomentsOp{},
-                                        BinMoments{m.bins.data() + b.offset[w], kVolumeQuantum / vbin}, m.scratch);
-    const double mean = mo.s / double(cells);
-    const double var = std::max(0.0, mo.ss / double(cells) - mean * mean);
+    const double scale = kVolumeQuantum / vbin;  // solid fraction per quantum
+    const double mean = static_cast<double>(sum) * scale / double(cells);
+    const double var = std::max(0.0, static_cast<double>(sum2) * (scale * scale) / double(cells) - mean * mean);
     // Independently placed particles: a Poisson count per coarse cell, so the
     // variance of the fraction is (mean count) (V_p / V_bin)^2 = phi V_p / V_bin.
     const double random_var = mean * mean_vol / vbin;

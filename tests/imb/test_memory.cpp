@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <cstdio>
 #include <random>
 #include <string>
@@ -20,6 +21,8 @@
 #include "core/memory_use.hpp"
 #include "dem/system.hpp"
 #include "imb/coupled.hpp"
+#include "imb/coupled_memory.hpp"
+#include "imb/snapshot_pack.hpp"
 #include "imb/fraction_table.hpp"
 #include "lbm/solver.hpp"
 
@@ -206,6 +209,60 @@ TEST_P(CoupledMemory, SlabsEqualWholeGrid) {
     EXPECT_EQ(bad_rho, 0) << "slab cap " << cap;
     EXPECT_EQ(bad_u, 0) << "slab cap " << cap;
     EXPECT_EQ(bad_eps, 0) << "slab cap " << cap;
+  }
+}
+
+// A background snapshot's pack of the owned box (imb/snapshot_pack.hpp: the
+// fields in one buffer, x fastest; in float32 for fp32 files) holds the
+// values the slab path gives, bit for bit (float32: each rounded once); on
+// the host backend it reserves no device memory, and the estimate of a
+// device run counts it at 20 or 40 bytes per owned cell.
+TEST_P(CoupledMemory, SnapshotPackEqualsSlabs) {
+  const Case& c = GetParam();
+  Scene s = scene(c.n, c.count, c.r, c.prec, c.method, c.pipe);
+  Live r = start(s, 5);
+  const CellBox own = s.fluid.domain.owned();
+  const auto M = static_cast<std::size_t>(own.size());
+  for (bool fp32 : {true, false}) {
+    imb::SnapshotPack pack(Backend::Host, own.size(), fp32);
+    EXPECT_TRUE(pack.memory_use().items.empty());
+    pack.take(*r.fluid, *r.cs);
+    const Index cap = r.fluid->output_slab_cells();
+    std::vector<double> br(static_cast<std::size_t>(cap)), bu(3 * br.size()), be(br.size());
+    Index bad = 0, seen = 0;
+    double solid = 0;
+    for (const CellBox& b : slabs_of(own, std::min<Index>(cap, c.n[0] * 2 + 3))) {
+      r.fluid->macroscopic_box(b, br.data(), bu.data());
+      r.cs->solid_fraction_box(b, be.data());
+      Index t = 0;
+      for (int z = b.lo[2]; z < b.lo[2] + b.ext[2]; ++z)
+        for (int y = b.lo[1]; y < b.lo[1] + b.ext[1]; ++y)
+          for (int x = b.lo[0]; x < b.lo[0] + b.ext[0]; ++x, ++t) {
+            const auto o = static_cast<std::size_t>((x - own.lo[0]) + Index(own.ext[0]) * ((y - own.lo[1]) + Index(own.ext[1]) * (z - own.lo[2])));
+            const auto k = static_cast<std::size_t>(t);
+            double want[5] = {br[k], bu[3 * k], bu[3 * k + 1], bu[3 * k + 2], be[k]};
+            std::size_t at[5] = {o, M + 3 * o, M + 3 * o + 1, M + 3 * o + 2, 4 * M + o};
+            for (int v = 0; v < 5; ++v) {
+              const double got = fp32 ? double(pack.host_f()[at[v]]) : pack.host_d()[at[v]];
+              const double ref = fp32 ? double(static_cast<float>(want[v])) : want[v];
+              bad += std::memcmp(&got, &ref, sizeof got) != 0;
+            }
+            solid += be[k];
+            ++seen;
+          }
+    }
+    EXPECT_EQ(seen, own.size());
+    EXPECT_EQ(bad, 0) << (fp32 ? "float32" : "float64");
+    EXPECT_GT(solid, 10.0);  // the particles are there
+  }
+  for (bool fp32 : {true, false}) {
+    const imb::SnapshotMemory bg{true, fp32};
+    const MemoryUse dev = imb::coupled_memory(s.fluid, s.coupling, double(s.particles.size()), Backend::Cuda, bg);
+    EXPECT_EQ(dev.of("snapshot pack (output.background)"), M * (fp32 ? 20u : 40u));
+    const MemoryUse without = imb::coupled_memory(s.fluid, s.coupling, double(s.particles.size()), Backend::Cuda);
+    EXPECT_EQ(dev.total() - without.total(), M * (fp32 ? 20u : 40u));
+    EXPECT_EQ(imb::coupled_memory(s.fluid, s.coupling, double(s.particles.size()), Backend::Host, bg).total(),
+              imb::coupled_memory(s.fluid, s.coupling, double(s.particles.size()), Backend::Host).total());
   }
 }
 

@@ -113,6 +113,9 @@ class CoupledSolver : private dem::FluidCoupling {
   // fluid().output_slab_cells() cells) at the current positions, to the host
   // array eps (box x-fastest); allocates nothing (PsmCoupling::solid_fraction_box).
   void solid_fraction_box(const CellBox& box, double* eps);
+  // The same into backend memory of box.size() doubles, asynchronous
+  // (PsmCoupling::solid_fraction_device): a snapshot's pack on the device.
+  void solid_fraction_device(const CellBox& box, double* out);
   // Bytes of the coupling's buffers by component (imb::psm_memory()); the
   // fluid and the DEM report their own.
   MemoryUse memory_use() const { return psm_->memory_use(); }

@@ -25,11 +25,20 @@ void check_particles_mach(const Config& root, const lbm::LbmSetup& fluid, const 
 // the fluid's (lbm::lbm_memory), the PSM coupling's (psm_memory, for
 // `particles` particles of the largest radius cp.psm.map.max_radius) and the
 // DEM's ("DEM particles and lists": an upper bound per particle from the
-// DEM's layout; its neighbour-list capacity is fitted at the first build).
-MemoryUse coupled_memory(const lbm::LbmSetup& fluid, const CoupledParams& cp, double particles, Backend b);
+// DEM's layout; its neighbour-list capacity is fitted at the first build),
+// and with background snapshots (output.background) the device pack of the
+// owned box ("snapshot pack (output.background)", imb/snapshot_pack.hpp; 20 or
+// 40 B per owned cell as the files store float32 or float64).
+struct SnapshotMemory {
+  bool background = false;  // output.background
+  bool fp32 = false;        // fields written as float32
+};
+MemoryUse coupled_memory(const lbm::LbmSetup& fluid, const CoupledParams& cp, double particles, Backend b,
+                         SnapshotMemory snapshots = {});
 // Refuses (ResourceError, exit 4) a coupled run whose coupled_memory() does
-// not fit the backend's free memory, naming the biggest components.
+// not fit the backend's free memory, naming the biggest components; the
+// host side counts the background snapshots' page-locked host array.
 void check_coupled_memory(const Config& root, const lbm::LbmSetup& fluid, const CoupledParams& cp,
-                          double particles, Backend b);
+                          double particles, Backend b, SnapshotMemory snapshots = {});
 
 }  // namespace lbdem::imb

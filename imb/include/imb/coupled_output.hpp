@@ -4,14 +4,16 @@
 // 0 writes the XDMF index, a spatial collection of the pieces per step. No
 // field or particle list is gathered; only the particle counts reach rank 0.
 //
-// Background (output.background): each rank copies its piece into host
-// buffers that it keeps from one snapshot to the next, in the precision the
-// fields are stored in (float when they are written as fp32: 20 bytes per
-// cell), and its writer thread writes them while the run steps on. The thread
-// owns every HDF5 call of the rank from the first snapshot on. On several
-// ranks the particle counts are gathered when the copy is taken (collective),
-// and rank 0 indexes a step once every rank has finished its pieces: at the
-// next snapshot or at finish(), after each rank's wait and a barrier (the index
+// Background (output.background): each rank packs its owned box of the
+// fields on the device, in the precision the files store (float when they are
+// written as fp32: 20 bytes per cell), into a buffer reserved at start, and
+// brings it to page-locked host memory in one copy (imb/snapshot_pack.hpp);
+// its writer thread writes from there while the run steps on, and the next
+// snapshot waits for that write before it packs again. The thread owns every
+// HDF5 call of the rank from the first snapshot on. On several ranks the
+// particle counts are gathered when the copy is taken (collective), and rank
+// 0 indexes a step once every rank has finished its pieces: at the next
+// snapshot or at finish(), after each rank's wait and a barrier (the index
 // never names an unfinished file). The files hold the same bytes either way.
 #pragma once
 
@@ -20,6 +22,7 @@
 #include <vector>
 
 #include "core/grid.hpp"
+#include "core/memory_use.hpp"
 #include "core/piece_output.hpp"
 
 namespace lbdem::halo {
@@ -38,6 +41,7 @@ class BackgroundWriter;
 namespace lbdem::imb {
 
 class CoupledSolver;
+class SnapshotPack;
 
 class CoupledSnapshots {
  public:
@@ -65,6 +69,17 @@ class CoupledSnapshots {
   // The largest host buffer of this rank's field output (values): the writer's slabs, and in the background the
   // piece's copy.
   std::size_t largest_buffer_values() const;
+  // The device buffer the background snapshots hold (empty in the foreground).
+  MemoryUse memory_use() const;
+  // Wall time of the background snapshots (seconds, this rank): `take`, the
+  // pack on the device, its copy to host and the particles' download, which
+  // hold the run; `wait`, a snapshot held waiting for the previous one's
+  // write (not finish()'s own wait); `write`, the writer thread's HDF5 writes
+  // (beside the run). Complete after finish().
+  struct Times {
+    double take = 0, wait = 0, write = 0;
+  };
+  const Times& times() const { return times_; }
 
  private:
   struct Copy;
@@ -80,7 +95,9 @@ class CoupledSnapshots {
   io::PieceGridWriter gw_;
   std::vector<io::SlabField> fields_;
   long count_ = 0;
-  std::shared_ptr<Copy> copy_;        // background: the piece's host copy, kept between snapshots
+  std::shared_ptr<Copy> copy_;        // background: the step's particles for the thread
+  std::unique_ptr<SnapshotPack> pack_;  // background: the piece's fields, reserved once
+  Times times_;
   bool unindexed_ = false;            // several ranks: the copy's step written, not yet indexed
   std::unique_ptr<io::BackgroundWriter> bg_;  // declared last: its thread ends before what its jobs use goes
 };

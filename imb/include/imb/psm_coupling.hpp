@@ -126,6 +126,11 @@ class PsmCoupling {
   // the same values). Through a staging buffer reserved at construction:
   // allocates nothing. Synchronous. Valid after map().
   void solid_fraction_box(const PsmParticles& p, const PsmOptions& opt, const CellBox& box, double* eps);
+  // The same values written to `out`, backend memory of box.size() doubles
+  // (box x-fastest; any box within the storage cells): asynchronous on the
+  // coupling's queue, no staging, no allocation. What solid_fraction_box
+  // stages, and what a snapshot packs on the device (imb/snapshot_pack.hpp).
+  void solid_fraction_device(const PsmParticles& p, const PsmOptions& opt, const CellBox& box, double* out);
   // Bytes of each buffer held, by component (psm_memory()).
   MemoryUse memory_use() const;
   // Overflow of the pipeline in use (cell slots, tile lists, radius); synchronous.

@@ -41,6 +41,10 @@ struct SuspensionStatsSpec {
   // sample are over all of them, every rank gets them (collective), and only
   // rank 0 writes series.csv. Null: one rank.
   const halo::Comm* comm = nullptr;
+  // Every rank's owned cells (index = rank; global cell indices, the frame of
+  // fluid_lo): each rank keeps the coarse cells near its own piece only and
+  // owns those whose lowest cell lies in its piece. Empty: one piece.
+  std::vector<std::array<long, 3>> piece_offset, piece_cells;
 };
 
 // One sample. Velocities in cells per step, forces in lattice units.
@@ -77,6 +81,9 @@ class SuspensionStatistics {
   std::vector<std::string> columns() const;
   std::vector<double> row(const SuspensionSample& s) const;
   const SuspensionStatsSpec& spec() const { return spec_; }
+  // Coarse cells this rank holds (all widths): those within a particle
+  // diameter of its piece, rounded out to whole coarse cells.
+  Index bins_held() const;
 
  private:
   struct Impl;
