@@ -123,17 +123,6 @@ struct CfdCase {
   ckpt::Policy checkpoint;
 };
 
-// A message of the gas solver's own validation in the case file's key names.
-const cases::KeyMap& gas_keys() {
-  static const cases::KeyMap m = {{"gas.rho", "gas.density"},
-                                  {"gas.mu", "gas.viscosity"},
-                                  {"gas.cg_max_iterations", "gas.pressure_solver.max_iterations"},
-                                  {"gas.cg_tolerance", "gas.pressure_solver.tolerance"},
-                                  {"gas.cg_poll_every", "gas.pressure_solver.poll_every"},
-                                  {"gas.pressure_solver", "gas.pressure_solver.type"}};
-  return m;
-}
-
 void read_gas(const Config& root, const RunOptions& opt, CfdCase& c, const std::array<double, 3>& lo,
               const std::array<double, 3>& hi) {
   cfd::GasSection g;
@@ -141,11 +130,6 @@ void read_gas(const Config& root, const RunOptions& opt, CfdCase& c, const std::
   c.grid = g.grid;
   c.gas = g.gas;
   c.initial_velocity = g.initial_velocity;
-  try {
-    cfd::validate(c.gas, c.grid, "gas");
-  } catch (const ConfigError& e) {
-    throw ConfigError(root.source() + ": " + cases::user_keys(e.what(), gas_keys()));
-  }
 }
 
 CfdCase read_case(const Config& root, const RunOptions& opt) {

@@ -76,6 +76,7 @@ int run_fixed_sphere(const Config& root, const RunOptions& opt) {
   s.diameter = g.number_in("diameter", 2.0, 1000.0, "sphere diameter in cells (d/l)");
   s.chi = g.number_in("chi", 0.5, 0.05, 0.75, "d/L, L the array period (Sangani-Acrivos series valid to 0.75)");
   s.offset = g.number_in("offset", 0.0, -0.5, 0.5, "sphere centre offset from the cell-aligned centre, cells");
+  s.keys = {g.full_key("dim"), g.full_key("diameter"), g.full_key("chi")};
   g.finish();
   const Config f = root.section("fluid");
   imb::read_fluid_common(f, s);
@@ -185,8 +186,6 @@ int run_fixed_sphere(const Config& root, const RunOptions& opt) {
 
 std::vector<std::string> fixed_sphere_scene_names() { return {"fixed_sphere"}; }
 
-int run_fixed_sphere_case(const Config& root, const RunOptions& opt) {
-  return cases::with_user_keys("fixed_sphere", [&] { return run_fixed_sphere(root, opt); });
-}
+int run_fixed_sphere_case(const Config& root, const RunOptions& opt) { return run_fixed_sphere(root, opt); }
 
 }  // namespace lbdem

@@ -101,14 +101,6 @@ struct ParticlesCase {
   imb::PsmSettings psm;            // every resolved PSM setting (summary.json "psm")
 };
 
-// The particle scene in SI units (units: physical): the keys whose meaning
-// changes, and the SI key a lattice-unit message names instead.
-const cases::KeyMap& physical_key_map() {
-  static const cases::KeyMap m = {{"particles.density_ratio", "particles.density"},
-                                   {"domain.cells", "domain.size"}};
-  return m;
-}
-
 ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
   ParticlesCase c;
   c.physical = root.choice("units", {"lattice", "physical"}) == "physical";
@@ -118,6 +110,13 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
   const Config f = root.section("fluid");
   const Config pc = root.section("particles");
   const Config t = root.section("time");
+  // What the checks and messages of the coupled code call the parameters: the keys of this file.
+  imb::CoupledKeys& keys = c.coupling.keys;
+  keys.cells = keys.dem_lo = keys.dem_hi = d.full_key(c.physical ? "size" : "cells");
+  keys.dem_periodic = d.full_key("periodic");
+  keys.density = pc.full_key(c.physical ? "density" : "density_ratio");
+  keys.dem_dt = "the DEM time step";  // 1 / dem.substeps, not a key of the file
+  keys.slots = "psm.slots";
   std::vector<long> cells;
   double diam = 0;
   if (c.physical) {
@@ -160,8 +159,10 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
                                                                   "collision: trt for smaller tau");
   c.max_mach = f.number_in("max_mach", 0.3, 0.01, 0.5, "largest lattice Mach number |u| sqrt(3) before the run stops");
   f.finish();
-  imb::check_particles_memory(root, s, 0, cases::planned_backend(opt));
+  imb::check_particles_memory(root, keys, s, 0, cases::planned_backend(opt));
   const Config ph = root.section("physics");
+  keys.gravity = keys.dem_gravity = ph.full_key("gravity");
+  keys.body_force = ph.full_key("balance_weight");
   const auto gv = ph.numbers("gravity", {0, 0, 0}, 3, 3);
   c.coupling.gravity = {U.to_lattice_acceleration(gv[0]), U.to_lattice_acceleration(gv[1]),
                         U.to_lattice_acceleration(gv[2])};
@@ -174,7 +175,7 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
   imb::FluidBox fb{dim, cells, c.fluid_lo, c.fluid_hi, periodic};
   imb::SuspensionParticles sp = imb::read_suspension_particles(
       root, pc, fb,
-      {&U, c.physical, diam, c.max_mach, &s, cases::planned_backend(opt), opt.validate_only});
+      {&U, c.physical, diam, c.max_mach, &s, cases::planned_backend(opt), opt.validate_only, keys});
   c.density_ratio = sp.density_ratio;
   c.diameter = diam = sp.diameter;
   c.particles = std::move(sp.particles);
@@ -190,6 +191,8 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
   p.friction = true;  // rotation under hydrodynamic torque; friction coefficient as given (0: none)
   const Config dm = root.section("dem");
   c.coupling.dem_substeps = dem::read_coupled_dem(dm, U, p);
+  keys.dem_substeps = dm.full_key("substeps");
+  keys.stiffness = dm.full_key("stiffness");
   p.skin = 0.1 * diam;
   dm.finish();
   c.coupling.psm.weight = imb::PsmWeight::NobleTorczynskiWall;  // the default with or without a psm section
@@ -247,8 +250,8 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
   // With each rank's own particles, every rank refuses if one does.
   std::string refused;
   try {
-    imb::check_particles_scene(root, s, p, c.particles, c.coupling.gravity, c.balance, c.coupling.dem_substeps, c.steps,
-                               cases::planned_backend(opt), opt.force, opt.steps ? "--steps" : "time.steps");
+    imb::check_particles_scene(root, s, p, c.particles, c.coupling, c.balance, c.steps, cases::planned_backend(opt),
+                               opt.force, opt.steps ? "--steps" : "time.steps");
     imb::check_coupled_setup(s, p, c.particles, c.coupling, {}, split ? &world : nullptr);
   } catch (const ConfigError& e) {
     if (!split) throw;
@@ -390,7 +393,7 @@ int run_particles(const Config& root, const RunOptions& opt) {
   if (ranks) {
     // The cut, checked before anything is allocated or written. Contacts
     // are summed in global-id order, so that the cut does not change them.
-    domain = imb::coupled_domain(root.source(), c.setup, c.dim, c.dem, c.particles.r, c.parallel, comm);
+    domain = imb::coupled_domain(root.source(), c.setup, c.dim, c.dem, c.particles.r, c.parallel, comm, c.coupling.keys);
     c.dem.contact_order = dem::ContactOrder::GlobalId;
   }
   if (writer)  // 2D: "no estimate (2D ...)"
@@ -638,22 +641,6 @@ int run_particles(const Config& root, const RunOptions& opt) {
 
 std::vector<std::string> particles_scene_names() { return {"particles"}; }
 
-int run_particles_case(const Config& root, const RunOptions& opt) {
-  return cases::with_user_keys("particles", [&] {
-    // A physical-unit file names its SI keys where a check names the lattice one.
-    // (Not a message about a lattice key the user wrote by mistake: that one names it.)
-    const bool physical = root.has("units") && root.text("units") == "physical";
-    auto rewrite = [&](const std::string& m) {
-      return physical && m.find("unknown key '") == std::string::npos ? cases::user_keys(m, physical_key_map()) : m;
-    };
-    try {
-      return run_particles(root, opt);
-    } catch (const ConfigError& e) {
-      throw ConfigError(rewrite(e.what()));
-    } catch (const ResourceError& e) {
-      throw ResourceError(rewrite(e.what()));
-    }
-  });
-}
+int run_particles_case(const Config& root, const RunOptions& opt) { return run_particles(root, opt); }
 
 }  // namespace lbdem

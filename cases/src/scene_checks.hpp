@@ -3,15 +3,12 @@
 // the fluid scenes' geometry and Mach number with the key that set the speed,
 // and their plan (core/run_checks.hpp, lbm/fluid_checks.hpp). Each module
 // checks its own state (dem::check_dem_scene, imb::check_particles_scene,
-// imb::check_fixed_sphere, lbm::check_fluid_memory, ...). And the key names
-// of messages: the coupled and fixed-sphere code below the scenes names its
-// parameters by their C++ names (coupling.dem_substeps); with_user_keys()
-// rewrites them to the keys of the case file (dem.substeps), one table per
-// scene.
+// imb::check_fixed_sphere, lbm::check_fluid_memory, ...), naming the keys a
+// scene's reader hands it (imb::CoupledKeys, FixedSphereSpec::keys,
+// cfd::GasKeys), so no message is rewritten afterwards.
 #include <array>
 #include <optional>
 #include <string>
-#include <utility>
 #include <vector>
 
 #include "cases/scenes.hpp"
@@ -44,30 +41,5 @@ void check_fluid_scene(const Config& root, const std::string& scene, const std::
                        double u_ref, double max_mach, std::optional<double> tau, std::optional<double> dt);
 // ... and the plan, once the step count is known.
 void check_fluid_plan(const Config& root, const RunOptions& opt, double steps, double fluid_cells);
-
-// ----------------------------------------------------------------- key names
-using KeyMap = std::vector<std::pair<std::string, std::string>>;  // internal name -> key in the file
-// The table of a scene ("particles", "fixed_sphere", "dem", the fluid scenes).
-const KeyMap& key_map(const std::string& scene);
-// `msg` with every internal name of `map` (whole dotted names only) replaced.
-std::string user_keys(const std::string& msg, const KeyMap& map);
-
-// Runs f(); an lbdem::Error it throws is thrown again, same type, with its
-// message in the scene's key names.
-template <class F>
-auto with_user_keys(const std::string& scene, F&& f) -> decltype(f()) {
-  const KeyMap& m = key_map(scene);
-  try {
-    return f();
-  } catch (const ConfigError& e) {
-    throw ConfigError(user_keys(e.what(), m));
-  } catch (const DivergenceError& e) {
-    throw DivergenceError(user_keys(e.what(), m));
-  } catch (const ResourceError& e) {
-    throw ResourceError(user_keys(e.what(), m));
-  } catch (const CudaError& e) {
-    throw CudaError(user_keys(e.what(), m));
-  }
-}
 
 }  // namespace lbdem::cases

@@ -132,6 +132,14 @@ void read_gas(const Config& gs, const std::array<double, 3>& lo, const std::arra
     ps->finish();
   }
   gs.finish();
+  // GasParams' own checks (an outlet, the time step's limits), naming the keys read above.
+  const std::string solver = gs.full_key("pressure_solver");
+  validate(p, c.grid,
+           {.rho = gs.full_key("density"), .mu = gs.full_key("viscosity"), .dt = gs.full_key("dt"),
+            .min_gas_fraction = gs.full_key("min_gas_fraction"), .cg_max_iterations = solver + ".max_iterations",
+            .cg_tolerance = solver + ".tolerance", .cg_poll_every = solver + ".poll_every",
+            .pressure_solver = solver + ".type", .boundaries = gs.full_key("boundaries")},
+           gs.source());
 }
 
 int read_bed_dem(const Config& root, double gas_dt, double rmin, const dem::HostParticles& particles,

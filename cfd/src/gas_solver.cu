@@ -408,31 +408,32 @@ FaceKind parse_face_kind(const std::string& key, const std::string& value) {
   throw ConfigError(key + ": unknown boundary '" + value + "' (valid: periodic, no_slip, free_slip, inlet, outlet)");
 }
 
-void validate(const GasParams& p, const GasGridView& g, const std::string& prefix) {
+void validate(const GasParams& p, const GasGridView& g, const GasKeys& keys, const std::string& where) {
+  const std::string at = where.empty() ? "" : where + ": ";
   auto fail = [&](const std::string& key, double value, const std::string& valid) {
     std::ostringstream s;
-    s << prefix << "." << key << " = " << value << ": " << valid;
+    s << at << key << " = " << value << ": " << valid;
     throw ConfigError(s.str());
   };
-  if (!(p.rho > 0)) fail("rho", p.rho, "must be > 0 [kg/m^3]");
-  if (!(p.mu > 0)) fail("mu", p.mu, "must be > 0 [Pa s]");
-  if (!(p.dt > 0)) fail("dt", p.dt, "must be > 0 [s]");
+  if (!(p.rho > 0)) fail(keys.rho, p.rho, "must be > 0 [kg/m^3]");
+  if (!(p.mu > 0)) fail(keys.mu, p.mu, "must be > 0 [Pa s]");
+  if (!(p.dt > 0)) fail(keys.dt, p.dt, "must be > 0 [s]");
   if (!(p.min_gas_fraction > 0 && p.min_gas_fraction < 1))
-    fail("min_gas_fraction", p.min_gas_fraction, "must lie in (0, 1)");
-  if (p.cg_max_iterations < 1) fail("cg_max_iterations", p.cg_max_iterations, "must be >= 1");
-  if (!(p.cg_tolerance > 0)) fail("cg_tolerance", p.cg_tolerance, "must be > 0");
-  if (p.cg_poll_every < 1) fail("cg_poll_every", p.cg_poll_every, "must be >= 1");
+    fail(keys.min_gas_fraction, p.min_gas_fraction, "must lie in (0, 1)");
+  if (p.cg_max_iterations < 1) fail(keys.cg_max_iterations, p.cg_max_iterations, "must be >= 1");
+  if (!(p.cg_tolerance > 0)) fail(keys.cg_tolerance, p.cg_tolerance, "must be > 0");
+  if (p.cg_poll_every < 1) fail(keys.cg_poll_every, p.cg_poll_every, "must be >= 1");
   if (p.pressure_solver == PressureSolverKind::Multigrid)
-    multigrid_levels(g, PressureSolverParams{}.coarsest_cells, prefix + ".pressure_solver");
+    multigrid_levels(g, PressureSolverParams{}.coarsest_cells, at + keys.pressure_solver);
   static const char* names[6] = {"x_lo", "x_hi", "y_lo", "y_hi", "z_lo", "z_hi"};
   bool outlet = false;
   double max_in = 0;
   for (int s = 0; s < 6; ++s) {
     const FaceBC& f = p.faces[static_cast<std::size_t>(s)];
     const bool per = g.periodic[s / 2];
-    const std::string key = std::string("boundaries.") + names[s];
+    const std::string key = keys.boundaries + "." + names[s];
     if (per != (f.kind == FaceKind::Periodic))
-      throw ConfigError(prefix + "." + key + " = " + to_string(f.kind) + ": the grid axis is " +
+      throw ConfigError(at + key + " = " + to_string(f.kind) + ": the grid axis is " +
                         (per ? "periodic, so the face must be periodic" : "not periodic, so the face must not be periodic"));
     if (f.kind == FaceKind::Outlet) outlet = true;
     if (f.kind == FaceKind::Inlet) {
@@ -443,15 +444,15 @@ void validate(const GasParams& p, const GasGridView& g, const std::string& prefi
     }
   }
   if (!outlet)
-    throw ConfigError(prefix + ".boundaries: no face is an outlet; at least one must be (it sets the pressure level)");
+    throw ConfigError(at + keys.boundaries + ": no face is an outlet; at least one must be (it sets the pressure level)");
   // Explicit upwind convection: |u| dt / h <= 1/2 at the fastest inflow.
   if (max_in * p.dt > 0.5 * g.h)
-    fail("dt", p.dt, "too large for the inflow of " + std::to_string(max_in) + " m/s on cells of " +
+    fail(keys.dt, p.dt, "too large for the inflow of " + std::to_string(max_in) + " m/s on cells of " +
                          std::to_string(g.h) + " m: need dt <= " + std::to_string(0.5 * g.h / max_in) +
                          " s (Courant number 1/2)");
   const double nu = p.mu / p.rho;
   if (nu * p.dt / (g.h * g.h) > 1.0 / 6.0)
-    fail("dt", p.dt, "too large for explicit viscosity: need dt <= " + std::to_string(g.h * g.h / (6 * nu)) + " s");
+    fail(keys.dt, p.dt, "too large for explicit viscosity: need dt <= " + std::to_string(g.h * g.h / (6 * nu)) + " s");
 }
 
 namespace {

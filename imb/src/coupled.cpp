@@ -32,7 +32,7 @@ CoupledSolver::CoupledSolver(lbm::LbmSolver& fluid, dem::DemSystem& dem, const C
                              CoupledRanks ranks)
     : fluid_(fluid), dem_(dem), p_(params), ranks_(ranks), loop_(dem, *this, params.dem_substeps) {
   if (p_.dem_substeps < 1)
-    throw ConfigError("coupling.dem_substeps = " + std::to_string(p_.dem_substeps) + ": must be >= 1");
+    throw ConfigError(p_.keys.dem_substeps + " = " + std::to_string(p_.dem_substeps) + ": must be >= 1");
   if (dem_.backend() != fluid_.backend())
     throw ConfigError(std::string("coupling: the DEM runs on ") + to_string(dem_.backend()) + " but the fluid on " +
                       to_string(fluid_.backend()) + "; both must use the same backend");
@@ -146,7 +146,7 @@ void CoupledSolver::check_overflow() {
     m << r.message << " Particle ids (storage index -> id):";
     for (int pi : r.particles)
       if (pi >= 0 && pi < static_cast<int>(hp.id.size())) m << ' ' << pi << "->" << hp.id[static_cast<std::size_t>(pi)];
-    m << ". Raise coupling.slots (K) or check the particles for overlaps.";
+    m << ". Raise " << p_.keys.slots << " (K) or check the particles for overlaps.";
   } else {
     m << r.message;
   }

@@ -115,37 +115,39 @@ CoupledScales coupled_scales(const lbm::LbmSetup& fluid, const dem::DemParams& d
 CoupledScales check_coupled_setup(const lbm::LbmSetup& fluid, const dem::DemParams& dem, const dem::HostParticles& p,
                                   const CoupledParams& cp, const CoupledLimits& lim, const halo::Comm* comm) {
   const int dim = fluid.lattice == lbm::LatticeKind::D2Q9 ? 2 : 3;
+  const CoupledKeys& k = cp.keys;
   // 1. Consistency.
   if (cp.dem_substeps < 1)
-    throw ConfigError("coupling.dem_substeps = " + std::to_string(cp.dem_substeps) +
+    throw ConfigError(k.dem_substeps + " = " + std::to_string(cp.dem_substeps) +
                       ": the DEM needs at least one step per fluid step; use 1 or more");
   if (!(std::abs(dem.dt * cp.dem_substeps - 1.0) <= 1e-9))
-    throw ConfigError("dem.dt = " + num(dem.dt) + " (lattice units) with coupling.dem_substeps = " +
-                      std::to_string(cp.dem_substeps) + ": the DEM sub-steps must span one fluid step (dt_fluid = 1); use dem.dt = 1/" +
-                      std::to_string(cp.dem_substeps) + " = " + num(1.0 / cp.dem_substeps));
+    throw ConfigError(k.dem_dt + " = " + num(dem.dt) + " (lattice units) with " + k.dem_substeps + " = " +
+                      std::to_string(cp.dem_substeps) + ": the DEM sub-steps must span one fluid step (dt_fluid = 1); use " +
+                      k.dem_dt + " = 1/" + std::to_string(cp.dem_substeps) + " = " + num(1.0 / cp.dem_substeps));
   {
     const double gd[3] = {dem.gravity.x, dem.gravity.y, dem.gravity.z};
     const double scale = std::max(norm3(gd), norm3(cp.gravity.data()));
     for (int a = 0; a < 3; ++a)
       if (std::abs(gd[a] - cp.gravity[static_cast<std::size_t>(a)]) > 1e-12 * scale)
-        throw ConfigError("coupling.gravity = " + vec(cp.gravity.data()) + " differs from dem.gravity = " + vec(gd) +
-                          ": the particles' weight comes from the DEM and their buoyancy from the coupling, so both "
-                          "must be the same vector; set coupling.gravity = " + vec(gd));
+        throw ConfigError(k.gravity + " = " + vec(cp.gravity.data()) + " differs from " + k.dem_gravity + " = " +
+                          vec(gd) + ": the particles' weight comes from the DEM and their buoyancy from the coupling, "
+                          "so both must be the same vector; set " + k.gravity + " = " + vec(gd));
   }
   for (int a = 0; a < dim; ++a) {
-    const auto k = static_cast<std::size_t>(a);
-    if (fluid.domain.periodic[k] != dem.periodic[k])
-      throw ConfigError(std::string("domain.periodic[") + axis(a) + "] = " + (fluid.domain.periodic[k] ? "true" : "false") +
-                        " but dem.periodic[" + axis(a) + "] = " + (dem.periodic[k] ? "true" : "false") +
+    const auto i = static_cast<std::size_t>(a);
+    const std::string ax = std::string("[") + axis(a) + "]";
+    if (fluid.domain.periodic[i] != dem.periodic[i])
+      throw ConfigError("domain.periodic" + ax + " = " + (fluid.domain.periodic[i] ? "true" : "false") + " but " +
+                        k.dem_periodic + ax + " = " + (dem.periodic[i] ? "true" : "false") +
                         ": the fluid's particle images and the DEM's must wrap on the same axes; set both to " +
-                        (dem.periodic[k] ? "true" : "false"));
-    if (!fluid.domain.periodic[k]) continue;
-    const double n = static_cast<double>(fluid.domain.global[k]);
-    if (std::abs(dem.lo[k]) > 1e-9 || std::abs(dem.hi[k] - n) > 1e-9)
-      throw ConfigError(std::string("dem.lo[") + axis(a) + "], dem.hi[" + axis(a) + "] = " + num(dem.lo[k]) + ", " +
-                        num(dem.hi[k]) + ": on a periodic axis the DEM box must be the lattice's, [0, " + num(n) +
-                        ") in lattice units (particles wrap at the same length in the fluid and in the DEM); use dem.lo[" +
-                        axis(a) + "] = 0, dem.hi[" + axis(a) + "] = " + num(n));
+                        (dem.periodic[i] ? "true" : "false"));
+    if (!fluid.domain.periodic[i]) continue;
+    const double n = static_cast<double>(fluid.domain.global[i]);
+    if (std::abs(dem.lo[i]) > 1e-9 || std::abs(dem.hi[i] - n) > 1e-9)
+      throw ConfigError(k.dem_lo + ax + ", " + k.dem_hi + ax + " = " + num(dem.lo[i]) + ", " + num(dem.hi[i]) +
+                        ": on a periodic axis the DEM box must be the lattice's, [0, " + num(n) +
+                        ") in lattice units (particles wrap at the same length in the fluid and in the DEM); use " +
+                        k.dem_lo + ax + " = 0, " + k.dem_hi + ax + " = " + num(n));
   }
   if (!(fluid.tau > 0.5))
     throw ConfigError("fluid.tau = " + num(fluid.tau) + ": must be > 0.5 (viscosity (tau - 1/2)/3 > 0)");
@@ -166,11 +168,12 @@ CoupledScales check_coupled_setup(const lbm::LbmSetup& fluid, const dem::DemPara
 
   // 2. DEM sub-steps against the shortest contact.
   if (cp.dem_substeps < s.min_substeps)
-    throw ConfigError("coupling.dem_substeps = " + std::to_string(cp.dem_substeps) + " gives a DEM time step of " +
+    throw ConfigError(k.dem_substeps + " = " + std::to_string(cp.dem_substeps) + " gives a DEM time step of " +
                       num(1.0 / cp.dem_substeps) + " (lattice units) but the shortest contact lasts t_c = " +
                       num(s.collision_time) + " and needs at least " + num(dem.min_steps_per_collision) +
-                      " DEM steps; use coupling.dem_substeps >= " + std::to_string(s.min_substeps) +
-                      " (with dem.dt = 1/" + std::to_string(s.min_substeps) + ") or soften the contacts (material.stiffness)");
+                      " DEM steps; use " + k.dem_substeps + " >= " + std::to_string(s.min_substeps) + " (with " +
+                      k.dem_dt + " = 1/" + std::to_string(s.min_substeps) + ") or soften the contacts (" + k.stiffness +
+                      ")");
 
   // 3. Velocity scale: Mach number and cell Reynolds number.
   const double u_mach = lim.max_mach / std::sqrt(3.0);
@@ -180,7 +183,7 @@ CoupledScales check_coupled_setup(const lbm::LbmSetup& fluid, const dem::DemPara
       what = "particles: particle id " + std::to_string(s.fastest_id) + " starts at speed |v| + |w| r = " +
              num(s.particle_speed) + " (lattice units)";
     } else if (s.u_ref == s.settling_speed) {
-      what = "coupling.gravity = " + vec(cp.gravity.data()) + ": particle id " + std::to_string(s.settling_id) +
+      what = k.gravity + " = " + vec(cp.gravity.data()) + ": particle id " + std::to_string(s.settling_id) +
              " would settle at about " + num(s.settling_speed) + " relative to the fluid (Schiller-Naumann terminal speed)";
     } else {
       what = "fluid.boundaries: a velocity boundary moves at " + num(s.wall_speed);
@@ -215,7 +218,7 @@ CoupledScales check_coupled_setup(const lbm::LbmSetup& fluid, const dem::DemPara
                                    ? "the initial speed of particle id " + std::to_string(s.fastest_id)
                                    : s.u_ref == s.settling_speed
                                          ? "the settling speed of particle id " + std::to_string(s.settling_id) +
-                                               " under coupling.gravity"
+                                               " under " + k.gravity
                                          : "a velocity boundary";
     throw ConfigError("fluid.tau = " + num(fluid.tau) + " (nu = " + num(s.nu) + "): with the velocity scale u = " +
                       num(s.u_ref) + " (" + source + ") the cell Reynolds number u dx / nu = " + num(s.cell_reynolds) +
@@ -262,11 +265,11 @@ CoupledScales check_coupled_setup(const lbm::LbmSetup& fluid, const dem::DemPara
     scale += norm3(fluid.body_force.data()) * total;
     if (scale > 0 && norm3(net) > lim.max_force_imbalance * scale) {
       const double mass = cp.fluid_density * total + solid_mass;
-      throw ConfigError("fluid.body_force = " + vec(fluid.body_force.data()) +
+      throw ConfigError(k.body_force + " = " + vec(fluid.body_force.data()) +
                         " does not balance the particles' net weight in this fully periodic domain: the net force " +
                         vec(net) + " accelerates the whole system by " + num(norm3(net) / mass) +
                         " per step without bound (Mach limit reached after about " +
-                        num(u_mach / (norm3(net) / mass)) + " steps); use fluid.body_force = " + vec(fix) +
+                        num(u_mach / (norm3(net) / mass)) + " steps); use " + k.body_force + " = " + vec(fix) +
                         " (balancing_body_force(), first paper Sec. 2)");
     }
   }

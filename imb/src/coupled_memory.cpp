@@ -28,12 +28,10 @@ std::int64_t id_of(const dem::HostParticles& p, std::size_t i) {
 }  // namespace
 
 void check_particles_mach(const Config& root, const lbm::LbmSetup& fluid, const dem::DemParams& dem,
-                          const dem::HostParticles& p, double fluid_density, const std::array<double, 3>& gravity,
-                          double max_mach) {
+                          const dem::HostParticles& p, const CoupledParams& cp, double max_mach) {
   if (!(fluid.tau > 0.5) || p.x.empty()) return;
-  CoupledParams cp;
-  cp.gravity = gravity;
-  cp.fluid_density = fluid_density;
+  const double fluid_density = cp.fluid_density;
+  const auto& gravity = cp.gravity;
   const CoupledScales s = coupled_scales(fluid, dem, p, cp);
   if (!(s.mach > max_mach)) return;
   const double u_max = max_mach / std::sqrt(3.0);
@@ -61,11 +59,11 @@ void check_particles_mach(const Config& root, const lbm::LbmSetup& fluid, const 
     std::string tau_way = thi <= 5.0 ? "raise fluid.tau to at least " + num(thi) + " (a more viscous fluid settles it slower)"
                                      : "fluid.tau would have to exceed its limit 5";
     throw ConfigError(head + "particle id " + std::to_string(s.settling_id) + " would settle at about " +
-                      num(s.settling_speed) + " cells per step under physics.gravity (Schiller-Naumann terminal "
-                      "speed). Any one of: lower |physics.gravity| to at most " + num(glo) +
-                      " (lattice units; it scales with dt^2, so a smaller lattice time step lowers it); " + tau_way +
-                      "; a lower particles.density_ratio; a finer grid (a larger particles.diameter in cells for the "
-                      "same particle lowers the lattice speeds)");
+                      num(s.settling_speed) + " cells per step under " + cp.keys.gravity +
+                      " (Schiller-Naumann terminal speed). Any one of: lower |" + cp.keys.gravity + "| to at most " +
+                      num(glo) + " (lattice units; it scales with dt^2, so a smaller lattice time step lowers it); " +
+                      tau_way + "; a lower " + cp.keys.density + "; a finer grid (a larger particles.diameter in "
+                      "cells for the same particle lowers the lattice speeds)");
   }
   if (s.u_ref == s.particle_speed) {
     throw ConfigError(head + "particle id " + std::to_string(s.fastest_id) + " starts at |v| + |w| r = " +
@@ -111,8 +109,9 @@ void check_coupled_memory(const Config& root, const lbm::LbmSetup& fluid, const 
   const lbm::LbmSetup mine = rank_fluid(root, fluid);
   const double piece_cells = static_cast<double>(mine.domain.storage_cells());
   // Absurd sizes first, in double (the exact sum below is in 64-bit integers).
+  const std::string keys = cp.keys.cells + ", particles";
   check_memory(root, b, lbm_grid_bytes(mine, piece_cells) + particles * kDemDeviceBytesPerParticle,
-               piece_cells * (1 + 4 * sizeof(double)) + particles * kDemHostBytesPerParticle, "domain.cells, particles",
+               piece_cells * (1 + 4 * sizeof(double)) + particles * kDemHostBytesPerParticle, keys,
                "the grid of " + num(cells) + " cells with " + num(particles) + " particles",
                "use fewer cells or particles" + or_fp32(fluid));
   const MemoryUse m = coupled_memory(mine, cp, particles, b, snapshots);
@@ -127,7 +126,7 @@ void check_coupled_memory(const Config& root, const lbm::LbmSetup& fluid, const 
   // Host: the set-up fields of the piece (flag byte, rho, u per cell) and the particles' host copies.
   check_memory(root, b, static_cast<double>(m.total()),
                piece_cells * (1 + 4 * sizeof(double)) + particles * kDemHostBytesPerParticle + pinned,
-               snapshots.background ? "domain.cells, particles, output.background" : "domain.cells, particles",
+               snapshots.background ? keys + ", output.background" : keys,
                "the grid of " + num(cells) + " cells with " + num(particles) + " particles (" +
                    num(static_cast<double>(m.total()) / piece_cells) + " B/cell: " + parts + ")" +
                    (mine.domain.storage_cells() < fluid.domain.storage_cells()

@@ -12,7 +12,7 @@ namespace lbdem::imb {
 
 dem::DemDomain coupled_domain(const std::string& source, const lbm::LbmSetup& fluid, int dim, const dem::DemParams& dp,
                                const std::vector<double>& radii, const halo::ParallelOptions& parallel,
-                               const halo::Comm& comm) {
+                               const halo::Comm& comm, const CoupledKeys& keys) {
   const halo::Decomposition dec =
       halo::decompose(fluid.domain, comm.size(), parallel.decomposition, "parallel.decomposition");
   dem::DemDomain dom = dem::domain_from_decomposition(comm, dec, dp);
@@ -36,7 +36,7 @@ dem::DemDomain coupled_domain(const std::string& source, const lbm::LbmSetup& fl
                           std::string(1, char('x' + a)) + " into a piece of " + std::to_string(cut[i + 1] - cut[i]) +
                           " cells, thinner than the particles' ghost width 2 r + skin = " + std::to_string(w) +
                           " cells (a particle's contact partners and its cells must lie in the neighbouring pieces): "
-                          "use fewer ranks along " + std::string(1, char('x' + a)) + " or a larger domain.cells");
+                          "use fewer ranks along " + std::string(1, char('x' + a)) + " or a larger " + keys.cells);
   }
   return dom;
 }

@@ -53,7 +53,7 @@ double sangani_acrivos_cylinders(double c) {
 
 FixedSphereResult run_fixed_sphere(const FixedSphereSpec& c, Backend b) {
   const bool d3 = c.dim == 3;
-  if (c.dim != 2 && c.dim != 3) throw ConfigError("fixed_sphere.dim = " + std::to_string(c.dim) + ": must be 2 or 3");
+  if (c.dim != 2 && c.dim != 3) throw ConfigError(c.keys.dim + " = " + std::to_string(c.dim) + ": must be 2 or 3");
   auto num = [](double v) {
     std::ostringstream o;
     o.precision(7);
@@ -69,7 +69,7 @@ FixedSphereResult run_fixed_sphere(const FixedSphereSpec& c, Backend b) {
       if (zick_homsy_chi(p.phi) > 0.75)
         points += (points.empty() ? "" : ", ") + num(std::round(zick_homsy_chi(p.phi) * 1e4) / 1e4) + " (phi " +
                   num(p.phi) + ")";
-    throw ConfigError("fixed_sphere.chi = " + num(c.chi) +
+    throw ConfigError(c.keys.chi + " = " + num(c.chi) +
                       ": must be in (0, 0.75] (range of the reference, Sangani & Acrivos's series)" +
                       (d3 ? " or, within " + num(kZickHomsyChiTolerance) +
                                 ", a dense point tabulated by Zick & Homsy (1982): " + points
@@ -78,7 +78,7 @@ FixedSphereResult run_fixed_sphere(const FixedSphereSpec& c, Backend b) {
   const long L = std::lround(c.diameter / c.chi);
   if (L < 4) throw ConfigError("fixed_sphere: period L = d/chi = " + std::to_string(L) + " cells: must be >= 4");
   if (dense && std::isnan(zick_homsy_K(c.diameter / double(L))))
-    throw ConfigError("fixed_sphere.diameter = " + num(c.diameter) + " with fixed_sphere.chi = " + num(c.chi) +
+    throw ConfigError(c.keys.diameter + " = " + num(c.diameter) + " with " + c.keys.chi + " = " + num(c.chi) +
                       ": the period L = round(d / chi) = " + std::to_string(L) + " cells makes d / L = " +
                       num(c.diameter / double(L)) + ", off the tabulated point by more than " +
                       num(kZickHomsyChiTolerance) + ": use d = " + num(c.chi) + " * L, e.g. " +
@@ -91,7 +91,7 @@ FixedSphereResult run_fixed_sphere(const FixedSphereSpec& c, Backend b) {
   // period of 2L per axis holding a sphere at the same place in each L-cell:
   // the flow stays L-periodic, and every sum below is per sphere.
   if (c.periods < 0 || c.periods > 4)
-    throw ConfigError("fixed_sphere.periods = " + std::to_string(c.periods) + ": must be 0 (as needed) or 1-4");
+    throw ConfigError(c.keys.periods + " = " + std::to_string(c.periods) + ": must be 0 (as needed) or 1-4");
   const long rep = c.periods > 0 ? c.periods : static_cast<long>(std::floor(2.0 * a)) + 2 > L ? 2 : 1;
   const long M = rep * L;  // cells per axis of the simulated domain
   const int spheres = static_cast<int>(d3 ? rep * rep * rep : rep * rep);

@@ -41,7 +41,7 @@ const char* to_string(PsmPipeline p) {
   return "?";
 }
 
-PsmPipeline resolve_pipeline(const PsmOptions& o, int K) {
+PsmPipeline resolve_pipeline(const PsmOptions& o, int K, const std::string& slots_key) {
   if (o.pipeline == PsmPipeline::Mapped) return PsmPipeline::Mapped;
   std::string why;
   if (o.map.method == FractionMethod::Exact)
@@ -49,7 +49,7 @@ PsmPipeline resolve_pipeline(const PsmOptions& o, int K) {
   else if (o.map.table_in_constant)
     why = "psm.table_in_constant = true (the fused kernel reads the table from global memory)";
   else if (K > kFusedMaxSlots)
-    why = "coupling.slots (K) = " + std::to_string(K) + " > " + std::to_string(kFusedMaxSlots);
+    why = slots_key + " (K) = " + std::to_string(K) + " > " + std::to_string(kFusedMaxSlots);
   if (why.empty()) return PsmPipeline::Fused;
   if (o.pipeline == PsmPipeline::Fused)
     throw ConfigError("psm.pipeline = fused does not apply with " + why + "; use psm.pipeline: mapped or auto");

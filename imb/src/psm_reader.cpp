@@ -56,7 +56,7 @@ void read_psm(const Config& ps, PsmOptions& o, int& slots, double& max_drag_erro
     PsmOptions probe = o;
     if (probe.map.method == FractionMethod::Table) probe.map.table = nullptr;
     try {
-      (void)resolve_pipeline(probe, slots);
+      (void)resolve_pipeline(probe, slots, ps.full_key("slots"));
     } catch (const ConfigError& e) {
       ps.fail("pipeline", e.what());
     }

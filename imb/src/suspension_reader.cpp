@@ -99,8 +99,9 @@ SuspensionParticles read_suspension_particles(const Config& root, const Config& 
     // particles whatever the rank count, each rank packing only its own).
     const bool blocks = pc.choice("packing", "lattice", {"lattice", "blocks"}) == "blocks";
     if (blocks) {
-      if (dim == 3) check_particles_random(root, pc, s, rs.lo, rs.hi, rs.periodic, rs.solid_fraction, r, ctx.backend);
-      else check_particles_memory(root, s, double(count), ctx.backend);
+      if (dim == 3)
+        check_particles_random(root, ctx.keys, pc, s, rs.lo, rs.hi, rs.periodic, rs.solid_fraction, r, ctx.backend);
+      else check_particles_memory(root, ctx.keys, s, double(count), ctx.backend);
       dem::BlockPackingSpec bs;
       bs.dim = dim;
       bs.lo = rs.lo;
@@ -116,11 +117,11 @@ SuspensionParticles read_suspension_particles(const Config& root, const Config& 
       bs.displace = !ctx.validate_only;
       c.blocks = bs;
     } else if (dim == 3) {
-      check_particles_random(root, pc, s, rs.lo, rs.hi, rs.periodic, rs.solid_fraction, r, ctx.backend);
+      check_particles_random(root, ctx.keys, pc, s, rs.lo, rs.hi, rs.periodic, rs.solid_fraction, r, ctx.backend);
       rs.displace = !ctx.validate_only;  // lbdem check: lattice sites (dem/init.hpp)
       c.particles = dem::random_packing(rs);
     } else {
-      check_particles_memory(root, s, double(count), ctx.backend);
+      check_particles_memory(root, ctx.keys, s, double(count), ctx.backend);
       c.particles = dem::random_disks(rs.lo, rs.hi, rs.periodic, count, r, rho_s, seed,
                                       pc.full_key(pc.has("count") ? "count" : "solid_fraction"));
     }
@@ -168,19 +169,20 @@ void coupled_dem_box(dem::DemParams& p, const Grid& grid, int dim, double diamet
 }
 
 // ----------------------------------------------------------------- checks
-void check_particles_memory(const Config& root, const lbm::LbmSetup& fluid, double particles, Backend backend) {
+void check_particles_memory(const Config& root, const CoupledKeys& keys, const lbm::LbmSetup& fluid, double particles,
+                            Backend backend) {
   double cells = 1;
   for (int a = 0; a < 3; ++a) cells *= static_cast<double>(fluid.domain.global[static_cast<std::size_t>(a)]);
   const double dev = lbm::rank_grid_bytes(root, fluid) + particles * kDemDeviceBytesPerParticle;
   // Host: the set-up fields of initialize() (flags, rho, u), the particles' host copies.
   const double host = cells * (1 + 4 * sizeof(double)) + particles * kDemHostBytesPerParticle;
-  check_memory(root, backend, dev, host, particles > 0 ? "domain.cells, particles.solid_fraction" : "domain.cells",
+  check_memory(root, backend, dev, host, particles > 0 ? keys.cells + ", particles.solid_fraction" : keys.cells,
                "the grid of " + num(cells) + " cells" + (particles > 0 ? " with about " + num(particles) + " particles" : ""),
                "use fewer cells" + std::string(particles > 0 ? ", a lower solid fraction or larger particles" : "") +
                    lbm::or_fp32(fluid));
 }
 
-void check_particles_random(const Config& root, const Config& pc, const lbm::LbmSetup& fluid,
+void check_particles_random(const Config& root, const CoupledKeys& keys, const Config& pc, const lbm::LbmSetup& fluid,
                             const std::array<double, 3>& lo, const std::array<double, 3>& hi,
                             const std::array<bool, 3>& periodic, double solid_fraction, double r, Backend backend) {
   // The key is particles.diameter here.
@@ -190,45 +192,49 @@ void check_particles_random(const Config& root, const Config& pc, const lbm::Lbm
       throw ConfigError(pc.where("diameter") + ": key 'particles.diameter' = " + pc.value_text("diameter") +
                         ": the particles do not fit the box along " + axis_name(a) + " (" + num(hi[k] - lo[k]) +
                         " cells" + (periodic[k] ? ", periodic" : "") +
-                        ", domain.cells); use smaller particles or more cells");
+                        ", " + keys.cells + "); use smaller particles or more cells");
   }
-  check_particles_memory(root, fluid, dem::random_packing_count(lo, hi, solid_fraction, r), backend);
+  check_particles_memory(root, keys, fluid, dem::random_packing_count(lo, hi, solid_fraction, r), backend);
 }
 
 void check_particles_scene(const Config& root, const lbm::LbmSetup& fluid, const dem::DemParams& dem,
-                           const dem::HostParticles& p, const std::array<double, 3>& gravity, bool balance,
-                           int dem_substeps, long steps, Backend backend, bool force, const std::string& steps_key) {
+                           const dem::HostParticles& p, const CoupledParams& cp, bool balance, long steps,
+                           Backend backend, bool force, const std::string& steps_key) {
   const int dim = fluid.lattice == lbm::LatticeKind::D2Q9 ? 2 : 3;
-  dem::ParticleBox box = dem::particle_box(dem, dim, "domain.cells", "the wall");
+  const CoupledKeys& k = cp.keys;
+  const auto& gravity = cp.gravity;
+  const int dem_substeps = cp.dem_substeps;
+  dem::ParticleBox box = dem::particle_box(dem, dim, k.cells, "the wall");
   dem::check_particles_in_box(root, p, box);
   dem::check_particle_overlaps(root, p, box);
   bool periodic = true;
   for (int a = 0; a < dim; ++a) periodic = periodic && fluid.domain.periodic[static_cast<std::size_t>(a)];
   const double g = std::sqrt(gravity[0] * gravity[0] + gravity[1] * gravity[1] + gravity[2] * gravity[2]);
   if (periodic && !balance && g > 0)
-    throw ConfigError(root.source() + ": key 'physics.balance_weight' = false with physics.gravity = " +
+    throw ConfigError(root.source() + ": key 'physics.balance_weight' = false with " + k.gravity + " = " +
                       vec({gravity[0], gravity[1], gravity[2]}, 3) +
                       " in a fully periodic domain: nothing holds the particles' weight, and the whole system "
                       "accelerates without bound until the Mach limit; set physics.balance_weight: true (a fluid body "
-                      "force balances the weight, first paper Sec. 2) or physics.gravity: [0, 0, 0]");
+                      "force balances the weight, first paper Sec. 2) or " + k.gravity + ": [0, 0, 0]");
   // DEM sub-steps against the shortest contact, in double (a stiffness of
   // 1e30 asks for more sub-steps than an int holds).
   const double tc = dem::min_collision_time(dem, p);
   if (std::isfinite(tc) && tc > 0 && double(dem_substeps) * tc < dem.min_steps_per_collision * (1 - 1e-12)) {
     const double need = std::ceil(dem.min_steps_per_collision / tc - 1e-9);
-    throw ConfigError(root.source() + ": key 'dem.substeps' = " + std::to_string(dem_substeps) +
+    throw ConfigError(root.source() + ": key '" + k.dem_substeps + "' = " + std::to_string(dem_substeps) +
                       ": the DEM time step 1/" + std::to_string(dem_substeps) +
-                      " (lattice units) is too long for the shortest contact, t_c = " + num(tc) + " (from dem.stiffness "
-                      "and the particle masses), which needs at least " + num(dem.min_steps_per_collision) +
-                      " DEM steps: use dem.substeps >= " + num(need) +
-                      (need > 100000 ? " (beyond its limit 100000: soften dem.stiffness)" : " or soften dem.stiffness"));
+                      " (lattice units) is too long for the shortest contact, t_c = " + num(tc) + " (from " +
+                      k.stiffness + " and the particle masses), which needs at least " +
+                      num(dem.min_steps_per_collision) + " DEM steps: use " + k.dem_substeps + " >= " + num(need) +
+                      (need > 100000 ? " (beyond its limit 100000: soften " + k.stiffness + ")"
+                                     : " or soften " + k.stiffness));
   }
-  check_particles_mach(root, fluid, dem, p, 1.0, gravity, CoupledLimits{}.max_mach);
+  check_particles_mach(root, fluid, dem, p, cp, CoupledLimits{}.max_mach);
   double cells = 1;
   for (int a = 0; a < 3; ++a) cells *= static_cast<double>(fluid.domain.global[static_cast<std::size_t>(a)]);
   const double n = static_cast<double>(p.x.size());
   check_memory(root, backend, lbm::rank_grid_bytes(root, fluid) + n * kDemDeviceBytesPerParticle,
-               cells * (1 + 4 * sizeof(double)) + n * kDemHostBytesPerParticle, "domain.cells, particles",
+               cells * (1 + 4 * sizeof(double)) + n * kDemHostBytesPerParticle, k.cells + ", particles",
                "the grid of " + num(cells) + " cells with " + num(n) + " particles",
                "use fewer cells or particles" + lbm::or_fp32(fluid));
   check_plan(root, force, double(steps), cells, n * dem_substeps, steps_key);

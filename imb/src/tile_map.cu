@@ -142,7 +142,7 @@ TileMap::TileMap(Backend b, const Grid& grid, int K, int capacity, int overflow_
     : backend_(b), grid_(grid), shape_(TileShape::for_dim(grid.dim())), K_(K), capacity_(capacity),
       log_cap_(std::max(overflow_log, 1)), scratch_(std::make_shared<Scratch>()) {
   if (K_ < 1 || K_ > kFusedMaxSlots)
-    throw ConfigError("coupling.slots (K) = " + std::to_string(K_) + ": the fused PSM pipeline keeps 1.." +
+    throw ConfigError("TileMap: K (slots per cell) = " + std::to_string(K_) + ": the fused PSM pipeline keeps 1.." +
                       std::to_string(kFusedMaxSlots) + " slots per cell; use psm.pipeline: mapped for more");
   if (capacity_ < 1 || capacity_ > kFusedMaxCapacity)
     throw ConfigError("psm.tile_capacity = " + std::to_string(capacity_) + ": must be in 1.." +

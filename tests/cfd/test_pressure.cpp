@@ -256,7 +256,7 @@ TEST(PressureLevels, BadInputNamesKey) {
   p.faces[5].kind = FaceKind::Outlet;
   p.pressure_solver = PressureSolverKind::Multigrid;
   try {
-    validate(p, g, "gas");
+    validate(p, g);
     FAIL() << "no error";
   } catch (const ConfigError& e) {
     const std::string m = e.what();
@@ -264,7 +264,7 @@ TEST(PressureLevels, BadInputNamesKey) {
     EXPECT_NE(m.find("5 cells"), std::string::npos) << m;
   }
   p.pressure_solver = PressureSolverKind::Cg;
-  EXPECT_NO_THROW(validate(p, g, "gas"));
+  EXPECT_NO_THROW(validate(p, g));
 }
 
 // Particles in a bed, moving, uploaded for each step.

@@ -347,6 +347,44 @@ TEST(PsmHardRefusal, PaperCaseMisconfigurationsRefused) {
   }
 }
 
+// The same refusals with the keys a scene hands the checks (CoupledParams::keys,
+// here the particles scene's) name those keys and none of the fields' names.
+TEST(PsmHardRefusal, MessagesNameTheKeysTheSceneGives) {
+  imb::CoupledKeys k;
+  k.dem_substeps = "dem.substeps";
+  k.dem_dt = "the DEM time step";
+  k.gravity = k.dem_gravity = "physics.gravity";
+  k.dem_periodic = "domain.periodic";
+  k.dem_lo = k.dem_hi = "domain.cells";
+  k.stiffness = "dem.stiffness";
+  k.body_force = "physics.balance_weight";
+  const std::vector<std::pair<std::function<void(Scene&)>, std::vector<std::string>>> spoilt = {
+      {[](Scene& s) { set_substeps(s, 1); },
+       {"dem.substeps = 1 gives", "use dem.substeps >= 5 (with the DEM time step = 1/5) or soften the contacts "
+                                  "(dem.stiffness)"}},
+      {[](Scene& s) { s.dem.dt = 0.5; }, {"the DEM time step = 0.5 (lattice units) with dem.substeps = 5"}},
+      {[](Scene& s) { s.fluid.body_force = {0, 0, 0}; },
+       {"physics.balance_weight = (0, 0, 0)", "use physics.balance_weight = (0, 4.15693e-05, 0)"}},
+      {[](Scene& s) { s.coupling.gravity = {0, 0, 0}; }, {"physics.gravity = (0, 0, 0) differs from physics.gravity"}},
+      {[](Scene& s) { s.dem.periodic[1] = false; }, {"domain.periodic[y] = true but domain.periodic[y] = false"}},
+      {[](Scene& s) { s.dem.hi[2] = 31; }, {"domain.cells[z], domain.cells[z] = 0, 31", "use domain.cells[z] = 0"}},
+  };
+  for (const auto& [spoil, fragments] : spoilt) {
+    Scene s = paper_scene();
+    s.coupling.keys = k;
+    spoil(s);
+    expect_refused(s, fragments);
+    try {
+      imb::check_coupled_setup(s.fluid, s.dem, s.particles, s.coupling);
+    } catch (const ConfigError& e) {
+      const std::string m = e.what();
+      for (const char* field : {"coupling.", "material.", "fluid.body_force", "dem.dt", "dem.gravity", "dem.lo",
+                                "dem.hi", "dem.periodic"})
+        EXPECT_EQ(m.find(field), std::string::npos) << m;
+    }
+  }
+}
+
 // ---------------------------------------------------------------------------
 // 3. A random packing at solid fraction 0.5 (d/l = 8, 29 spheres, 25^3 cells:
 // phi = 0.4976), paper material and gravity with the balancing body force,

@@ -4,8 +4,8 @@
 // deposition, the minimum gas fraction, an initial velocity, the six faces'
 // boundaries (periodic, no_slip, free_slip, inlet with an optional patch,
 // outlet) and the pressure solver. The gas memory is checked before anything
-// is built (core/run_checks.hpp). Messages name the key as written
-// (Config::fail); GasParams' own validation (cfd::validate) is the caller's.
+// is built (core/run_checks.hpp), and the result by cfd::validate. Messages
+// name the key as written (Config::fail; cfd::GasKeys for validate's).
 #include <array>
 
 #include "cfd/gas_grid.hpp"

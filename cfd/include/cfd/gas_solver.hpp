@@ -89,9 +89,20 @@ struct GasParams {
   bool pressure_graphs = true;
 };
 
-// Refuses inconsistent parameters with ConfigError naming the key under
-// `prefix` (e.g. "gas.dt"), the value and what is valid.
-void validate(const GasParams& p, const GasGridView& g, const std::string& prefix = "gas");
+// The names validate() gives the parameters: the keys a reader set them from,
+// as written (cfd::read_gas: gas.density, gas.pressure_solver.tolerance); by
+// default the fields' names under "gas".
+struct GasKeys {
+  std::string rho = "gas.rho", mu = "gas.mu", dt = "gas.dt", min_gas_fraction = "gas.min_gas_fraction";
+  std::string cg_max_iterations = "gas.cg_max_iterations", cg_tolerance = "gas.cg_tolerance",
+              cg_poll_every = "gas.cg_poll_every", pressure_solver = "gas.pressure_solver";
+  std::string boundaries = "gas.boundaries";  // its faces: boundaries.x_lo, ...
+};
+
+// Refuses inconsistent parameters with ConfigError naming the key (`keys`),
+// the value and what is valid; the message starts with "where: " when `where`
+// (the case file) is given.
+void validate(const GasParams& p, const GasGridView& g, const GasKeys& keys = {}, const std::string& where = "");
 
 // Wall time of the phases of step() [s], accumulated when a solver is asked
 // to time them (benchmarks): the void fraction (deposition and gas

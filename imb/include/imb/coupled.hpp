@@ -49,6 +49,7 @@
 // itself reads (its rebuild flag, dem/system.hpp).
 #include <array>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "core/phase_clock.hpp"
@@ -61,6 +62,25 @@
 
 namespace lbdem::imb {
 
+// The names the checks and messages of a coupled run give its parameters
+// (imb/coupled_checks.hpp, imb/coupled_memory.hpp, the slot overflow): a
+// scene's readers fill in the keys its case file sets them with, as the user
+// wrote them (Config::full_key: dem.substeps, physics.gravity, psm.slots); the
+// defaults are the names of the C++ fields, for library users and tests.
+struct CoupledKeys {
+  std::string dem_substeps = "coupling.dem_substeps";
+  std::string dem_dt = "dem.dt";  // a scene that sets it by dem_substeps names it in words
+  std::string gravity = "coupling.gravity";
+  std::string dem_gravity = "dem.gravity";
+  std::string dem_periodic = "dem.periodic";
+  std::string dem_lo = "dem.lo", dem_hi = "dem.hi";
+  std::string slots = "coupling.slots";
+  std::string stiffness = "material.stiffness";
+  std::string body_force = "fluid.body_force";
+  std::string cells = "domain.cells";                // the grid's size
+  std::string density = "particles.density_ratio";  // the particles' density
+};
+
 struct CoupledParams {
   int dem_substeps = 1;                       // DEM steps per fluid step (DEM dt = 1/N)
   std::array<double, 3> gravity{0, 0, 0};     // lattice units; must equal the DEM's gravity
@@ -69,6 +89,7 @@ struct CoupledParams {
   int slots = 4;                              // K: overlap slots per cell
   PsmOptions psm;
   long overflow_check_every = 100;            // steps between slot-overflow reads
+  CoupledKeys keys;                           // what messages call the above
 };
 
 // Body force per unit volume on the fluid that balances the particles' net

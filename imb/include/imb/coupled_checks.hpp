@@ -1,8 +1,9 @@
 #pragma once
 // Up-front checks of a coupled PSM-DEM set-up (imb/coupled.hpp): a case that
 // would blow up, or silently compute something else, is refused before the
-// first step with a ConfigError that names the parameter, its value, the
-// reason and a value that would work.
+// first step with a ConfigError that names the parameter (by the key the
+// case file set it with, CoupledParams::keys), its value, the reason and a
+// value that would work.
 //
 // Everything is in lattice units (dx = dt_fluid = 1, fluid density
 // CoupledParams::fluid_density), as CoupledSolver expects.
@@ -18,7 +19,7 @@
 //     a gain rho_f sum(B) / m that exceeds 2 when rho_s / rho_f < sum(B) / 2V);
 //  3. DEM sub-steps: the shortest contact (dem/contact.hpp t_c) must span at
 //     least DemParams::min_steps_per_collision DEM steps; the message names
-//     coupling.dem_substeps and the smallest count that works;
+//     the sub-step count's key and the smallest count that works;
 //  4. a velocity scale u_ref of the case (CoupledScales below: fastest
 //     initial particle surface speed, largest settling speed under gravity
 //     relative to the fluid, fastest boundary velocity) against

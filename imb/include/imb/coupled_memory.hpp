@@ -16,10 +16,10 @@ namespace lbdem::imb {
 
 // The resolved particle scene (lattice units): the Mach number of its
 // velocity scale (coupled_scales) with the key that set it and every
-// way out; refuses before check_coupled_setup() would.
+// way out; refuses before check_coupled_setup() would. Messages name
+// cp.keys.
 void check_particles_mach(const Config& root, const lbm::LbmSetup& fluid, const dem::DemParams& dem,
-                          const dem::HostParticles& p, double fluid_density, const std::array<double, 3>& gravity,
-                          double max_mach);
+                          const dem::HostParticles& p, const CoupledParams& cp, double max_mach);
 
 // Device memory of a coupled run by component, before anything is allocated:
 // the fluid's (lbm::lbm_memory), the PSM coupling's (psm_memory, for
@@ -36,8 +36,9 @@ struct SnapshotMemory {
 MemoryUse coupled_memory(const lbm::LbmSetup& fluid, const CoupledParams& cp, double particles, Backend b,
                          SnapshotMemory snapshots = {});
 // Refuses (ResourceError, exit 4) a coupled run whose coupled_memory() does
-// not fit the backend's free memory, naming the biggest components; the
-// host side counts the background snapshots' page-locked host array.
+// not fit the backend's free memory, naming the biggest components and
+// cp.keys.cells; the host side counts the background snapshots' page-locked
+// host array.
 void check_coupled_memory(const Config& root, const lbm::LbmSetup& fluid, const CoupledParams& cp,
                           double particles, Backend b, SnapshotMemory snapshots = {});
 

@@ -17,8 +17,9 @@
 namespace lbdem::imb {
 
 // The particles of a run on several ranks, cut where the grid is cut
-// (imb/coupled.hpp): refuses (naming the case file `source`), before anything
-// is allocated, a cut the coupling cannot run on. A piece must be at least the DEM's ghost width
+// (imb/coupled.hpp): refuses (naming the case file `source` and the grid's
+// size by keys.cells), before anything is allocated, a cut the coupling cannot
+// run on. A piece must be at least the DEM's ghost width
 // 2 r_max + skin thick, and the ghosts, kept within 2 r + skin of a piece at
 // each list build and moving at most skin / 2 before the next, must reach
 // every particle whose solid fraction can touch a cell of the piece or its
@@ -27,7 +28,7 @@ namespace lbdem::imb {
 // cell beyond the piece. So r + skin / 2 >= 0.1 r + sqrt(dim) / 2 + 1.
 dem::DemDomain coupled_domain(const std::string& source, const lbm::LbmSetup& fluid, int dim, const dem::DemParams& dp,
                                const std::vector<double>& radii, const halo::ParallelOptions& parallel,
-                               const halo::Comm& comm);
+                               const halo::Comm& comm, const CoupledKeys& keys = {});
 
 // summary.json "timing": per phase of the coupled step the total seconds of
 // each rank, as the max and the mean over the ranks (CoupledSolver

@@ -87,6 +87,13 @@ struct FixedSphereSpec {
   // section: decomposition, transport) and every rank returns the same result.
   const halo::Comm* comm = nullptr;
   halo::ParallelOptions parallel;
+  // The names its refusals give dim, diameter, chi and periods: the keys a
+  // scene read them from, as written (the scene: geometry.chi); by default
+  // these fields'.
+  struct Keys {
+    std::string dim = "fixed_sphere.dim", diameter = "fixed_sphere.diameter", chi = "fixed_sphere.chi",
+                periods = "fixed_sphere.periods";
+  } keys;
 };
 
 struct FixedSphereResult {

@@ -4,6 +4,7 @@
 // on the solver's backend; nothing is allocated per step.
 #include <array>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "core/buffer.hpp"
@@ -71,8 +72,9 @@ struct PsmOptions {
 };
 
 // The pipeline a step with these options and K slots per cell runs; throws
-// ConfigError (naming the key) if Fused is asked for where it does not apply.
-PsmPipeline resolve_pipeline(const PsmOptions& o, int K);
+// ConfigError (naming the key; `slots_key` is K's) if Fused is asked for where
+// it does not apply.
+PsmPipeline resolve_pipeline(const PsmOptions& o, int K, const std::string& slots_key = "coupling.slots");
 const char* to_string(PsmPipeline p);
 
 class PsmCoupling {

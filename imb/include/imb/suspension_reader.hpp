@@ -6,7 +6,9 @@
 // scene's checks of its particles (memory, fit in the box, overlaps, DEM
 // sub-steps, Mach number, the plan). With `units: physical` the SI values go
 // through `Units` (imb/physical_units.hpp); in lattice units it is the
-// identity. Messages name the key as the user wrote it.
+// identity. Messages name the key as the user wrote it: Config::fail, and
+// CoupledKeys (imb/coupled.hpp) for what another section sets (the grid's
+// size is domain.cells or domain.size).
 #include <array>
 #include <optional>
 #include <string>
@@ -19,6 +21,7 @@
 #include "dem/block_packing.hpp"
 #include "dem/particles.hpp"
 #include "dem/system.hpp"
+#include "imb/coupled.hpp"
 #include "lbm/solver.hpp"
 
 namespace lbdem::imb {
@@ -50,6 +53,7 @@ struct SuspensionContext {
   const lbm::LbmSetup* fluid = nullptr;  // the grid, for the memory checks
   Backend backend = Backend::Host;       // the backend the run will use (memory checks)
   bool validate_only = false;    // `lbdem check`: random particles on their lattice sites
+  CoupledKeys keys;              // the keys its messages name
 };
 
 // Reads particles.density_ratio (density), diameter, velocity,
@@ -67,18 +71,20 @@ void coupled_dem_box(dem::DemParams& p, const Grid& grid, int dim, double diamet
 // ----------------------------------------------------------------- checks
 // Device and host memory of the grid with about `particles` particles
 // (ResourceError, exit 4), before anything is built.
-void check_particles_memory(const Config& root, const lbm::LbmSetup& fluid, double particles, Backend backend);
+void check_particles_memory(const Config& root, const CoupledKeys& keys, const lbm::LbmSetup& fluid, double particles,
+                            Backend backend);
 // A random packing of radius r at this fraction of [lo, hi): the particles
 // fit the box along every axis (particles.diameter), then the memory of the
 // grid with their count.
-void check_particles_random(const Config& root, const Config& pc, const lbm::LbmSetup& fluid,
+void check_particles_random(const Config& root, const CoupledKeys& keys, const Config& pc, const lbm::LbmSetup& fluid,
                             const std::array<double, 3>& lo, const std::array<double, 3>& hi,
                             const std::array<bool, 3>& periodic, double solid_fraction, double r, Backend backend);
 // With the particles made: box, walls, overlaps, an unbalanced weight in a
-// periodic box, DEM sub-steps against the shortest contact, Mach number,
-// memory and the plan (`force`: --force; `steps_key` names the step count).
+// periodic box (`balance`: physics.balance_weight), DEM sub-steps against the
+// shortest contact, Mach number, memory and the plan (`force`: --force;
+// `steps_key` names the step count).
 void check_particles_scene(const Config& root, const lbm::LbmSetup& fluid, const dem::DemParams& dem,
-                           const dem::HostParticles& p, const std::array<double, 3>& gravity, bool balance,
-                           int dem_substeps, long steps, Backend backend, bool force, const std::string& steps_key);
+                           const dem::HostParticles& p, const CoupledParams& cp, bool balance, long steps,
+                           Backend backend, bool force, const std::string& steps_key);
 
 }  // namespace lbdem::imb
