@@ -18,9 +18,10 @@
 #                       conditional (WHILE) node (default: the gas-solid bed scenes and the CFD tests). synccheck,
 #                       racecheck and initcheck do not handle kernels inside conditional nodes: a minimal correct
 #                       program (scripts/sanitizer_while_probe.cu) gets barrier errors and failed runs there and is
-#                       clean with the same kernels launched one by one. These tools therefore run them with
-#                       LBDEM_PRESSURE_DEVICE_LOOP=0 (the same kernels, the loop polled from the host); memcheck,
-#                       which handles them, runs the device loop as shipped and checks every launch
+#                       clean with the same kernels launched one by one. These tools therefore run every run with
+#                       LBDEM_PRESSURE_DEVICE_LOOP=0 (the same kernels, the loop polled from the host; nothing else
+#                       reads it); memcheck, which handles them, runs the device loop as shipped and checks every
+#                       launch of the runs this expression names
 #   SANITIZE_NOAPI      a regular expression on run names for which memcheck does not report CUDA API errors
 #                       (default: the halo tests that start NCCL, whose set-up probes kernels with
 #                       cudaFuncGetAttributes, gets cudaErrorNoKernelImageForDevice and handles it; lbdem's own
@@ -150,9 +151,10 @@ def one(w, gpu):
         opts += ["--report-api-errors", "no"]
     tmp = tempfile.mkdtemp(prefix="lbdem_san_")
     env = dict(os.environ, CUDA_VISIBLE_DEVICES=str(gpu), TMPDIR=tmp)
-    if while_node and w["tool"] != "memcheck":
-        env["LBDEM_PRESSURE_DEVICE_LOOP"] = "0"
-        rec["pressure_loop"] = "polled"
+    if w["tool"] != "memcheck":
+        env["LBDEM_PRESSURE_DEVICE_LOOP"] = "0"  # every run: only the pressure solve reads it
+        if while_node:
+            rec["pressure_loop"] = "polled"
     env.pop("CTEST_RESOURCE_GROUP_COUNT", None)
     if w["kind"] == "scene":
         cmd = opts + [os.path.join(build, "cases", "lbdem"), "run", w["yaml"], "--backend", "cuda", "--steps", steps,
