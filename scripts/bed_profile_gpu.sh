@@ -2,7 +2,7 @@
 # Where a bed's step spends its GPU time, kernel by kernel, and what the pressure solve's tolerance costs (issue 28),
 # on one GPU, without nsys (Nsight Compute's duration metric only):
 #
-#   scripts/bed_profile_gpu.sh BUILD_DIR [PART...]     PART: profile | tolerance (default: both)
+#   scripts/bed_profile_gpu.sh BUILD_DIR [PART...]     PART: profile | tolerance | variants (default: the first two)
 #
 #   profile    each bed (Mueller 0.9 m/s, Link) for SKIP_STEPS + PROFILE_STEPS gas steps under
 #              `ncu --metrics gpu__time_duration.sum` (no cache flush, no clock lock: the kernels as they run), the
@@ -13,17 +13,22 @@
 #              the gas step's first kernel, GasFraction). The same bed without ncu and with LBDEM_STEP_PHASES=1
 #              gives the wall time of the gas step and of the DEM sub-steps per gas step: wall minus busy is
 #              what launches and waits cost.
-#   tolerance  each bed for TOL_STEPS gas steps at gas.pressure_solver.tolerance 1e-10 (shipped), 1e-8, 1e-6:
+#   tolerance  each bed for TOL_STEPS gas steps at gas.pressure_solver.tolerance 1e-10 (the default), 1e-8, 1e-6:
 #              seconds per simulated second and the mean multigrid-CG iterations (series.csv cg_iterations).
+#   variants   each bed as shipped for TOL_STEPS gas steps under each environment of VARIANTS (default: as
+#              shipped; the pressure V-cycle's one-block tail from 2048, 512, 128 cells or none
+#              (LBDEM_PRESSURE_TAIL_CELLS: the same bits); the DEM force kernel with 1 and 8 lanes
+#              (LBDEM_DEM_FORCE_LANES: rounding only)): seconds per simulated second, into variants.jsonl.
 #
 # env GPU (default 0), SKIP_STEPS (default 300), PROFILE_STEPS (default 4), TOL_STEPS (default 1500),
 #     LAUNCHES_PER_STEP (ncu's skip and count per gas step, default 420 Mueller / 250 Link; an estimate: the bed runs
 #     3 x SKIP_STEPS gas steps, and the gas steps profiled are counted, not assumed).
 # Output under $OUT/bed_profile: kernels_<bed>.jsonl (one line per kernel name, sorted by time), profile.jsonl (one
-# line per bed: busy and wall ms per gas step), tolerance.jsonl, logs. About 3-4 min after the build.
+# line per bed: busy and wall ms per gas step), tolerance.jsonl, variants.jsonl, logs. About 3-4 min after the
+# build for profile + tolerance, ~2 min for the default variants.
 set -uo pipefail
 source "$(dirname "$0")/lib.sh"
-build="${1:?usage: scripts/bed_profile_gpu.sh BUILD_DIR [profile|tolerance ...]}"
+build="${1:?usage: scripts/bed_profile_gpu.sh BUILD_DIR [profile|tolerance|variants ...]}"
 shift
 parts="${*:-profile tolerance}"
 g="${GPU:-0}"
@@ -42,7 +47,11 @@ yaml() {
     -e "s/^output: {directory: \([^,]*\), interval: [0-9]*/output: {directory: \1, interval: 0/" \
     "$LBDEM_ROOT/cases/$1" > "$f"
   if [ -n "${4:-}" ]; then
-    sed -i "s/pressure_solver: {type: multigrid/pressure_solver: {type: multigrid, tolerance: $4/" "$f"
+    if grep -q "pressure_solver: {type: multigrid, tolerance:" "$f"; then
+      sed -i "s/pressure_solver: {type: multigrid, tolerance: [0-9.e+-]*/pressure_solver: {type: multigrid, tolerance: $4/" "$f"
+    else
+      sed -i "s/pressure_solver: {type: multigrid/pressure_solver: {type: multigrid, tolerance: $4/" "$f"
+    fi
     grep -q "tolerance: $4" "$f" || { echo "could not set the tolerance in $f" >&2; return 1; }
   fi
   echo "$f"
@@ -73,12 +82,12 @@ with open(src, newline="") as f:
 for r in csv.DictReader(lines):
     if r.get("Metric Name") != "gpu__time_duration.sum":
         continue
-    k = r["Kernel Name"].replace("(anonymous namespace)::", "")
+    k = r["Kernel Name"].replace("(anonymous namespace)::", "").replace("<unnamed>::", "")
     m = re.search(r"for_each_kernel<([^>(]*)", k) or re.search(r"<(?:lbdem::)?([^,<>()]+)", k)
     short = (m.group(1) if m else k.split("(")[0]).split("::")[-1].strip()
     base = k.split("(")[0].split("<")[0].split("::")[-1]
     rows.append((f"{base}:{short}" if m else base, float(r["Metric Value"].replace(",", "")) * 1e-3))  # ns -> us
-steps = sum(1 for n, _ in rows if "GasFraction" in n) or 1
+steps = sum(1 for n, _ in rows if n.endswith(":GasFraction")) or 1
 agg = {}
 for n, t in rows:
     a = agg.setdefault(n, [0, 0.0])
@@ -119,6 +128,21 @@ tolerance_bed() {
   find "$out/t_${name}_$tol" -type f \( -name 'checkpoint*' -o -name '*.h5' -o -name '*.xdmf' \) -delete 2> /dev/null
 }
 
+variant_bed() {
+  local name="$1" case="$2" v="$3" tag
+  tag="$(echo "$v" | sed 's/LBDEM_//; s/[^A-Za-z0-9=]/_/g')"
+  local y; y="$(yaml "$case" "${name}_v" "${TOL_STEPS:-1500}")" || return
+  CUDA_VISIBLE_DEVICES="$g" env $v timeout -s TERM -k 20 200 "$exe" run "$y" --backend cuda \
+    --output "$out/v_${name}_$tag" --overwrite --quiet > "$out/v_${name}_$tag.log" 2>&1
+  local rc=$? s="$out/v_${name}_$tag/summary.json"
+  [ -f "$s" ] || { echo "$name $v: exit $rc, no summary"; tail -5 "$out/v_${name}_$tag.log"; return; }
+  json_line "$out/variants.jsonl" bed="$name" variant="$v" exit="$rc" gas_steps="$(get gas_steps "$s")" \
+    s_per_simulated_s="$(get seconds_per_simulated_second "$s")" dem_force_lanes="$(get dem_force_lanes "$s")" \
+    pressure_tolerance="$(get pressure_tolerance "$s")"
+  tail -1 "$out/variants.jsonl"
+  find "$out/v_${name}_$tag" -type f \( -name 'checkpoint*' -o -name '*.h5' -o -name '*.xdmf' \) -delete 2> /dev/null
+}
+
 for p in $parts; do
   case "$p" in
     profile)
@@ -127,6 +151,10 @@ for p in $parts; do
     tolerance)
       for t in 1e-10 1e-8 1e-6; do tolerance_bed muller fluidized_bed_muller_u09.yaml "$t"; done
       for t in 1e-10 1e-8 1e-6; do tolerance_bed link fluidized_bed_link_spout.yaml "$t"; done ;;
-    *) echo "unknown part $p (profile | tolerance)"; exit 2 ;;
+    variants)
+      vs="${VARIANTS:-LBDEM_NONE=0 LBDEM_PRESSURE_TAIL_CELLS=512 LBDEM_PRESSURE_TAIL_CELLS=128 LBDEM_PRESSURE_TAIL_CELLS=0 LBDEM_DEM_FORCE_LANES=1 LBDEM_DEM_FORCE_LANES=8}"
+      for v in $vs; do variant_bed muller fluidized_bed_muller_u09.yaml "$v"; done
+      for v in $vs; do variant_bed link fluidized_bed_link_spout.yaml "$v"; done ;;
+    *) echo "unknown part $p (profile | tolerance | variants)"; exit 2 ;;
   esac
 done

@@ -13,6 +13,7 @@
 // kernel's traits to every iteration (in the WHILE body or the plain loop):
 // b a parameter block of ~3.9 KB (TailArgs), s 96 KB of dynamic shared memory
 // (the opt-in tail), l a large per-thread local array (a deep call stack).
+// PROBE_STACK=BYTES sets the device's per-thread stack limit first.
 // Prints the iteration count and the sum (the same for w and p).
 #include <cub/block/block_reduce.cuh>
 #include <cstdio>
@@ -79,6 +80,9 @@ int main(int argc, char** argv) {
   const char* extra = argc > 3 ? argv[3] + 1 : "";
   const bool with_big = std::strchr(extra, 'b'), with_shm = std::strchr(extra, 's'), with_loc = std::strchr(extra, 'l');
   Big bg{}; bg.n = 64; for (int i = 0; i < 480; ++i) bg.v[i] = i;
+  // PROBE_STACK=BYTES: the per-thread stack the device reserves (cudaLimitStackSize), to test whether a tool's
+  // larger instrumented frames outgrow what a graph's conditional body was given.
+  if (const char* st = std::getenv("PROBE_STACK")) CK(cudaDeviceSetLimit(cudaLimitStackSize, std::strtoul(st, nullptr, 10)));
   if (with_shm) CK(cudaFuncSetAttribute(shm, cudaFuncAttributeMaxDynamicSharedMemorySize, 96 * 1024));
   // The extra kernels of one iteration (before the update and the reduction).
   auto extras = [&](cudaStream_t s_) {

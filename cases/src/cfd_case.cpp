@@ -20,7 +20,8 @@
 //   particles   init: list | lattice | random (region_lo, region_hi, solid_fraction or count) | csv | hdf5
 //   material    stiffness [N/m], restitution, friction, wall_*, tangential_*
 //   dem         substeps, dt [s] (rounded down to divide gas.dt), or steps_per_collision (default 50);
-//               skin [m], force_path
+//               skin [m], force_path, force_lanes (threads per particle of the GPU's contact-force kernel:
+//               1, 2, 4, 8, 16; default 1)
 //   time        end [s] or steps (gas steps)
 //   output      directory, interval (gas steps between field and particle snapshots; 0: first and last),
 //               series_interval, track (particle ids)
@@ -554,6 +555,8 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
         .set("backend", to_string(backend))
         .set("drag", cfd::to_string(c.gas.drag))
         .set("void_fraction", cfd::to_string(c.gas.deposition))
+        .set("pressure_tolerance", c.gas.cg_tolerance)
+        .set("dem_force_lanes", dem.params().force_lanes)
         .set("weight_per_area_pa", weight_per_area)
         .set("statistics_samples", samples)
         .set("mean_pressure_drop_pa", mean(avg_dp))

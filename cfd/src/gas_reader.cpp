@@ -175,6 +175,11 @@ int read_bed_dem(const Config& root, double gas_dt, double rmin, const dem::Host
     p.skin = dc->positive("skin", p.skin);
     p.path = dc->choice("force_path", "particle", {"particle", "pair"}) == "pair" ? dem::ForcePath::Pair
                                                                                : dem::ForcePath::Particle;
+    // Threads per particle of the contact-force kernel on the GPU (DemParams::force_lanes).
+    const long lanes = dc->integer_in("force_lanes", 1, 1, 16);
+    if (lanes != 1 && lanes != 2 && lanes != 4 && lanes != 8 && lanes != 16)
+      dc->fail("force_lanes", "give 1, 2, 4, 8 or 16 (threads per particle of the GPU's contact-force kernel)");
+    p.force_lanes = static_cast<int>(lanes);
     dc->finish();
   }
   p.dt = gas_dt / substeps;

@@ -29,6 +29,26 @@ static_assert(slot::kIterations == slot::kDone + 1, "solve_mg reads done and ite
 
 // One grid level as the kernels see it: the cells, the face coefficients
 // (face boxes as the gas solver's), and periodic axes.
+// Cell index t -> (i, j, k) on a grid of n0 x n1 x ... cells. Indices below
+// 2^32 (every gas grid) divide in 32-bit unsigned arithmetic: a 64-bit
+// division is a long emulated sequence on the device, and the smoothers and
+// transfers split indices several times per cell. The same integers either way.
+LBDEM_HD inline void split3(Index t, int n0, int n1, int c[3]) {
+  if (t >= 0 && t <= static_cast<Index>(0xffffffffu)) {
+    const unsigned u = static_cast<unsigned>(t), a = static_cast<unsigned>(n0), b = static_cast<unsigned>(n1);
+    const unsigned r = u / a;
+    c[0] = static_cast<int>(u - r * a);
+    const unsigned k = r / b;
+    c[1] = static_cast<int>(r - k * b);
+    c[2] = static_cast<int>(k);
+    return;
+  }
+  c[0] = static_cast<int>(t % n0);
+  const Index r = t / n0;
+  c[1] = static_cast<int>(r % n1);
+  c[2] = static_cast<int>(r / n1);
+}
+
 struct LevelView {
   int n[3];
   bool per[3];
@@ -36,12 +56,7 @@ struct LevelView {
 
   LBDEM_HD Index cells() const { return static_cast<Index>(n[0]) * n[1] * n[2]; }
   LBDEM_HD Index cell(const int c[3]) const { return c[0] + static_cast<Index>(n[0]) * (c[1] + static_cast<Index>(n[1]) * c[2]); }
-  LBDEM_HD void coords(Index ci, int c[3]) const {
-    c[0] = static_cast<int>(ci % n[0]);
-    const Index r = ci / n[0];
-    c[1] = static_cast<int>(r % n[1]);
-    c[2] = static_cast<int>(r / n[1]);
-  }
+  LBDEM_HD void coords(Index ci, int c[3]) const { split3(ci, n[0], n[1], c); }
   LBDEM_HD int fext(int a, int d) const { return n[d] + (d == a ? 1 : 0); }
   LBDEM_HD Index face(int a, const int f[3]) const {
     return f[0] + static_cast<Index>(fext(a, 0)) * (f[1] + static_cast<Index>(fext(a, 1)) * f[2]);
@@ -70,9 +85,10 @@ LBDEM_HD inline int wrap(int i, int n) { return i < 0 ? i + n : (i >= n ? i - n 
 // Row ci of the operator: returns the diagonal (every face but those that
 // join the cell to itself across a periodic axis of one cell, whose terms
 // cancel) and calls f(w, j) for each off-diagonal coupling -w to cell j
-// (unrolled: no per-thread arrays).
+// (unrolled: no per-thread arrays). for_row_at: the same, f(w, j, o0, o1, o2)
+// also given cell j's coordinates.
 template <class F>
-LBDEM_HD LBDEM_FORCEINLINE double for_row(const LevelView& L, Index ci, const int c[3], F&& f) {
+LBDEM_HD LBDEM_FORCEINLINE double for_row_at(const LevelView& L, Index ci, const int c[3], F&& f) {
   double d = 0;
 #if defined(__CUDA_ARCH__)
 #pragma unroll
@@ -95,10 +111,15 @@ LBDEM_HD LBDEM_FORCEINLINE double for_row(const LevelView& L, Index ci, const in
       const Index oj = L.cell(o);
       if (oj == ci) continue;
       d += w;
-      f(w, oj);
+      f(w, oj, o[0], o[1], o[2]);
     }
   }
   return d;
+}
+
+template <class F>
+LBDEM_HD LBDEM_FORCEINLINE double for_row(const LevelView& L, Index ci, const int c[3], F&& f) {
+  return for_row_at(L, ci, c, [&](double w, Index j, int, int, int) { f(w, j); });
 }
 
 // Red cells: (i + j + k) even. With every periodic axis of even length (or of

@@ -179,9 +179,7 @@ struct Restrict {
   LBDEM_HD void operator()(Index t) const {
     if (scal[slot::kDone] != 0) return;
     int I[3];
-    I[0] = static_cast<int>(t % cn[0]);
-    I[1] = static_cast<int>((t / cn[0]) % cn[1]);
-    I[2] = static_cast<int>(t / (static_cast<Index>(cn[0]) * cn[1]));
+    split3(t, cn[0], cn[1], I);
     int lo[3], hi[3];
     for (int d = 0; d < 3; ++d) {
       lo[d] = r[d] * I[d];
@@ -220,14 +218,11 @@ struct PostBlack {
     F.coords(ci, c);
     if (is_red(c)) return;
     double acc = b[ci];
-    const LevelView& G = F;
     const double* xv = x;
     const double* ev = e;
     const int r0 = r[0], r1 = r[1], r2 = r[2], c0 = cn[0], c1 = cn[1];
-    const double d = for_row(F, ci, c, [&](double w, Index j) {
-      int o[3];
-      G.coords(j, o);
-      const Index pc = o[0] / r0 + static_cast<Index>(c0) * (o[1] / r1 + static_cast<Index>(c1) * (o[2] / r2));
+    const double d = for_row_at(F, ci, c, [&](double w, Index j, int o0, int o1, int o2) {
+      const Index pc = o0 / r0 + static_cast<Index>(c0) * (o1 / r1 + static_cast<Index>(c1) * (o2 / r2));
       acc += w * (xv[j] + ev[pc]);
     });
     x[ci] = d > 0 ? acc / d : 0.0;
@@ -508,12 +503,16 @@ void PressureSolver::init_multigrid() {
   }
   ticket_ = Buffer<unsigned int>(b, 1);
   ticket_.fill_zero();
-  // The first level small enough for one block, at most kTailMax above the coarsest.
+  // The first level small enough for one block, at most kTailMax above the
+  // coarsest. LBDEM_PRESSURE_TAIL_CELLS replaces the size limit (A/B timing:
+  // the kernels and their order, hence the bits, are the same for any limit).
   const int nl = static_cast<int>(lv_.size());
+  Index tail_cells = kTailCells;
+  if (const char* tc = std::getenv("LBDEM_PRESSURE_TAIL_CELLS")) tail_cells = std::max(0L, std::atol(tc));
   tail_ = nl;
   for (int l = nl - 1; l >= 0 && nl - l <= kTailMax; --l) {
     const Index c = l == 0 ? nc : lv_[static_cast<std::size_t>(l - 1)].g.cells();
-    if (c > kTailCells) break;
+    if (c > tail_cells) break;
     tail_ = l;
   }
   // The tail in shared memory where its levels fit in a block's (the

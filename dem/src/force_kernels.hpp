@@ -52,6 +52,38 @@ LBDEM_HD LBDEM_FORCEINLINE void particle_forces(const State& s, Index i, const R
   }
 }
 
+// Slot `slot` (partner j at pj) of particle i's contact sum: the contact force
+// and torque added to F and T when the spheres overlap; else a stale
+// tangential history is cleared. Both particle-path kernels use it.
+template <bool Friction>
+LBDEM_HD LBDEM_FORCEINLINE void slot_contact(const State& s, const Real4& p, const Real4& v, const Real4& w, Index slot,
+                                             int j, const Real4& pj, Vec3d& F, Vec3d& T) {
+  const Vec3d d = s.box.min_image(xyz(pj) - xyz(p));
+  const double rs = p.w + pj.w;
+  const double d2 = dot(d, d);
+  if (d2 < rs * rs) {
+    const double dist = sqrt(d2);
+    const Vec3d nv = d * (1.0 / dist);
+    const Real4 vj = s.vpr[j];
+    const double meff = 1.0 / (v.w + vj.w);
+    Vec3d vrel = xyz(v) - xyz(vj);
+    Vec3d hist{}, ft{};
+    if constexpr (Friction) {
+      const Real4 wj = s.wpr[j];
+      vrel += cross(xyz(w) * p.w + xyz(wj) * pj.w, nv);
+      hist = s.hist[slot];
+    }
+    F += contact_force<Friction>(s.pp, nv, rs - dist, meff, vrel, hist, s.dt, ft);
+    if constexpr (Friction) {
+      T += cross(nv * p.w, ft);
+      s.hist[slot] = hist;
+    }
+  } else if constexpr (Friction) {
+    const Vec3d h = s.hist[slot];
+    if (h.x != 0.0 || h.y != 0.0 || h.z != 0.0) s.hist[slot] = Vec3d{};
+  }
+}
+
 // Particle-parallel: particle i sums all its contacts over its full list.
 // Deterministic: fixed summation order, no atomics. The next partner's index
 // and position are read before this contact's history is written (neither
@@ -83,30 +115,7 @@ struct ForceParticle {
         j_next = s.nbr[slot + s.n];
         p_next = s.pos[j_next];
       }
-      const Vec3d d = s.box.min_image(xyz(pj) - xyz(p));
-      const double rs = p.w + pj.w;
-      const double d2 = dot(d, d);
-      if (d2 < rs * rs) {
-        const double dist = sqrt(d2);
-        const Vec3d nv = d * (1.0 / dist);
-        const Real4 vj = s.vpr[j];
-        const double meff = 1.0 / (v.w + vj.w);
-        Vec3d vrel = xyz(v) - xyz(vj);
-        Vec3d hist{}, ft{};
-        if constexpr (Friction) {
-          const Real4 wj = s.wpr[j];
-          vrel += cross(xyz(w) * p.w + xyz(wj) * pj.w, nv);
-          hist = s.hist[slot];
-        }
-        F += contact_force<Friction>(s.pp, nv, rs - dist, meff, vrel, hist, s.dt, ft);
-        if constexpr (Friction) {
-          T += cross(nv * p.w, ft);
-          s.hist[slot] = hist;
-        }
-      } else if constexpr (Friction) {
-        const Vec3d h = s.hist[slot];
-        if (h.x != 0.0 || h.y != 0.0 || h.z != 0.0) s.hist[slot] = Vec3d{};
-      }
+      slot_contact<Friction>(s, p, v, w, slot, j, pj, F, T);
       j = j_next;
       pj = p_next;
     }
@@ -114,6 +123,66 @@ struct ForceParticle {
     if constexpr (Friction) s.trq[i] = Real4{T.x, T.y, T.z, 0.0};
   }
 };
+
+#if defined(__CUDACC__)
+// Particle-parallel with L lanes per particle (State::lanes, DemParams::
+// force_lanes): lane l sums the list slots l, l + L, ... and lane 0 also the
+// body force and the walls; the L partial sums are then added by a butterfly
+// of warp shuffles (a fixed order: every lane ends with the same bits, and a
+// run is deterministic). For small systems (a bed of ~10^4 particles is a few
+// warps per multiprocessor) this divides the dependent chain of list loads by
+// L and gives the device L times the warps to hide their latency. The sums
+// differ from ForceParticle's sequential order by rounding only.
+template <bool Friction, int L>
+__global__ void __launch_bounds__(256) force_lanes_kernel(const State s, Index n) {
+  static_assert(L >= 2 && L <= 32 && (L & (L - 1)) == 0, "lanes: a power of two up to a warp");
+  const Index t = static_cast<Index>(blockIdx.x) * blockDim.x + threadIdx.x;
+  const Index i = t / L;
+  const int lane = static_cast<int>(t % L);
+  Vec3d F{}, T{};
+  if (i < n) {  // no early return: every lane of the warp takes part in the shuffles
+    const Real4 p = s.pos[i];
+    const Real4 v = s.vpr[i];
+    Real4 w{0, 0, 0, 0};
+    if constexpr (Friction) w = s.wpr[i];
+    const int cnt = s.ncount[i];
+    if (lane == 0) particle_forces<Friction>(s, i, p, v, w, F, T);
+    int j = 0;
+    Real4 pj{0, 0, 0, 0};
+    if (lane < cnt) {
+      j = s.nbr[lane * s.n + i];
+      pj = s.pos[j];
+    }
+    for (int q = lane; q < cnt; q += L) {
+      const Index slot = q * s.n + i;
+      int j_next = 0;
+      Real4 p_next{0, 0, 0, 0};
+      if (q + L < cnt) {
+        j_next = s.nbr[slot + L * s.n];
+        p_next = s.pos[j_next];
+      }
+      slot_contact<Friction>(s, p, v, w, slot, j, pj, F, T);
+      j = j_next;
+      pj = p_next;
+    }
+  }
+#pragma unroll
+  for (int off = L / 2; off > 0; off >>= 1) {
+    F.x += __shfl_xor_sync(0xffffffffu, F.x, off);
+    F.y += __shfl_xor_sync(0xffffffffu, F.y, off);
+    F.z += __shfl_xor_sync(0xffffffffu, F.z, off);
+    if constexpr (Friction) {
+      T.x += __shfl_xor_sync(0xffffffffu, T.x, off);
+      T.y += __shfl_xor_sync(0xffffffffu, T.y, off);
+      T.z += __shfl_xor_sync(0xffffffffu, T.z, off);
+    }
+  }
+  if (i < n && lane == 0) {
+    s.frc[i] = Real4{F.x, F.y, F.z, 0.0};
+    if constexpr (Friction) s.trq[i] = Real4{T.x, T.y, T.z, 0.0};
+  }
+}
+#endif
 
 // Pair path, stage 1: per-particle forces (body, walls) and the number of
 // overlapping partners j > i (resets the history of non-touching ones).

@@ -7,9 +7,24 @@
 
 namespace lbdem::dem {
 
-// The particle path's one kernel on `ex` (also what a sub-step graph captures).
+// The particle path's one kernel on `ex` (also what a sub-step graph captures):
+// on the device with State::lanes > 1 the lane-parallel kernel.
 template <bool Friction>
 void force_particle(const Exec& ex, Index n, const State& s) {
+#if defined(__CUDACC__)
+  if (ex.on_device() && s.lanes > 1) {
+    if (n <= 0) return;
+    const unsigned grid = static_cast<unsigned>((n * s.lanes + 255) / 256);
+    switch (s.lanes) {
+      case 2: force_lanes_kernel<Friction, 2><<<grid, 256, 0, ex.stream()>>>(s, n); break;
+      case 4: force_lanes_kernel<Friction, 4><<<grid, 256, 0, ex.stream()>>>(s, n); break;
+      case 8: force_lanes_kernel<Friction, 8><<<grid, 256, 0, ex.stream()>>>(s, n); break;
+      default: force_lanes_kernel<Friction, 16><<<grid, 256, 0, ex.stream()>>>(s, n); break;
+    }
+    LBDEM_CUDA_CHECK(cudaGetLastError());
+    return;
+  }
+#endif
   launch(ex, n, ForceParticle<Friction>{s});
 }
 

@@ -40,6 +40,7 @@ struct State {
   Vec3d gravity, body;
   double dt, half_skin2, skin;
   int* flags;  // [0] neighbour list overflow, [1] largest neighbour count seen (list build)
+  int lanes;   // threads per particle of the particle path's force kernel on the device (1, 2, 4, 8, 16)
 };
 
 // for_each, but tiny host problems run serially (an OpenMP region costs more

@@ -49,6 +49,7 @@ struct DemSystem::Impl {
     State s{};
     s.box = box; s.walls = walls; s.pp = pp; s.pw = pw;
     s.gravity = p.gravity; s.body = p.body_force; s.dt = p.dt;
+    s.lanes = p.force_lanes;
     return s;
   }
   // The kernel view of the current arrays.

@@ -227,3 +227,43 @@ TEST(DemCrossBackend, CpuAndGpuAgree) {
     EXPECT_NEAR(a.stats().rebuilds, b.stats().rebuilds, 1);
   }
 }
+
+// The force kernel's lanes per particle (DemParams::force_lanes): a value the
+// kernel does not have is refused, naming it.
+TEST(DemForceLanes, RefusesOtherCounts) {
+  DemParams p;
+  HostParticles h = dense_frictional(p, 7);
+  for (int lanes : {0, 3, 32}) {
+    p.force_lanes = lanes;
+    try {
+      DemSystem s(Exec(Backend::Host), p, h);
+      ADD_FAILURE() << "force_lanes " << lanes << " accepted";
+    } catch (const lbdem::ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("force_lanes: " + std::to_string(lanes)), std::string::npos) << e.what();
+    }
+  }
+}
+
+// The lane-parallel force kernel against the host's one thread per particle
+// on the frictional cloud, periodic and between walls: the same contacts,
+// partial sums added in another order (rounding only: the tolerance of
+// CpuAndGpuAgree).
+TEST(DemCrossBackend, ForceLanesAgreeWithHost) {
+  if (!lbdem::test::gpu_available()) GTEST_SKIP() << "no usable CUDA device: " << cuda_unavailable_reason();
+  for (bool walls : {false, true}) {
+    for (int lanes : {2, 4, 8, 16}) {
+      DemParams p;
+      HostParticles h = dense_frictional(p, 31);
+      if (walls) {
+        p.periodic = {true, false, true};
+        p.walls.push_back(Wall{{0, 0, 0}, {0, 1, 0}});
+        p.walls.push_back(Wall{{0, 13, 0}, {0, -1, 0}});
+      }
+      p.force_lanes = lanes;
+      DemSystem a(Exec(Backend::Host), p, h), b(Exec(Backend::Cuda), p, h);
+      a.advance(30);
+      b.advance(30);
+      EXPECT_LT(rel_diff(a.download(), b.download()), 1e-9) << "lanes " << lanes << (walls ? ", walls" : "");
+    }
+  }
+}

@@ -83,6 +83,14 @@ struct DemParams {
   // The environment variable LBDEM_DEM_GRAPHS=0 turns it off for a whole run
   // (A/B timing of a case without a key for it).
   bool substep_graphs = true;
+  // Threads per particle of the particle path's force kernel on the device
+  // (1, 2, 4, 8 or 16; dem/README.md, "The two force paths"): several lanes
+  // share a particle's neighbour list and add their partial sums in a fixed
+  // order, which hides the list's load latency when the system has too few
+  // particles to fill the device (a bed of ~10^4). The sums then differ from
+  // one lane's by rounding. The host backend ignores it. The environment
+  // variable LBDEM_DEM_FORCE_LANES replaces it for a whole run (A/B timing).
+  int force_lanes = 1;
 };
 
 // Smallest collision time among particle-particle and particle-wall contacts
