@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Drag and mass checks of issue 29 on one GPU:
 #
-#   scripts/drag_gpu.sh BUILD_DIR [PART...]      PART: map | lambda | random | drift | drift-even (default: map random)
+#   scripts/drag_gpu.sh BUILD_DIR [PART...]      PART: map | lambda | re | random | drift | drift-even (default: map random)
 #
 #   map     the fixed-sphere drag map of the default rule where d/l >= 16 (scripts/drag_map.sh gpu-e):
 #           d/l 16, 20, 30, 50 x tau {1.5, 1.25, 1.0, 0.8, 0.6}, chi 0.5, Re_p 0.2, exact fractions, fp64,
@@ -12,6 +12,10 @@
 #           slope dE/dLambda at each point, to re-centre imb/drag_error.hpp's Lambda table for d/l >= 16
 #           if the map misses. About 2.5 min. Output: $OUT/drag_map_gpu_lam*.{json,md,log}, rows in
 #           $OUT/drag_map_rows.jsonl.
+#   re      finite Re_p (0.2-50) at tau 0.6: a converged reference of the method's own (d/l 16-48 at fixed Lambda,
+#           extrapolated in 1/d; checked against Sangani & Acrivos at Re_p 0.2) and the default rule at d/l 8-30
+#           against it (scripts/drag_re.py). About 3 min. Output: $OUT/drag_re_{ref,rule}.{json,md,log},
+#           $OUT/drag_re.{md,jsonl}.
 #   random  random arrays of 27 spheres, d/l 10, against Beetstra et al. (2007) and Tenneti et al. (2011)
 #           (lbdem_bench_psm random): phi 0.1, 0.2, 0.3, 0.4 at Re 0.2 (tau 0.8), two configurations each;
 #           Re 10 and 50 at phi 0.2 and 0.4 (tau 0.55, d/l 16; Mach ~0.1 at Re 50). At most 130 s. Output: $OUT/random_array.jsonl
@@ -59,6 +63,24 @@ for p in "${parts[@]}"; do
     lambda)
       DRAG_MAP_LIMIT=200 "$LBDEM_ROOT/scripts/drag_map.sh" "$bin" "$OUT" gpu-lam
       rows_jsonl
+      ;;
+    re)
+      # Finite Re_p: the chi 0.5 array at Re_p 0.2-50 (tau 0.6). The driving force is set from the Stokes
+      # estimate, so a target's Re_p is reached only to the drag's own Re dependence: the targets come in
+      # triplets (0.9 R, R, 1.1 R) that scripts/drag_re.py interpolates to the exact R. Reference: a series at
+      # fixed Lambda 3e-2, d/l 16, 24, 32, 48, extrapolated to d -> infinity; the rule at d/l 8, 10, 16, 20, 30.
+      res=0.2,0.9,1,1.1,9,10,11,45,50,55
+      timeout 240 "$bin" sweep --backend cuda --re "$res" --tol 1e-6 --start estimate --offset 0.5 --chi 0.5 \
+        --collisions trt --variants nebb --weights ntw --methods exact --precisions fp64 --tau 0.6 --magic 3e-2 \
+        --d 16,24,32,48 --out "$OUT/drag_re_ref.json" > "$OUT/drag_re_ref.md" 2> "$OUT/drag_re_ref.log"
+      echo "re reference: exit $?"
+      timeout 120 "$bin" sweep --backend cuda --re "$res" --tol 1e-6 --start estimate --offset 0.5 --chi 0.5 \
+        --collisions trt --variants nebb --weights ntw --methods exact --precisions fp64 --tau 0.6 --magic auto \
+        --d 8,10,16,20,30 --out "$OUT/drag_re_rule.json" > "$OUT/drag_re_rule.md" 2> "$OUT/drag_re_rule.log"
+      echo "re rule: exit $?"
+      python3 "$LBDEM_ROOT/scripts/drag_re.py" "$OUT/drag_re_ref.json" "$OUT/drag_re_rule.json" \
+        --out-json "$OUT/drag_re.jsonl" > "$OUT/drag_re.md"
+      cat "$OUT/drag_re.md"
       ;;
     random)
       rm -f "$OUT/random_array.jsonl"

@@ -22,6 +22,10 @@
 #                       LBDEM_PRESSURE_DEVICE_LOOP=0 (the same kernels, the loop polled from the host; nothing else
 #                       reads it); memcheck, which handles them, runs the device loop as shipped and checks every
 #                       launch of the runs this expression names
+#   SANITIZE_CHILDREN   a regular expression on test names that start `lbdem` processes on the GPU (default: the
+#                       GPU restart test and the GPU-rank cuts of cases_tests): the tool follows them
+#                       (--target-processes all). Left to run outside the tool, those processes did not get through
+#                       (every tool's run cut at its time limit with no output after the test's start)
 #   SANITIZE_NOAPI      a regular expression on run names for which memcheck does not report CUDA API errors
 #                       (default: the halo tests that start NCCL, whose set-up probes kernels with
 #                       cudaFuncGetAttributes, gets cudaErrorNoKernelImageForDevice and handles it; lbdem's own
@@ -83,6 +87,7 @@ run_cap = float(os.environ.get("SANITIZE_RUN_S", "240"))
 launches = int(os.environ.get("SANITIZE_LAUNCHES", "400"))
 cond_graph = re.compile(os.environ.get("SANITIZE_WHILE", r"^fluidized_bed|FluidizedBed|^All/(Gas|Pressure|Settling|VoidFraction)"))
 noapi = re.compile(os.environ.get("SANITIZE_NOAPI", r"^halo_mpi_tests"))
+children = re.compile(os.environ.get("SANITIZE_CHILDREN", r"^Restart\..*Cuda|MpiParticles\..*/gpu"))
 commit = os.environ.get("LBDEM_COMMIT", "")
 flt = re.compile(os.environ.get("SANITIZE_FILTER", ""))
 steps = os.environ.get("SCENE_STEPS", "5")
@@ -149,6 +154,9 @@ def one(w, gpu):
         opts += ["--launch-count", str(launches)]
     if w["tool"] == "memcheck" and noapi.search(w["name"]):
         opts += ["--report-api-errors", "no"]
+    if children.search(w["name"]):
+        opts += ["--target-processes", "all"]
+        rec["target_processes"] = "all"
     tmp = tempfile.mkdtemp(prefix="lbdem_san_")
     env = dict(os.environ, CUDA_VISIBLE_DEVICES=str(gpu), TMPDIR=tmp)
     if w["tool"] != "memcheck":
