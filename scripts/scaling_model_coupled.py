@@ -861,9 +861,10 @@ def markdown(d):
              "million coarse cells one GPU holds)." % (
                  P2.get("psm_k", 0),
                  P2.get("row_per_bin", 0) * 1e9, P2.get("row_per_bin", 0) * 3096576 * 1e3))
-    L.append("- Four GPUs, cut 1 x 4 x 1: fluid + PSM takes 1.6-1.8 ms per step more than a quarter of the one-GPU step "
-             "in both precisions (%.0f ns per face cell, against %.2f ns in 3D: the 2D piece's two faces are 15,360-cell "
-             "rows, and what costs 1.6 ms there is not yet found: the NSYS=1 profile of `suspension_2d_gpu.sh` is the "
+    L.append("- Four GPUs, cut 1 x 4 x 1: fluid + PSM takes 1.4 (fp64) to 1.8 (fp32) ms per step more than a quarter "
+             "of the one-GPU step (one fit for both precisions: %.0f ns per face cell, against %.2f ns in 3D: the 2D "
+             "piece's two faces are 15,360-cell rows, and what costs 1.6 ms there is not yet found: the NSYS=1 profile "
+             "of `suspension_2d_gpu.sh` is the "
              "next measurement); DEM %.0f us per substep and split axis (3D: %.0f). The 4-GPU run of a1d284a (statistics "
              "bins per piece) spends %.2f ms per step outside the timed phases and the rows; it is the only multi-GPU "
              "run of the current statistics code, so that term is fitted on that one run (one parameter for one point: "
