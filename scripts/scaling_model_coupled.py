@@ -698,6 +698,7 @@ def build(rows, rates):
         points.append({"source": "%s:%d" % (r["file"], r["line"]), "commit": r["commit"], "dim": r["dim"],
                        "precision": r["precision"], "mode": r["mode"], "label": r["label"], "gpus": r["gpus"],
                        "dims": r["dims"], "grid": r["grid"], "particles": r["particles"], "counts": r["use"],
+                       "series_s": r.get("series_s"),
                        "why_not": r["why"], "imbalance": r["imbalance"],
                        "measured": {"t_step_s": r["t_step"], "phases_s": r["phases"]},
                        "model": {"t_step_s": m["t_step"], "terms_s": m["terms"]}, "rel_error": m["rel_error"]})
@@ -868,31 +869,63 @@ def markdown(d):
     L.append("### The 2D suspension: what is measured and what is not")
     L.append("")
     P2 = d["parameters"].get("2d", {})
-    L.append("- One GPU (48bb40e, fp32 and fp64): fluid + PSM, map and DEM account for the step to within the phase "
-             "clock's sampling error; the PSM costs %.2f x the fluid step per cell in both precisions (fp64 predicted "
-             "from fp32 alone within 1 %%). The loop outside the phases is -0.4 ms (fp32) and +0.8 ms (fp64) per step: the "
-             "series rows are not resolved on one GPU (%.1f ns per coarse cell and row, ~%.0f ms per row of the 3.1 "
-             "million coarse cells one GPU holds)." % (
-                 P2.get("psm_k", 0),
-                 P2.get("row_per_bin", 0) * 1e9, P2.get("row_per_bin", 0) * 3096576 * 1e3))
-    L.append("- Four GPUs, cut 1 x 4 x 1: fluid + PSM takes 1.4 (fp64) to 1.8 (fp32) ms per step more than a quarter "
-             "of the one-GPU step (one fit for both precisions: %.0f ns per face cell, against %.2f ns in 3D: the 2D "
-             "piece's two faces are 15,360-cell rows, and what costs 1.6 ms there is not yet found: the NSYS=1 profile "
-             "of `suspension_2d_gpu.sh` is the "
-             "next measurement); DEM %.0f us per substep and split axis (3D: %.0f). The 4-GPU run of a1d284a (statistics "
-             "bins per piece) spends %.2f ms per step outside the timed phases and the rows; it is the only multi-GPU "
-             "run of the current statistics code, so that term is fitted on that one run (one parameter for one point: "
-             "the leave-one-out line above is the honest figure for it). Its DEM phase (max over ranks) is 1.39 ms "
-             "against 0.88-0.92 at 48bb40e (one rank's DEM 60 %% above the others'), which the model (1.07 ms) does not "
-             "follow." % (
-                 P2.get("split_per_face_cell", {}).get("fp32", 0) * 1e9, d["parameters"]["split_per_face_cell"]["fp32"] * 1e9,
-                 P2.get("dem_per_axis_substep", 0) * 1e6, d["parameters"]["dem_per_axis_substep"] * 1e6,
-                 P2.get("untimed_per_axis", 0) * 1e3))
-    L.append("- Not tested by any measurement: the forms of the 2D cut-grid terms beyond the one cut measured (1 x 4 x "
-             "1). The split step per face cell and the time outside the phases per split axis set the 2D strong-scaling "
-             "predictions from 8 GPUs on; a 2-GPU and an 8-GPU 2D run (cuts 1 x 2 x 1, 1 x 8 x 1: the same faces per "
-             "piece, half and twice the cells) would test whether they stay per face and per axis. `suspension_2d_gpu.sh "
-             "BUILD pair` also runs fp32 on 4 GPUs with 21 series rows instead of 3 and records the rows' own time "
+
+    def outside_ms(p):  # loop time outside the timed phases (exposed communication lies inside fluid_psm)
+        me = p["measured"]["phases_s"]
+        return 1e3 * (p["measured"]["t_step_s"] - sum(v for k, v in me.items() if k != "exposed_communication"))
+
+    def commits(ps):
+        return ", ".join(sorted({p["commit"].split()[0] for p in ps}))
+
+    one2 = [p for p in d["points"] if p["dim"] == "2d" and p["counts"] and p["gpus"] == 1]
+    multi2 = [p for p in d["points"] if p["dim"] == "2d" and p["gpus"] > 1 and (p["counts"] or "calibrate" in p["why_not"])]
+    cnt2 = [p for p in multi2 if p["counts"]]
+    timed_rows = any(p.get("series_s") is not None for p in d["points"] if p["dim"] == "2d" and p["counts"])
+    if one2:
+        L.append("- One GPU (%s): fluid + PSM, map and DEM account for the step to within the phase clock's sampling "
+                 "error; the PSM costs %.2f x the fluid step per cell in both precisions. The loop outside the phases is "
+                 "%s ms per step; the series rows cost %.1f ns per coarse cell held and row, ~%.0f ms per row of the "
+                 "%.1f million coarse cells one GPU holds (%s)." % (
+                     commits(one2), P2.get("psm_k", 0),
+                     ", ".join("%+.2f (%s %s)" % (outside_ms(p), p["commit"].split()[0], p["precision"]) for p in one2),
+                     P2.get("row_per_bin", 0) * 1e9, P2.get("row_per_bin", 0) * bins_held(
+                         CASES["2d"], CASES["2d"]["grid"], (1, 1, 1)) * 1e3,
+                     bins_held(CASES["2d"], CASES["2d"]["grid"], (1, 1, 1)) / 1e6,
+                     "their own measured time" if timed_rows else
+                     "from the loop outside the phases: not resolved above the phase clock's sampling error, which is "
+                     "as large"))
+    if multi2:
+        q1 = {}
+        for p in one2:
+            q1.setdefault(p["precision"], []).append(p["measured"]["phases_s"]["fluid_psm"])
+        ex = []
+        for p in multi2:
+            if p["precision"] in q1:
+                n = p["dims"][0] * p["dims"][1] * p["dims"][2]
+                ex.append("%.2f (%s %s)" % (1e3 * (p["measured"]["phases_s"]["fluid_psm"] - sum(q1[p["precision"]]) /
+                                                   len(q1[p["precision"]]) / n), p["commit"].split()[0], p["precision"]))
+        dem = ", ".join("%.2f / %.2f (%s %s)" % (1e3 * p["measured"]["phases_s"]["dem"], 1e3 * p["model"]["terms_s"]["dem"],
+                                                 p["commit"].split()[0], p["precision"]) for p in multi2)
+        L.append("- Several GPUs (cuts %s): fluid + PSM takes %s ms per step more than the one-GPU step's share (one fit "
+                 "for both precisions: %.0f ns per face cell, against %.2f ns in 3D; the 2D piece's faces are rows of "
+                 "15,360 cells, and what costs this much there is not yet found: the NSYS=1 profile of "
+                 "`suspension_2d_gpu.sh` is the next measurement). DEM %.0f us per substep and split axis (3D: %.0f); "
+                 "its phase (max over ranks) measured / model: %s ms per step (a rank whose DEM runs well above the "
+                 "others' is not followed)." % (
+                     ", ".join(sorted({"x".join(map(str, p["dims"])) for p in multi2})), ", ".join(ex),
+                     P2.get("split_per_face_cell", {}).get("fp32", 0) * 1e9,
+                     d["parameters"]["split_per_face_cell"]["fp32"] * 1e9,
+                     P2.get("dem_per_axis_substep", 0) * 1e6, d["parameters"]["dem_per_axis_substep"] * 1e6, dem))
+        L.append("- Outside the timed phases and the rows on a cut grid: %.2f ms per step and split axis, fitted on the "
+                 "counted multi-GPU 2D run(s) of %s (%d)%s" % (
+                     P2.get("untimed_per_axis", 0) * 1e3, commits(cnt2) or "-", len(cnt2),
+                     ": one parameter for one point, so the leave-one-out line above is the honest figure for it."
+                     if len(cnt2) == 1 else "."))
+    L.append("- Not tested by any measurement: the forms of the 2D cut-grid terms beyond the cut(s) measured. The split "
+             "step per face cell and the time outside the phases per split axis set the 2D strong-scaling predictions "
+             "from 8 GPUs on; a 2-GPU and an 8-GPU 2D run (cuts 1 x 2 x 1, 1 x 8 x 1: the same faces per piece, half "
+             "and twice the cells) would test whether they stay per face and per axis. `suspension_2d_gpu.sh BUILD "
+             "pair` runs fp32 on 4 GPUs with 21 series rows besides the shipped 3 and records the rows' own time "
              "(`series_s`), which splits the rows from the rest of the loop.")
     pre = [p for p in d["points"] if not p["counts"] and p["commit"].split()[0].split("-")[0] in PRE_FIX and p["gpus"] == 4]
     if pre:
