@@ -20,7 +20,7 @@
 //                   [--max-steps N] [--precision fp64] [--backend host|cuda]
 //   lbdem_bench_psm startup [--out FILE.jsonl] [--diameter 6] [--ratio 2,8] [--box 6 (L = box * d)] [--re 0.2]
 //                   [--tau 0.8] [--magic auto] [--weights ntw] [--window 0.25] [--settle 8] [--samples 40]
-//                   [--curve 1] [--precision fp64] [--backend host|cuda]   (startup_case.hpp)
+//                   [--curve 1] [--precision fp64] [--backend host|cuda]   (startup_case.hpp, startup_main.hpp)
 //   lbdem_bench_psm drift [--dims 64,252,64] [--steps 100000] [--every 5000] [--tau 1.2386] [--d 10] [--phi 0.128]
 //                   [--precision fp64] [--fraction table|exact] [--even-relaxation 0|1] [--backend host|cuda]
 //
@@ -45,7 +45,7 @@
 #include "bench_support.hpp"
 #include "psm_plane_wall.hpp"
 #include "random_array.hpp"
-#include "startup_case.hpp"
+#include "startup_main.hpp"
 #include "wall_cases.hpp"
 #include "imb/fixed_sphere.hpp"
 #include "core/error.hpp"

@@ -239,8 +239,8 @@ inline std::vector<double> startup_periodic_once(double density_ratio, double el
   const double rpi = 1 / std::sqrt(M_PI), c = 2 * rpi * std::sqrt(h);
   for (std::size_t m = 1; m <= n; ++m) {
     // w at T_m: midpoint rule over the intervals, f on interval m from the previous step.
-    double conv = 0;
-    for (std::size_t j = 1; j <= m; ++j) conv += G[m - j + 1] * (1 - bm * dv[j == m ? m - 1 : j]);
+    double conv = G[1] * (1 - bm * dv[m - 1]);
+    for (std::size_t j = 1; j < m; ++j) conv += G[m - j + 1] * (1 - bm * dv[j]);
     w[m] = 6 * M_PI * h * conv;
     const double dw = (w[m] - w[m - 1]) / h;
     double hist = 0;
