@@ -9,7 +9,7 @@
 # 10 d (100^3, 20,300 steps: the images' share is 5x smaller) if time is left. Each run: the curve against the
 # periodic-cube model (RMS, max, in units of u_T), against the unbounded Maxey-Riley + Basset reference over
 # sqrt(nu t) <= L/4, the terminal slip against Hasimoto (1959) and Sangani & Acrivos (1982).
-# At most 2.5 min on one H200 after the build (each run well under a minute).
+# Expected about 1 min on one H200 after the build (56 G cell updates in all); the timeouts cap it at 3.5 min.
 # Output: $OUT/startup.jsonl (per run one "startup" line and one "startup_curve" line per sample),
 # $OUT/startup.md (the table), $OUT/startup.png (measured against the models), logs $OUT/startup*.log.
 # Prints the table.

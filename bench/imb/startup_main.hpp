@@ -96,7 +96,7 @@ inline int startup_main(int argc, char** argv) {
     if (!(number("--diameter", x) >= 4)) throw ConfigError("--diameter " + x + ": must be >= 4 cells");
   for (const auto& x : split(rs)) {
     const double r = number("--ratio", x);
-    if (!(r >= 1)) throw ConfigError("--ratio " + x + ": must be >= 1 (a lighter PSM sphere's explicit coupling is not stable)");
+    if (!(r >= 1)) throw ConfigError("--ratio " + x + ": must be >= 1 (a sphere lighter than the fluid is outside what this case was checked for)");
   }
   const Backend b = resolve_backend(backend);
   std::printf("| d/l | rho_p/rho | L | phi | Lambda | steps | T end | RMS box | max box | RMS box r+1 | max box r+1 | "
