@@ -18,6 +18,9 @@
 //   lbdem_bench_psm tube [--out FILE.jsonl] [--diameter 10] [--k 0.1,0.2,0.3] [--length 2 (tube length / D)]
 //                   [--tau 0.8] [--magic auto] [--weights ntw] [--re 0.1] [--chi-ref 0.25] [--tol 1e-5]
 //                   [--max-steps N] [--precision fp64] [--backend host|cuda]
+//   lbdem_bench_psm startup [--out FILE.jsonl] [--diameter 6] [--ratio 2,8] [--box 6 (L = box * d)] [--re 0.2]
+//                   [--tau 0.8] [--magic auto] [--weights ntw] [--window 0.25] [--settle 8] [--samples 40]
+//                   [--curve 1] [--precision fp64] [--backend host|cuda]   (startup_case.hpp, startup_main.hpp)
 //   lbdem_bench_psm drift [--dims 64,252,64] [--steps 100000] [--every 5000] [--tau 1.2386] [--d 10] [--phi 0.128]
 //                   [--precision fp64] [--fraction table|exact] [--even-relaxation 0|1] [--backend host|cuda]
 //
@@ -42,6 +45,7 @@
 #include "bench_support.hpp"
 #include "psm_plane_wall.hpp"
 #include "random_array.hpp"
+#include "startup_main.hpp"
 #include "wall_cases.hpp"
 #include "imb/fixed_sphere.hpp"
 #include "core/error.hpp"
@@ -825,7 +829,8 @@ int main(int argc, char** argv) {
     if (mode == "wall") return plane_wall(argc, argv);
     if (mode == "random") return random_arrays(argc, argv);
     if (mode == "brenner" || mode == "tube") return wall_cases(mode, argc, argv);
-    std::fprintf(stderr, "usage: lbdem_bench_psm sweep|suspension|wall|random|brenner|tube|drift [options]\n");
+    if (mode == "startup") return bench::startup_main(argc, argv);
+    std::fprintf(stderr, "usage: lbdem_bench_psm sweep|suspension|wall|random|brenner|tube|startup|drift [options]\n");
     return 2;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "error: %s\n", e.what());

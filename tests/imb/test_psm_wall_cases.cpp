@@ -1,11 +1,14 @@
 // The wall-case drivers of lbdem_bench_psm (bench/imb/wall_cases.hpp): the
 // tube's exact cell cover, and tiny instances of both cases (d/l 4, the
 // coarsest sphere the fixed-sphere map covers) against the published wall
-// corrections.
+// corrections; the start-up of a free sphere from rest
+// (bench/imb/startup_case.hpp) against the unsteady Stokes references.
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 
+#include "../../bench/imb/startup_case.hpp"
 #include "../../bench/imb/wall_cases.hpp"
 
 using namespace lbdem;
@@ -74,4 +77,48 @@ TEST(WallCases, TubeTiny) {
   EXPECT_GT(r.a.flux, 0.0);
   EXPECT_NEAR(r.K_ref, 2.3697, 1e-3);
   EXPECT_NEAR(r.K / r.K_ref, 1.0, 0.08) << r.K << " against " << r.K_ref;
+}
+
+// The start-up of a free sphere from rest (bench/imb/startup_case.hpp): d/l 6,
+// density ratio 2, tau 0.8, the default weighting and Lambda, Re_p 0.2 at
+// Stokes's terminal velocity, in a periodic cube of 5 d (30^3 cells, phi
+// 0.0042), 6 e-folds of the cube's slowest viscous mode (1368 steps). The
+// tolerance is the fixed-sphere map's bar at d/l 6, half the first paper's
+// Table 1 error (imb::psm_drag_bar: 3.5 %): the curve's late part and the
+// terminal velocity carry the sphere's drag error, the early part the
+// inertia of the fluid PSM keeps inside the sphere (it moves like a sphere of
+// density ratio r + 1 from T ~ 1 on; startup_case.hpp). Measured on the
+// host: the curve against the periodic-cube model of density 2 RMS 0.85 %,
+// max 2.3 % (T ~ 0.5, the interior fluid); against the model of density 3 for
+// T >= 1 within 1.0 % (a constant offset, the drag error); the terminal slip
+// against Hasimoto +0.8 %; the lab end velocity against the model +1.0 %.
+// Against the unbounded reference the curve is compared over the window
+// sqrt(nu t) <= L / 4 (T <= 6.2), where the images' share 2 pi T a^3 / L^3
+// (the kernel's 1/(3V)) reaches 3.9 %: within the bar plus that share.
+TEST(WallCases, StartupFromRestD6) {
+  bench::StartupSpec s;
+  s.diameter = 6;
+  s.ratio = 2;
+  s.box = 5;
+  s.settle = 6;
+  const auto r = bench::run_startup(s, Backend::Host);
+  const double bar = imb::psm_drag_bar(6);
+  std::printf("startup d/l 6, r 2: box model RMS %.4f max %.4f; r+1 model RMS %.4f max %.4f; unbounded (T <= %.2f) "
+              "RMS %.4f max %.4f; slip %.5f Hasimoto %.5f; lab %.5f model %.5f; %.1f s\n",
+              r.rms_box, r.max_box, r.rms_box_psm, r.max_box_psm, r.T_window, r.rms, r.max, r.terminal, r.hasimoto,
+              r.lab_end, r.lab_box, r.seconds);
+  ASSERT_EQ(r.L, 30);
+  ASSERT_GT(r.samples.size(), 100u);
+  EXPECT_LT(r.late_change, 2e-3);  // steady at the end
+  EXPECT_LT(r.rms_box, bar);
+  EXPECT_LT(r.max_box, bar);
+  double late_psm = 0;
+  for (const auto& q : r.samples)
+    if (q.T >= 1) late_psm = std::max(late_psm, std::abs(q.u_psm - q.box_psm));
+  EXPECT_LT(late_psm, bar);
+  EXPECT_NEAR(r.terminal / r.hasimoto, 1.0, bar);
+  EXPECT_NEAR(r.lab_end / r.lab_box, 1.0, bar);
+  EXPECT_LT(r.max, bar + 2 * M_PI * r.T_window / std::pow(r.L / r.a, 3));
+  // The curve rises: the sphere is not held (a free particle, F pulls it along +x).
+  EXPECT_GT(r.samples.back().u, 0.9);
 }
