@@ -133,10 +133,12 @@ DemSystem::DemSystem(Exec ex, DemParams params, const HostParticles& hp, const D
   Impl& m = *impl_;
   m.ex = ex;
   m.p = std::move(params);
-  if (const char* fl = std::getenv("LBDEM_DEM_FORCE_LANES")) m.p.force_lanes = std::atoi(fl);
+  const char* fl = std::getenv("LBDEM_DEM_FORCE_LANES");
+  if (fl) m.p.force_lanes = std::atoi(fl);
   if (m.p.force_lanes != 1 && m.p.force_lanes != 2 && m.p.force_lanes != 4 && m.p.force_lanes != 8 &&
       m.p.force_lanes != 16)
-    throw ConfigError("DEM force_lanes: " + std::to_string(m.p.force_lanes) +
+    throw ConfigError(std::string(fl ? "LBDEM_DEM_FORCE_LANES" : "DEM force_lanes") + ": " +
+                      (fl ? std::string(fl) : std::to_string(m.p.force_lanes)) +
                       " is not 1, 2, 4, 8 or 16 (threads per particle of the force kernel)");
   const DemParams& p = m.p;
   const Material& mat = p.material;
