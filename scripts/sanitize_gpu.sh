@@ -15,13 +15,15 @@
 #                       uninstrumented launches are not recorded and its host-copy check then reports bytes
 #                       they did write (the false reports of the last sweep)
 #   SANITIZE_WHILE      a regular expression on run names whose pressure solve loops in a CUDA graph with a
-#                       conditional (WHILE) node (default: the gas-solid bed scenes and the CFD tests). synccheck,
-#                       racecheck and initcheck do not handle kernels inside conditional nodes: a minimal correct
-#                       program (scripts/sanitizer_while_probe.cu) gets barrier errors and failed runs there and is
-#                       clean with the same kernels launched one by one. These tools therefore run every run with
-#                       LBDEM_PRESSURE_DEVICE_LOOP=0 (the same kernels, the loop polled from the host; nothing else
-#                       reads it); memcheck, which handles them, runs the device loop as shipped and checks every
-#                       launch of the runs this expression names
+#                       conditional (WHILE) node (default: the gas-solid bed scenes and the CFD tests). No tool
+#                       checks kernels inside conditional nodes soundly (scripts/sanitizer_while_probe.cu, a correct
+#                       program): synccheck and racecheck report barrier errors and fail runs there and are clean
+#                       with the same kernels launched one by one; memcheck's instrumented kernels outgrow the stack
+#                       a conditional body's kernels are given (a kernel with a local array in the body ends in an
+#                       unattributed cudaErrorIllegalAddress under memcheck every time, and runs clean with the
+#                       device's stack limit raised to 16 KB, or launched one by one). Every tool therefore runs
+#                       every run with LBDEM_PRESSURE_DEVICE_LOOP=0 (the same kernels, the loop polled from the host;
+#                       nothing else reads it); memcheck checks every launch of the runs this expression names
 #   SANITIZE_CHILDREN   a regular expression on test names that start `lbdem` processes on the GPU (default: the
 #                       GPU restart test and the GPU-rank cuts of cases_tests): the tool follows them
 #                       (--target-processes all). Left to run outside the tool, those processes did not get through
@@ -159,10 +161,9 @@ def one(w, gpu):
         rec["target_processes"] = "all"
     tmp = tempfile.mkdtemp(prefix="lbdem_san_")
     env = dict(os.environ, CUDA_VISIBLE_DEVICES=str(gpu), TMPDIR=tmp)
-    if w["tool"] != "memcheck":
-        env["LBDEM_PRESSURE_DEVICE_LOOP"] = "0"  # every run: only the pressure solve reads it
-        if while_node:
-            rec["pressure_loop"] = "polled"
+    env["LBDEM_PRESSURE_DEVICE_LOOP"] = "0"  # every run: only the pressure solve reads it
+    if while_node:
+        rec["pressure_loop"] = "polled"
     env.pop("CTEST_RESOURCE_GROUP_COUNT", None)
     if w["kind"] == "scene":
         cmd = opts + [os.path.join(build, "cases", "lbdem"), "run", w["yaml"], "--backend", "cuda", "--steps", steps,

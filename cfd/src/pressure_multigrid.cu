@@ -281,7 +281,7 @@ struct Coarsest {
 // launches per level.
 constexpr int kTailMax = 8;
 [[maybe_unused]] constexpr int kTailThreads = 512;  // (device code only)
-constexpr Index kTailCells = 2048;
+constexpr Index kTailCells = 1024;
 struct TailArgs {
   int count;  // levels smoothed here before the coarsest grid
   Index cells[kTailMax], ccells[kTailMax];

@@ -182,9 +182,9 @@ TEST_P(Pressure, LaunchSavingsGiveTheSameBits) {
   EXPECT_EQ(fused.rep.iterations, plain.rep.iterations);
   EXPECT_EQ(fused.x, plain.x);
   // The one-block tail of the V-cycle (on the device: in shared memory) from
-  // level 0 (a grid of at most 2,048 cells) and from level 2 (Link's bed).
+  // level 0 (a grid of at most 1,024 cells) and from level 2 (Link's bed).
   // The host has no tail (its fused and plain paths are one path).
-  for (const auto& n : {std::array<int, 3>{12, 6, 20}, std::array<int, 3>{30, 10, 128}}) {
+  for (const auto& n : {std::array<int, 3>{10, 6, 16}, std::array<int, 3>{30, 10, 128}}) {
     if (!ex.on_device()) break;
     GasGridView h = g;
     for (int a = 0; a < 3; ++a) h.n[a] = n[static_cast<std::size_t>(a)];

@@ -69,7 +69,7 @@ struct PressureSolverParams {
   // Multigrid on the device, fewer launches: the start of a solve and the
   // iterations between two polls run as CUDA graphs (captured once; the kernels read every scalar
   // from device memory, so a replay is the same work as launching them one
-  // by one), and the V-cycle's levels of at most 2048 cells in one kernel of
+  // by one), and the V-cycle's levels of at most 1024 cells in one kernel of
   // one block. Off: every kernel launched on its own (the same arithmetic).
   bool graphs = true;
   // Multigrid on the device with `graphs`: the iterations' loop on the device
