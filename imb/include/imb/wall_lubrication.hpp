@@ -10,12 +10,12 @@
 // saturated cells, the flow in the gap also passes through the sphere's
 // partially covered cells (permeable where B < 1), so where the gap is a
 // cell or two the resolved gap carries too much flux for its pressure and
-// the drag falls short of Brenner's. The shortfall is set by the gap in
-// cells, not by g / a (at a one-cell gap it is the same fraction of the
-// lubrication term a / g at d/l 6 and 10, while at equal g / a the coarser
-// sphere misses more), and it falls off steeply with the gap (like g^-p,
-// p about 2.6, against g^-2 for a fixed offset of the surface and 0 for a
-// resolved gap): bench/imb/NOTES.md, "Walls: the gap".
+// the drag falls short of Brenner's. With the rule's Lambda the shortfall
+// is set by the gap in cells rather than by g / a (at a one-cell gap it is
+// the same fraction of the lubrication term a / g at d/l 6 and 10), and it
+// falls off steeply with the gap (like g^-p, p about 2.6, against g^-2 for a
+// fixed offset of the surface): a discretisation error of the gap flow
+// (bench/imb/NOTES.md, "Walls: the gap").
 //
 // The correction adds, along the wall normal, the missing part
 //   dF = -6 pi mu a U_n * c a g^-p    (lattice units: lengths in cells),
@@ -26,9 +26,13 @@
 // form 6 pi mu a^2 U (1/g - 1/h_c), added below h_c, assumes a resolved force
 // that stops growing below h_c; the PSM force keeps following Brenner's
 // shape with a deficit that shrinks smoothly, which a single cut-off cannot
-// match between one and two cells (NOTES.md). Outside the fitted range
-// (gaps below one cell, other weightings, tau far from 0.8) the constants are
-// unverified.
+// match between one and two cells (NOTES.md). The deficit is the balance of
+// two Lambda-dependent fluxes (the bounce-back wall's TRT slip narrows a
+// one-node channel unless Lambda = 3/16, the partial cells widen it), so the
+// constants hold for the rule's Lambda (psm_magic_auto, 0.06-0.17 at d/l 6-10,
+// tau 0.8-1): with Lambda 1e-4 a one-cell gap has 70 % too much drag, with
+// 3/16 15 % too little at d/l 6. Outside the fitted range (gaps below one
+// cell, other weightings or Lambda, tau far from 0.8) they are unverified.
 #include <cmath>
 
 namespace lbdem::imb {
