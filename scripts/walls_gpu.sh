@@ -14,7 +14,8 @@
 #            Sayre (1958). Bar: 2 %. At most 90 s.
 #   gap      the gap correction (imb/wall_lubrication.hpp) at d/l 8, 10 and 16 (16 held out of its fit): brenner
 #            at gaps 1, 1.25, 1.5, 2, 3, 4, 8 cells in a box of 8 d (d/l 16: 128^3), the bare and the corrected error
-#            in each row. Bar: 3 % for gaps >= 1 cell. At most 5 min.
+#            in each row; then d/l 10 at Lambda 3/16 and 1e-4 (gaps 1, 2, 4: the correction holds at the rule's
+#            Lambda only). Bar: 3 % for gaps >= 1 cell. At most 6 min.
 # brenner + tube: at most 4 min on one H200 after the build. Output: $OUT/walls.jsonl (one JSON line per run: the gap or k,
 # the ratio, the reference, error, steps, seconds, MLUPS), $OUT/walls_brenner.md and $OUT/walls_tube.md (the
 # tables), logs $OUT/walls_*.log. Prints the tables.
@@ -60,6 +61,11 @@ for p in "${parts[@]}"; do
           timeout $([ $d = 16 ] && echo 200 || echo 40) "$bin" brenner "${common[@]}" --diameter $d --box 8 \
             --gaps 1,1.25,1.5,2,3,4,8 --out "$OUT/walls.jsonl"
           echo "gap d/l $d: exit $?" >&2
+        done
+        # Lambda's share at d/l 10: the bounce-back wall exact (3/16) and nearly closed for a one-node channel (1e-4).
+        for m in 0.1875 1e-4; do
+          timeout 40 "$bin" brenner "${common[@]}" --magic $m --box 8 --gaps 1,2,4 --out "$OUT/walls.jsonl"
+          echo "gap d/l 10 Lambda $m: exit $?" >&2
         done
       } > "$OUT/walls_gap.md" 2> "$OUT/walls_gap.log"
       cat "$OUT/walls_gap.md"
