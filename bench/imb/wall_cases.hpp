@@ -310,7 +310,7 @@ struct BrennerResult {
   double F = 0;                     // drag (opposing the motion), lattice units
   double F_stokes = 0;              // 3 pi mu d U
   double U = 0;
-  double lubrication = 0;           // the gap correction's share of lambda (imb::wall_lubrication_lambda)
+  double lubrication = 0;           // the gap correction's share of lambda (imb::wall_lubrication_lambda; 0 outside its Lambda range)
 };
 
 inline BrennerResult run_brenner(const WallCaseSpec& s, long W, long H, double gap, Backend b) {
@@ -345,7 +345,7 @@ inline BrennerResult run_brenner(const WallCaseSpec& s, long W, long H, double g
   r.F_stokes = 3 * M_PI * nu * d * r.U;
   r.h_over_a = (zc - 1.0) / a;
   r.lambda = brenner_lambda(r.h_over_a);
-  r.lubrication = imb::wall_lubrication_lambda(a, gap);
+  r.lubrication = imb::wall_lubrication_lambda(a, gap, s.magic >= 0 ? s.magic : imb::psm_magic_auto(d, s.tau));
   return r;
 }
 
