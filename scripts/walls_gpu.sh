@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The wall cases of issue 29 at d/l 10 on ONE GPU (lbdem_bench_psm brenner / tube, bench/imb/wall_cases.hpp):
 #
-#   scripts/walls_gpu.sh BUILD_DIR [PART...]      PART: brenner | tube (default: both)
+#   scripts/walls_gpu.sh BUILD_DIR [PART...]      PART: brenner | tube | gap (default: brenner tube)
 #
 #   brenner  a sphere of d/l 10 moving toward a bounce-back wall (tau 0.8, the default weighting
 #            noble_torczynski_wall with Lambda auto, exact fractions, fp64, Re_p 0.1), gaps 1, 2, 4, 8 cells and
@@ -12,7 +12,11 @@
 #   tube     the same sphere on the axis of a tube of PSM solid (exact cell cover), k = d/D 0.3, 0.2, 0.15
 #            (then 0.1, 2.1 M cells, if time is left), length 2 D, zero net flux; K / K_inf against Haberman &
 #            Sayre (1958). Bar: 2 %. At most 90 s.
-# Both: at most 4 min on one H200 after the build. Output: $OUT/walls.jsonl (one JSON line per run: the gap or k,
+#   gap      the gap correction (imb/wall_lubrication.hpp) at d/l 8, 10 and 16 (16 held out of its fit): brenner
+#            at gaps 1, 1.25, 1.5, 2, 3, 4, 8 cells in a box of 8 d (d/l 16: 128^3), the bare and the corrected error
+#            in each row; then d/l 10 at Lambda 3/16 and 1e-4 (gaps 1, 2, 4: the correction holds at the rule's
+#            Lambda only). Bar: 3 % for gaps >= 1 cell. At most 6 min.
+# brenner + tube: at most 4 min on one H200 after the build. Output: $OUT/walls.jsonl (one JSON line per run: the gap or k,
 # the ratio, the reference, error, steps, seconds, MLUPS), $OUT/walls_brenner.md and $OUT/walls_tube.md (the
 # tables), logs $OUT/walls_*.log. Prints the tables.
 set -uo pipefail
@@ -48,6 +52,25 @@ for p in "${parts[@]}"; do
       cat "$OUT/walls_tube.md"
       tail_log "$OUT/walls_tube.log" 4
       ;;
-    *) echo "walls_gpu: unknown part $p (brenner, tube)"; exit 2 ;;
+    gap)
+      {
+        timeout 60 "$bin" brenner "${common[@]}" --box 8 --gaps 1,1.25,1.5,2,3,4,8 \
+          --out "$OUT/walls.jsonl"
+        echo "gap d/l 10: exit $?" >&2
+        for d in 8 16; do
+          timeout $([ $d = 16 ] && echo 200 || echo 40) "$bin" brenner "${common[@]}" --diameter $d --box 8 \
+            --gaps 1,1.25,1.5,2,3,4,8 --out "$OUT/walls.jsonl"
+          echo "gap d/l $d: exit $?" >&2
+        done
+        # Lambda's share at d/l 10: the bounce-back wall exact (3/16) and nearly closed for a one-node channel (1e-4).
+        for m in 0.1875 1e-4; do
+          timeout 40 "$bin" brenner "${common[@]}" --magic $m --box 8 --gaps 1,2,4 --out "$OUT/walls.jsonl"
+          echo "gap d/l 10 Lambda $m: exit $?" >&2
+        done
+      } > "$OUT/walls_gap.md" 2> "$OUT/walls_gap.log"
+      cat "$OUT/walls_gap.md"
+      tail_log "$OUT/walls_gap.log" 4
+      ;;
+    *) echo "walls_gpu: unknown part $p (brenner, tube, gap)"; exit 2 ;;
   esac
 done

@@ -13,8 +13,9 @@
 //                   [--tau 0.8] [--magic auto] [--seeds 1] [--sweeps 200] [--min-gap 1] [--weights ntw] [--tol 1e-5]
 //                   [--backend host|cuda]
 //   lbdem_bench_psm brenner [--out FILE.jsonl] [--diameter 10] [--gaps 1,2,4,8,2d (cells; Nd: N diameters)]
-//                   [--box 8 (W = H = box * d, a list)] [--tau 0.8] [--magic auto] [--weights ntw] [--re 0.1]
-//                   [--chi-ref 0.25] [--tol 1e-5] [--max-steps N] [--precision fp64] [--backend host|cuda]
+//                   [--box 8 (W = H = box * d, a list)] [--height H/d (default: the box)] [--wall bb|psm] [--tau 0.8] [--magic auto] [--weights ntw] [--re 0.1]
+//                   [--chi-ref 0.25] [--unbounded F_inf/F_St (skips its run)] [--tol 1e-5] [--max-steps N]
+//                   [--precision fp64] [--backend host|cuda]
 //   lbdem_bench_psm tube [--out FILE.jsonl] [--diameter 10] [--k 0.1,0.2,0.3] [--length 2 (tube length / D)]
 //                   [--tau 0.8] [--magic auto] [--weights ntw] [--re 0.1] [--chi-ref 0.25] [--tol 1e-5]
 //                   [--max-steps N] [--precision fp64] [--backend host|cuda]
@@ -702,7 +703,8 @@ int wall_cases(const std::string& mode, int argc, char** argv) {
   std::string out, ds = "10", gaps = "1,2,4,8,2d", boxes = "8", ks = "0.1,0.2,0.3", magic = "auto", weight = "ntw",
                    backend = "auto", prec = "fp64";
   bench::WallCaseSpec base;
-  double chi_ref = 0.25, length = 2;
+  double chi_ref = 0.25, length = 2, height = 0;  // height: brenner's H in d (0: the box's W)
+  double unbounded = 0;  // the sphere's unbounded drag / Stokes when known (one d/l only); 0: measured
   for (int i = 2; i < argc; ++i) {
     const std::string k = argv[i];
     auto next = [&] { return option_value(argc, argv, i); };
@@ -710,6 +712,12 @@ int wall_cases(const std::string& mode, int argc, char** argv) {
     else if (k == "--diameter") ds = next();
     else if (k == "--gaps" && mode == "brenner") gaps = next();
     else if (k == "--box" && mode == "brenner") boxes = next();
+    else if (k == "--height" && mode == "brenner") height = std::stod(next());
+    else if (k == "--wall" && mode == "brenner") {
+      const std::string w = next();
+      if (w != "bb" && w != "psm") throw ConfigError("--wall " + w + ": must be bb (half-way bounce-back) or psm (solid cells)");
+      base.psm_wall = w == "psm";
+    }
     else if (k == "--k" && mode == "tube") ks = next();
     else if (k == "--length" && mode == "tube") length = std::stod(next());
     else if (k == "--tau") base.tau = std::stod(next());
@@ -717,6 +725,7 @@ int wall_cases(const std::string& mode, int argc, char** argv) {
     else if (k == "--weights") weight = next();
     else if (k == "--re") base.re = std::stod(next());
     else if (k == "--chi-ref") chi_ref = std::stod(next());
+    else if (k == "--unbounded") unbounded = std::stod(next());
     else if (k == "--tol") base.tolerance = std::stod(next());
     else if (k == "--max-steps") base.max_steps = std::stol(next());
     else if (k == "--precision") prec = next();
@@ -724,6 +733,8 @@ int wall_cases(const std::string& mode, int argc, char** argv) {
     else throw ConfigError(mode + ": unknown option " + k);
   }
   if (weight != "ntw" && weight != "nt") throw ConfigError("--weights " + weight + ": must be ntw or nt");
+  if (unbounded < 0 || (unbounded > 0 && split(ds).size() != 1))
+    throw ConfigError("--unbounded " + jnum(unbounded) + ": must be > 0 and given with one --diameter");
   if (!(chi_ref > 0 && chi_ref <= 0.5)) throw ConfigError("--chi-ref " + jnum(chi_ref) + ": must be in (0, 0.5]");
   if (!(base.tau > 0.5)) throw ConfigError("--tau " + jnum(base.tau) + ": must be > 0.5");
   base.weight = weight == "ntw" ? imb::PsmWeight::NobleTorczynskiWall : imb::PsmWeight::NobleTorczynski;
@@ -735,12 +746,13 @@ int wall_cases(const std::string& mode, int argc, char** argv) {
     if (mode == "brenner")
       for (const auto& bx : split(boxes)) {
         const long W = std::lround(std::stod(bx) * d);
+        const long H = height > 0 ? std::lround(height * d) : W;
         if (double(W) < d + 4) throw ConfigError("--box " + bx + ": the box (" + std::to_string(W) + " cells) must be at least d + 4");
         for (const auto& gs : split(gaps)) {
           const double gap = gs.back() == 'd' ? std::stod(gs.substr(0, gs.size() - 1)) * d : std::stod(gs);
-          if (!(gap >= 0.5) || 1.0 + d + gap > double(W - 1) - 1.0)
+          if (!(gap >= 0.5) || 1.0 + d + gap > double(H - 1) - 1.0)
             throw ConfigError("--gaps " + gs + ": the gap must be >= 0.5 cells and leave the sphere a cell below the top "
-                              "wall of the box of " + std::to_string(W) + " cells (--box " + bx + ")");
+                              "wall of the box of height " + std::to_string(H) + " cells (--box " + bx + ", --height)");
         }
       }
     else
@@ -761,7 +773,7 @@ int wall_cases(const std::string& mode, int argc, char** argv) {
     s.diameter = std::stod(dstr);
     s.magic = magic == "auto" ? imb::psm_magic_auto(s.diameter, s.tau) : std::stod(magic);
     const double t0 = wall();
-    const double unb = bench::unbounded_factor(s, chi_ref, b);
+    const double unb = unbounded > 0 ? unbounded : bench::unbounded_factor(s, chi_ref, b);
     std::printf("# d/l %s, tau %g, Lambda %.3g, %s, %s: unbounded drag / Stokes = %.5f (array K / Sangani & Acrivos "
                 "at chi %g, %.1f s)\n",
                 dstr.c_str(), s.tau, s.magic, weight.c_str(), prec.c_str(), unb, chi_ref, wall() - t0);
@@ -771,22 +783,27 @@ int wall_cases(const std::string& mode, int argc, char** argv) {
            << ", \"magic\": " << jnum(s.magic) << ", \"weight\": \"" << weight << "\", \"precision\": \"" << prec
            << "\", \"re\": " << jnum(s.re) << ", \"unbounded\": " << jnum(unb) << ", \"chi_ref\": " << jnum(chi_ref);
     if (mode == "brenner") {
-      std::printf("| d/l | box W=H | gap | h/a | F/F_St | F/F_inf | Brenner | err %% | steps | s | MLUPS |\n");
-      std::printf("|---|---|---|---|---|---|---|---|---|---|---|\n");
+      std::printf("| d/l | box W x H | wall | gap | h/a | F/F_St | F/F_inf | Brenner | err %% | + gap corr. | err %% | steps | s | "
+                  "MLUPS |\n");
+      std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
       for (const auto& bx : split(boxes)) {
         const long W = std::lround(std::stod(bx) * s.diameter);
+        const long H = height > 0 ? std::lround(height * s.diameter) : W;
         for (const auto& gs : split(gaps)) {
           const double gap = gs.back() == 'd' ? std::stod(gs.substr(0, gs.size() - 1)) * s.diameter : std::stod(gs);
-          const auto r = bench::run_brenner(s, W, W, gap, b);
+          const auto r = bench::run_brenner(s, W, H, gap, b);
           const double lam = r.F / r.F_stokes / unb, err = 100 * (lam / r.lambda - 1);
-          std::printf("| %s | %ld | %g | %.4f | %.5f | %.5f | %.5f | %+.2f | %ld%s | %.1f | %.1f |\n", dstr.c_str(), W,
-                      gap, r.h_over_a, r.F / r.F_stokes, lam, r.lambda, err, r.run.steps, r.run.converged ? "" : "*",
-                      r.run.seconds, r.run.mlups);
+          // With the gap correction (imb::wall_lubrication_lambda, units of the Stokes drag).
+          const double lamc = lam + r.lubrication, errc = 100 * (lamc / r.lambda - 1);
+          std::printf("| %s | %ld x %ld | %s | %g | %.4f | %.5f | %.5f | %.5f | %+.2f | %.5f | %+.2f | %ld%s | %.1f | %.1f |\n",
+                      dstr.c_str(), W, H, s.psm_wall ? "psm" : "bb", gap, r.h_over_a, r.F / r.F_stokes, lam, r.lambda,
+                      err, lamc, errc, r.run.steps, r.run.converged ? "" : "*", r.run.seconds, r.run.mlups);
           std::fflush(stdout);
           std::ostringstream o;
-          o << "{\"bench\": \"brenner\", " << common.str() << ", \"box\": " << W << ", \"gap\": " << jnum(gap)
+          o << "{\"bench\": \"brenner\", " << common.str() << ", \"box\": " << W << ", \"height\": " << H << ", \"wall\": \"" << (s.psm_wall ? "psm" : "bb") << "\", \"gap\": " << jnum(gap)
             << ", \"h_over_a\": " << jnum(r.h_over_a) << ", \"F_over_stokes\": " << jnum(r.F / r.F_stokes)
             << ", \"lambda\": " << jnum(lam) << ", \"brenner\": " << jnum(r.lambda) << ", \"error\": " << jnum(err / 100)
+            << ", \"lubrication\": " << jnum(r.lubrication) << ", \"error_corrected\": " << jnum(errc / 100)
             << ", \"steps\": " << r.run.steps << ", \"converged\": " << (r.run.converged ? "true" : "false")
             << ", \"remaining\": " << jnum(r.run.remaining) << ", \"seconds\": " << jnum(r.run.seconds)
             << ", \"cells\": " << r.run.cells << ", \"mlups\": " << jnum(r.run.mlups) << "}";

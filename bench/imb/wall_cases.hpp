@@ -49,6 +49,7 @@
 #include "imb/drag_error.hpp"
 #include "imb/fixed_sphere.hpp"
 #include "imb/psm_coupling.hpp"
+#include "imb/wall_lubrication.hpp"
 #include "lbm/solver.hpp"
 #include "wall_references.hpp"
 
@@ -93,6 +94,11 @@ struct WallCaseSpec {
   double tolerance = 1e-5;  // steady state: estimated remaining relative change of the drag (and flux)
   long max_steps = 400000;
   long check = 0;         // steps between checks; 0: from the box (about W^2 / (40 nu), at least 50)
+  // brenner: the z faces as PSM solid (cells z = 0 and H - 1 fully covered,
+  // at rest, z periodic) instead of half-way bounce-back: the same wall plane
+  // z = 1 by another operator, to tell the wall's share of an error from the
+  // sphere's.
+  bool psm_wall = false;
 };
 
 // One steady run of a sphere held at `centre` with velocity `velocity` in a
@@ -304,6 +310,7 @@ struct BrennerResult {
   double F = 0;                     // drag (opposing the motion), lattice units
   double F_stokes = 0;              // 3 pi mu d U
   double U = 0;
+  double lubrication = 0;           // the gap correction's share of lambda (imb::wall_lubrication_lambda; 0 outside its Lambda range)
 };
 
 inline BrennerResult run_brenner(const WallCaseSpec& s, long W, long H, double gap, Backend b) {
@@ -316,12 +323,16 @@ inline BrennerResult run_brenner(const WallCaseSpec& s, long W, long H, double g
     throw ConfigError("brenner: box width " + std::to_string(W) + " cells: must be at least d + 4");
   WallScene sc;
   sc.dims = {W, W, H};
-  sc.wall.assign(static_cast<std::size_t>(W * W * H), 0);
-  for (long y = 0; y < W; ++y)
-    for (long x = 0; x < W; ++x) {
-      sc.wall[static_cast<std::size_t>(x + W * y)] = 1;
-      sc.wall[static_cast<std::size_t>(x + W * (y + W * (H - 1)))] = 1;
-    }
+  auto set_faces = [&](auto& faces) {
+    faces.assign(static_cast<std::size_t>(W * W * H), 0);
+    for (long y = 0; y < W; ++y)
+      for (long x = 0; x < W; ++x) {
+        faces[static_cast<std::size_t>(x + W * y)] = 1;
+        faces[static_cast<std::size_t>(x + W * (y + W * (H - 1)))] = 1;
+      }
+  };
+  if (s.psm_wall) set_faces(sc.solid);
+  else set_faces(sc.wall);
   // On a cell centre in x and y (0.5 from the box centre when W is even).
   const double cxy = 0.5 * double(W) + (W % 2 == 0 ? 0.5 : 0.0);
   BrennerResult r;
@@ -334,6 +345,7 @@ inline BrennerResult run_brenner(const WallCaseSpec& s, long W, long H, double g
   r.F_stokes = 3 * M_PI * nu * d * r.U;
   r.h_over_a = (zc - 1.0) / a;
   r.lambda = brenner_lambda(r.h_over_a);
+  r.lubrication = imb::wall_lubrication_lambda(a, gap, s.magic >= 0 ? s.magic : imb::psm_magic_auto(d, s.tau));
   return r;
 }
 
