@@ -129,11 +129,9 @@ namespace detail {
 // at every d/l of the host map at tau 1.5). tau 0.52 from d/l 16: the
 // fixed-sphere study (bench/results/psm_fixed_sphere_sweep_h200.json, set
 // by_resolution; classic NT weighting, whose t is within 6 % of the rule's at
-// 0.52). d/l 16 at tau 1.25: a host run at the current table's Lambda (0.22);
-// its tau 0.8, 1 and 1.5 nodes were measured at Lambda the table no longer
-// gives there and await a map of this one.
-// d/l 20-50 at tau other than 0.52 await the device map of
-// this table (scripts/drag_gpu.sh map). Simple cubic arrays at chi 0.5; the
+// 0.52). d/l 16-50 at tau 0.6, 0.8, 1, 1.25, 1.5: the device map of this
+// table (scripts/drag_gpu.sh map; bench/results/drag_map_gpu_h200.md; the
+// tau 0.7 and 0.9 columns between them). Simple cubic arrays at chi 0.5; the
 // dense array (chi 0.8685) is not mapped here (drag_map_host.md: the rule
 // misses there from tau 0.6-0.7 up).
 inline constexpr int kMapTaus = 10;
@@ -147,10 +145,10 @@ inline constexpr double kDragMapError[8][kMapTaus] = {
     {-1.90,  -1.77,  -1.55,  -2.04,  -2.24,  -2.17,  -2.02,  -1.84,  -9.80,  -15.80},  // d/l 6
     {-0.61,  -0.38,  +0.01,  -0.67,  -0.73,  -0.68,  -0.80,  -0.64,  -1.18,  -5.51},  // d/l 8
     {+0.26,  +0.44,  +0.77,  +0.68,  +0.35,  +0.56,  +0.60,  +0.54,  -0.07,  -2.18},  // d/l 10
-    {kNo,    -0.39,  kNo,    kNo,    kNo,    kNo,    kNo,    kNo,    +0.02,   kNo},  // d/l 16
-    {kNo,    -0.11,  kNo,    kNo,    kNo,    kNo,    kNo,    kNo,    kNo,     kNo},  // d/l 20
-    {kNo,    +0.08,  kNo,    kNo,    kNo,    kNo,    kNo,    kNo,    kNo,     kNo},  // d/l 30
-    {kNo,    +0.13,  kNo,    kNo,    kNo,    kNo,    kNo,    kNo,    kNo,     kNo},  // d/l 50
+    {kNo,    -0.39,  kNo,    -0.02,  kNo,    -0.03,  kNo,    -0.02,  +0.02,   +0.01},  // d/l 16
+    {kNo,    -0.11,  kNo,    +0.03,  kNo,    -0.01,  kNo,    -0.02,  -0.02,   +0.01},  // d/l 20
+    {kNo,    +0.08,  kNo,    +0.04,  kNo,    -0.03,  kNo,    -0.10,  -0.03,   -0.01},  // d/l 30
+    {kNo,    +0.13,  kNo,    +0.00,  kNo,    -0.04,  kNo,    -0.08,  -0.02,   -0.01},  // d/l 50
 };
 // clang-format on
 
