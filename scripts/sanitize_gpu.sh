@@ -23,7 +23,9 @@
 #                       unattributed cudaErrorIllegalAddress under memcheck every time, and runs clean with the
 #                       device's stack limit raised to 16 KB, or launched one by one). Every tool therefore runs
 #                       every run with LBDEM_PRESSURE_DEVICE_LOOP=0 (the same kernels, the loop polled from the host;
-#                       nothing else reads it); memcheck checks every launch of the runs this expression names
+#                       nothing else reads it); memcheck checks every launch of the runs this expression names.
+#                       LBDEM_CUDA_STACK_BYTES=16384 (core/src/exec.cpp: the device's stack limit, set when lbdem or a
+#                       test first finds the GPU) with LBDEM_PRESSURE_DEVICE_LOOP=1 lets memcheck check the loop itself
 #   SANITIZE_CHILDREN   a regular expression on test names that start `lbdem` processes on the GPU (default: the
 #                       GPU restart test and the GPU-rank cuts of cases_tests): the tool follows them
 #                       (--target-processes all). Left to run outside the tool, those processes did not get through

@@ -2,6 +2,8 @@
 
 #include <spdlog/spdlog.h>
 
+#include <cstdlib>
+#include <mutex>
 #include <string>
 
 #include "core/buffer.hpp"
@@ -28,6 +30,29 @@ void throw_not_compiled_for_cuda(const char* where) {
               "(kernel sources must end in .cu and be listed with lbdem_kernel_sources)");
 }
 
+#if defined(LBDEM_HAVE_CUDA)
+namespace {
+// LBDEM_CUDA_STACK_BYTES=N (a diagnostic for the sanitizer sweep): the current
+// device's per-thread stack limit (cudaLimitStackSize), set once, when the
+// first query finds a device. compute-sanitizer's memcheck gives its
+// instrumented kernels larger frames than a CUDA-graph conditional body's
+// kernels are given stack for (scripts/sanitizer_while_probe.cu); a larger
+// limit lets it check the pressure solve's device loop itself.
+void apply_stack_limit_once() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    const char* v = std::getenv("LBDEM_CUDA_STACK_BYTES");
+    if (!v) return;
+    char* end = nullptr;
+    const unsigned long bytes = std::strtoul(v, &end, 10);
+    if (end == v || *end != '\0' || bytes == 0)
+      throw ConfigError(std::string("LBDEM_CUDA_STACK_BYTES: '") + v + "' is not a positive number of bytes");
+    LBDEM_CUDA_CHECK(cudaDeviceSetLimit(cudaLimitStackSize, bytes));
+  });
+}
+}  // namespace
+#endif
+
 std::string cuda_unavailable_reason() {
 #if defined(LBDEM_HAVE_CUDA)
   int n = 0;
@@ -37,6 +62,7 @@ std::string cuda_unavailable_reason() {
     return std::string("no usable CUDA device (") + cudaGetErrorString(e) + ")";
   }
   if (n == 0) return "no CUDA device found";
+  apply_stack_limit_once();
   return {};
 #else
   return "this build has no CUDA backend (nvcc was not found at configure time)";
