@@ -508,7 +508,12 @@ void PressureSolver::init_multigrid() {
   // the kernels and their order, hence the bits, are the same for any limit).
   const int nl = static_cast<int>(lv_.size());
   Index tail_cells = kTailCells;
-  if (const char* tc = std::getenv("LBDEM_PRESSURE_TAIL_CELLS")) tail_cells = std::max(0L, std::atol(tc));
+  if (const char* tc = std::getenv("LBDEM_PRESSURE_TAIL_CELLS")) {
+    char* end = nullptr;
+    tail_cells = std::strtol(tc, &end, 10);
+    if (end == tc || *end != '\0' || tail_cells < 0)
+      throw ConfigError(std::string("LBDEM_PRESSURE_TAIL_CELLS: '") + tc + "' is not a cell count (0 or more)");
+  }
   tail_ = nl;
   for (int l = nl - 1; l >= 0 && nl - l <= kTailMax; --l) {
     const Index c = l == 0 ? nc : lv_[static_cast<std::size_t>(l - 1)].g.cells();

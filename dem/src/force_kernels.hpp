@@ -84,12 +84,37 @@ LBDEM_HD LBDEM_FORCEINLINE void slot_contact(const State& s, const Real4& p, con
   }
 }
 
+// Adds to F and T the contacts of particle i in its list slots first, first +
+// stride, ... below cnt, in that order. The next partner's index and position
+// are read before this contact's history is written (neither array is written
+// by the force kernels, so the values are those of a read after it): the
+// device overlaps their memory latency with this contact's work instead of
+// waiting for them at the top of each iteration.
+template <bool Friction>
+LBDEM_HD LBDEM_FORCEINLINE void list_contacts(const State& s, Index i, const Real4& p, const Real4& v, const Real4& w,
+                                              int cnt, int first, int stride, Vec3d& F, Vec3d& T) {
+  int j = 0;
+  Real4 pj{0, 0, 0, 0};
+  if (first < cnt) {
+    j = s.nbr[first * s.n + i];
+    pj = s.pos[j];
+  }
+  for (int q = first; q < cnt; q += stride) {
+    const Index slot = q * s.n + i;
+    int j_next = 0;
+    Real4 p_next{0, 0, 0, 0};
+    if (q + stride < cnt) {
+      j_next = s.nbr[slot + stride * s.n];
+      p_next = s.pos[j_next];
+    }
+    slot_contact<Friction>(s, p, v, w, slot, j, pj, F, T);
+    j = j_next;
+    pj = p_next;
+  }
+}
+
 // Particle-parallel: particle i sums all its contacts over its full list.
-// Deterministic: fixed summation order, no atomics. The next partner's index
-// and position are read before this contact's history is written (neither
-// array is written by this kernel, so the values are those of a read after
-// it): the device overlaps their memory latency with this contact's work
-// instead of waiting for them at the top of each iteration.
+// Deterministic: fixed summation order, no atomics.
 template <bool Friction>
 struct ForceParticle {
   State s;
@@ -98,27 +123,9 @@ struct ForceParticle {
     const Real4 v = s.vpr[i];
     Real4 w{0, 0, 0, 0};
     if constexpr (Friction) w = s.wpr[i];
-    const int cnt = s.ncount[i];
-    int j = 0;
-    Real4 pj{0, 0, 0, 0};
-    if (cnt > 0) {
-      j = s.nbr[i];
-      pj = s.pos[j];
-    }
     Vec3d F, T;
     particle_forces<Friction>(s, i, p, v, w, F, T);
-    for (int q = 0; q < cnt; ++q) {
-      const Index slot = q * s.n + i;
-      int j_next = 0;
-      Real4 p_next{0, 0, 0, 0};
-      if (q + 1 < cnt) {
-        j_next = s.nbr[slot + s.n];
-        p_next = s.pos[j_next];
-      }
-      slot_contact<Friction>(s, p, v, w, slot, j, pj, F, T);
-      j = j_next;
-      pj = p_next;
-    }
+    list_contacts<Friction>(s, i, p, v, w, s.ncount[i], 0, 1, F, T);
     s.frc[i] = Real4{F.x, F.y, F.z, 0.0};
     if constexpr (Friction) s.trq[i] = Real4{T.x, T.y, T.z, 0.0};
   }
@@ -145,26 +152,8 @@ __global__ void __launch_bounds__(256) force_lanes_kernel(const State s, Index n
     const Real4 v = s.vpr[i];
     Real4 w{0, 0, 0, 0};
     if constexpr (Friction) w = s.wpr[i];
-    const int cnt = s.ncount[i];
     if (lane == 0) particle_forces<Friction>(s, i, p, v, w, F, T);
-    int j = 0;
-    Real4 pj{0, 0, 0, 0};
-    if (lane < cnt) {
-      j = s.nbr[lane * s.n + i];
-      pj = s.pos[j];
-    }
-    for (int q = lane; q < cnt; q += L) {
-      const Index slot = q * s.n + i;
-      int j_next = 0;
-      Real4 p_next{0, 0, 0, 0};
-      if (q + L < cnt) {
-        j_next = s.nbr[slot + L * s.n];
-        p_next = s.pos[j_next];
-      }
-      slot_contact<Friction>(s, p, v, w, slot, j, pj, F, T);
-      j = j_next;
-      pj = p_next;
-    }
+    list_contacts<Friction>(s, i, p, v, w, s.ncount[i], lane, L, F, T);
   }
 #pragma unroll
   for (int off = L / 2; off > 0; off >>= 1) {
