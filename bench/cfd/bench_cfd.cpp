@@ -5,6 +5,7 @@
 //   lbdem_bench_cfd --out DIR [--particles 1000000] [--steps 20] [--host-steps 3]
 //                   [--backends cuda,cpuall] [--void-fraction linear] [--gas-dt 5e-4]
 //                   [--pressure-solver multigrid|cg] [--dem-graphs 1|0] [--host-threads N]
+//                   [--force-coupling sequential|lagged]
 //
 // Set-up: 50 x 50 x 120 cubic gas cells of 10 mm (300,000); particles of
 // d = 2.5 mm (4 per cell width), rho = 1000 kg/m^3, k = 800 N/m, e = 0.97,
@@ -17,7 +18,9 @@
 // cases (`--pressure-solver cg`: the Jacobi CG the first runs of this bench
 // used); `--dem-graphs 0` launches the DEM sub-steps kernel by kernel
 // (DemParams::substep_graphs); `--host-threads N` runs the host on N cores
-// (default: all of them, `cpuall`).
+// (default: all of them, `cpuall`); `--force-coupling lagged` runs the
+// sub-steps with the previous gas step's forces, the gas step beside them
+// (cfd/lagged_coupling.hpp).
 //
 // For every backend (CUDA where usable; the host on all its cores): after
 // `--warmup` gas steps, (1) the whole coupled step (gas step + DEM sub-steps,
@@ -33,13 +36,17 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
+#include <optional>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "bench_support.hpp"
 #include "cfd/coupling.hpp"
+#include "cfd/lagged_coupling.hpp"
 #include "core/error.hpp"
 #include "dem/init.hpp"
 #include "dem/system.hpp"
@@ -59,6 +66,7 @@ struct Options {
   std::string deposition = "linear";
   std::string pressure = "multigrid";
   bool dem_graphs = true;
+  std::string coupling = "sequential";
   int host_threads = 0;  // 0: all cores
   std::string out;
 };
@@ -137,11 +145,30 @@ Result run(const Options& o, Backend b, int threads) {
   if (b == Backend::Host) omp_set_num_threads(threads);
   const Exec ex(b);
   dem::DemSystem dem(ex, dp, init);
-  cfd::GasSolver gas(ex, g, gp);
+  // Lagged forces (cfd/lagged_coupling.hpp): the gas on a second queue.
+  const Lanes lanes;
+  const bool lag = o.coupling == "lagged";
+  cfd::GasSolver gas(lag ? lanes.edge(ex) : ex, g, gp);
   cfd::GasDemCoupling coupling(gas);
   dem::CoupledLoop loop(dem, coupling, substeps);
+  std::optional<cfd::LaggedCoupling> lagged;
+  if (lag) {
+    std::int64_t limit = 0;
+    for (std::int64_t id : init.id) limit = std::max(limit, id + 1);
+    lagged.emplace(ex, lanes, dem, gas, substeps, limit);
+  }
+  lanes.fork(ex);
   gas.initialise(dem.view());
+  lanes.join(ex);
   ex.synchronize();
+  long done = 0;
+  auto step = [&] {
+    if (lagged)
+      lagged->step(done == 0);
+    else
+      loop.step();
+    ++done;
+  };
 
   Result r;
   r.backend = b == Backend::Cuda ? "cuda" : "host";
@@ -157,12 +184,12 @@ Result run(const Options& o, Backend b, int threads) {
   r.steps = steps;
   std::fprintf(stderr, "%s: %ld particles, %ld cells, %d DEM sub-steps per gas step; set-up %.1f s\n",
                r.backend.c_str(), r.particles, r.cells, substeps, r.setup_s);
-  for (int i = 0; i < o.warmup; ++i) loop.step();
+  for (int i = 0; i < o.warmup; ++i) step();
   ex.synchronize();
   // (1) the whole coupled step.
   const dem::DemStats s0 = dem.stats();
   auto t0 = Clock::now();
-  for (int i = 0; i < steps; ++i) loop.step();
+  for (int i = 0; i < steps; ++i) step();
   ex.synchronize();
   r.step_s = since(t0) / steps;
   const dem::DemStats s1 = dem.stats();
@@ -178,7 +205,9 @@ Result run(const Options& o, Backend b, int threads) {
   gas.time_phases(&st);
   double dem_total = 0;
   for (int i = 0; i < steps; ++i) {
+    lanes.fork(ex);
     gas.step(dem.view());
+    lanes.join(ex);
     ex.synchronize();
     t0 = Clock::now();
     dem.advance(substeps);
@@ -224,14 +253,20 @@ int main(int argc, char** argv) {
     else if (a == "--void-fraction") o.deposition = next();
     else if (a == "--pressure-solver") o.pressure = next();
     else if (a == "--dem-graphs") o.dem_graphs = next() != "0";
+    else if (a == "--force-coupling") o.coupling = next();
     else if (a == "--host-threads") o.host_threads = std::stoi(next());
     else {
       std::fprintf(stderr,
                    "usage: lbdem_bench_cfd --out DIR [--particles N] [--steps N] [--host-steps N] [--warmup N] "
                    "[--gas-dt S] [--backends cuda,cpuall] [--void-fraction centroid|linear|quadratic] "
-                   "[--pressure-solver multigrid|cg] [--dem-graphs 1|0] [--host-threads N]\n");
+                   "[--pressure-solver multigrid|cg] [--dem-graphs 1|0] [--host-threads N] "
+                   "[--force-coupling sequential|lagged]\n");
       return 2;
     }
+  }
+  if (o.coupling != "sequential" && o.coupling != "lagged") {
+    std::fprintf(stderr, "--force-coupling %s: valid: sequential, lagged\n", o.coupling.c_str());
+    return 2;
   }
   if (o.out.empty() || o.particles < 1 || o.steps < 1 || o.host_steps < 1 || o.warmup < 0 || !(o.gas_dt > 0) ||
       o.host_threads < 0) {
@@ -270,12 +305,13 @@ int main(int argc, char** argv) {
     js << "{\n" << bench::json_header("cfd_coupled_step", dev, bw) << ",\n  \"system\": \"Yu et al. 2024 Sec. 5.2: "
        << "0.5 x 0.5 x 1.2 m, 50 x 50 x 120 cells, d = 2.5 mm, U = 0.9 m/s, Gidaspow, void fraction "
        << o.deposition << ", pressure solve " << o.pressure << ", DEM sub-step graphs " << (o.dem_graphs ? "on" : "off")
-       << "\",\n  \"pressure_solver\": \"" << o.pressure << "\",\n  \"dem_substep_graphs\": "
+       << ", forces " << o.coupling << "\",\n  \"pressure_solver\": \"" << o.pressure
+       << "\",\n  \"force_coupling\": \"" << o.coupling << "\",\n  \"dem_substep_graphs\": "
        << (o.dem_graphs ? "true" : "false") << ",\n  \"runs\": [\n";
     md << "# CFD-DEM coupled step, Yu et al. 2024 Sec. 5.2 system\n\n"
        << "Device: " << dev << ", commit " << bench::git_commit() << ", " << bench::utc_date() << ". Void fraction "
        << o.deposition << ", Gidaspow drag, pressure solve " << o.pressure << ", DEM sub-step graphs "
-       << (o.dem_graphs ? "on" : "off") << ".\n\n"
+       << (o.dem_graphs ? "on" : "off") << ", " << o.coupling << " forces.\n\n"
        << "| backend | threads | particles | cells | sub-steps | s / gas step | s / simulated s | particle-steps/s "
           "| gas | void fraction | drag | DEM | CG iterations |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
     for (std::size_t k = 0; k < res.size(); ++k) {
@@ -309,8 +345,16 @@ int main(int argc, char** argv) {
     }
     js << "\n}\n";
     md << "\nSplit: wall time of each phase with a wait at its end (the sum exceeds the whole step a little).\n";
-    std::ofstream(o.out + "/bench_cfd.json") << js.str();
-    std::ofstream(o.out + "/bench_cfd.md") << md.str();
+    // The results are the point of the run: a folder that cannot be made or
+    // a file that cannot be written is an error, not a silent loss.
+    std::filesystem::create_directories(o.out);
+    for (const auto& [name, text] : {std::pair<std::string, std::string>{"/bench_cfd.json", js.str()},
+                                     std::pair<std::string, std::string>{"/bench_cfd.md", md.str()}}) {
+      std::ofstream f(o.out + name);
+      f << text;
+      f.close();
+      if (!f) throw std::runtime_error("cannot write " + o.out + name);
+    }
     std::printf("%s", md.str().c_str());
   } catch (const std::exception& e) {
     std::fprintf(stderr, "error: %s\n", e.what());

@@ -15,7 +15,9 @@
 //               no_slip, free_slip, inlet (velocity, patch {lo, hi, velocity}), outlet (pressure)),
 //               pressure_solver {type (cg: Jacobi-preconditioned CG, the default; multigrid: CG
 //               preconditioned by a multigrid V-cycle), tolerance, max_iterations, poll_every,
-//               graphs (multigrid on the GPU: the iterations between polls as one CUDA graph)}
+//               graphs (multigrid on the GPU: the iterations between polls as one CUDA graph)},
+//               force_coupling (sequential: the default; lagged: the DEM sub-steps of gas step n take the
+//               forces of gas step n-1, and the gas step runs beside them: cfd/lagged_coupling.hpp)
 //   physics     gravity [m/s^2]
 //   particles   init: list | lattice | random (region_lo, region_hi, solid_fraction or count) | csv | hdf5
 //   material    stiffness [N/m], restitution, friction, wall_*, tangential_*
@@ -71,6 +73,7 @@
 #include "core/json.hpp"
 #include "cfd/coupling.hpp"
 #include "cfd/gas_monitor.hpp"
+#include "cfd/lagged_coupling.hpp"
 #include "core/error.hpp"
 #include "core/output.hpp"
 #include "core/progress.hpp"
@@ -109,6 +112,7 @@ struct CfdCase {
   cfd::GasGridView grid;
   cfd::GasParams gas;
   Vec3d initial_velocity{};
+  bool lagged_forces = false;
   dem::DemParams dem;
   dem::HostParticles particles;
   int substeps = 1;
@@ -131,6 +135,7 @@ void read_gas(const Config& root, const RunOptions& opt, CfdCase& c, const std::
   c.grid = g.grid;
   c.gas = g.gas;
   c.initial_velocity = g.initial_velocity;
+  c.lagged_forces = g.lagged_forces;
 }
 
 CfdCase read_case(const Config& root, const RunOptions& opt) {
@@ -287,11 +292,21 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
   halo::prepare_output_on_writer(ck, true, comm, opt.overwrite, c.outdir);
   const Exec ex(backend);
   dem::DemSystem dem(ex, c.dem, c.particles);
-  cfd::GasSolver gas(ex, c.grid, c.gas);
+  // Lagged forces: the gas on a second queue beside the DEM's (one queue on the host).
+  const Lanes lanes;
+  cfd::GasSolver gas(c.lagged_forces ? lanes.edge(ex) : ex, c.grid, c.gas);
   gas.set_velocity(c.initial_velocity);
   cfd::GasDemCoupling coupling(gas);
   dem::CoupledLoop loop(dem, coupling, c.substeps);
+  std::optional<cfd::LaggedCoupling> lagged;
+  if (c.lagged_forces) {
+    std::int64_t id_limit = 0;
+    for (std::int64_t id : c.particles.id) id_limit = std::max(id_limit, id + 1);
+    lagged.emplace(ex, lanes, dem, gas, c.substeps, id_limit);
+    lanes.fork(ex);  // the gas's first look at the particles waits for their upload
+  }
   gas.initialise(dem.view());
+  if (c.lagged_forces) lanes.join(ex);
   cfd::GasMonitor monitor(ex);
   const cfd::GasGridView& g = c.grid;
   const double h = g.h;
@@ -313,11 +328,11 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
 
   if (!quiet)
     spdlog::info("scene fluidized_bed: {} particles, {} x {} x {} gas cells of {:.4g} m, backend {}, drag {}, void "
-                 "fraction {}, pressure solver {}, gas dt {:.4g} s with {} DEM sub-steps ({:.4g} s), {} steps = "
-                 "{:.6g} s; output in {}",
+                 "fraction {}, pressure solver {}, gas dt {:.4g} s with {} DEM sub-steps ({:.4g} s, "
+                 "{} forces), {} steps = {:.6g} s; output in {}",
                  np, g.n[0], g.n[1], g.n[2], h, to_string(backend), cfd::to_string(c.gas.drag),
-                 cfd::to_string(c.gas.deposition), cfd::to_string(c.gas.pressure_solver), c.gas.dt, c.substeps, c.dem.dt, c.steps, c.steps * c.gas.dt,
-                 c.outdir);
+                 cfd::to_string(c.gas.deposition), cfd::to_string(c.gas.pressure_solver), c.gas.dt, c.substeps, c.dem.dt,
+                 c.lagged_forces ? "lagged" : "sequential", c.steps, c.steps * c.gas.dt, c.outdir);
 
   io::GridWriter gas_writer(c.outdir, "gas", {g.n[0], g.n[1], g.n[2]}, {g.origin[0], g.origin[1], g.origin[2]},
                             {h, h, h});
@@ -556,6 +571,7 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
         .set("drag", cfd::to_string(c.gas.drag))
         .set("void_fraction", cfd::to_string(c.gas.deposition))
         .set("pressure_tolerance", c.gas.cg_tolerance)
+        .set("force_coupling", c.lagged_forces ? "lagged" : "sequential")
         .set("dem_force_lanes", dem.params().force_lanes)
         .set("weight_per_area_pa", weight_per_area)
         .set("statistics_samples", samples)
@@ -595,7 +611,10 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
   run.progress([&](long) { return t; }, static_cast<double>(np) * c.substeps, "particle-steps/s", quiet);
   run.run([&](long n) {
     for (long k = 0; k < n; ++k) {
-      loop.step();
+      if (lagged)
+        lagged->step(step == 0);  // a restart carries the lagged forces in its checkpoint
+      else
+        loop.step();
       ++step;
       t = step * c.gas.dt;
     }

@@ -54,6 +54,7 @@ void read_gas(const Config& gs, const std::array<double, 3>& lo, const std::arra
                                        gs.choice("void_fraction", "linear", {"centroid", "linear", "quadratic"}));
   p.min_gas_fraction = gs.number_in("min_gas_fraction", 0.2, 0.01, 0.99,
                                     "floor of the gas fraction used by the gas equations and the drag");
+  c.lagged_forces = gs.choice("force_coupling", "sequential", {"sequential", "lagged"}) == "lagged";
   c.initial_velocity = vec3(gs.numbers("initial_velocity", {0, 0, 0}, 3, 3));
   for (int a = 0; a < 3; ++a)
     if (!std::isfinite(c.initial_velocity[a]) || std::fabs(c.initial_velocity[a]) * p.dt > 0.5 * h)

@@ -41,6 +41,8 @@ DemStats DemSystem::stats() const {
 
 ParticleView DemSystem::view() { return impl_->store.view(); }
 
+const std::int64_t* DemSystem::ids() const { return impl_->store.gid.data(); }
+
 ParticleView DemSystem::held_view() {
   ParticleView v = impl_->store.view();
   v.n = impl_->store.size();

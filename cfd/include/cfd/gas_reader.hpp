@@ -21,6 +21,9 @@ struct GasSection {
   GasGridView grid;
   GasParams gas;
   Vec3d initial_velocity{};
+  // gas.force_coupling: false = sequential (the gas step, then the DEM
+  // sub-steps with its forces), true = lagged (cfd/lagged_coupling.hpp).
+  bool lagged_forces = false;
 };
 
 // Section `gs` for the box [lo, hi] on `backend` (its memory).

@@ -150,6 +150,9 @@ class DemSystem {
   // Coupling view. Write only the external force/torque through it: the
   // rebuild decisions assume positions and velocities change only in advance().
   ParticleView view();
+  // The particles' global ids in the storage order of view() (backend
+  // memory); valid until the next advance() or rebuild() reorders them.
+  const std::int64_t* ids() const;
   // The same with the ghost copies a decomposed run holds behind the owned
   // particles (n = owned + ghosts; owned first): what a coupling that maps
   // particles onto this rank's cells needs. On one rank: view().
