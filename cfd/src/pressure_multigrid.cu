@@ -247,6 +247,76 @@ struct PostRed {
   }
 };
 
+// The one-block tail's shorter chains (mg_tail_shared_kernel): PreSmooth and
+// Restrict each as two stages with a barrier between them, so that a thread's
+// chain of dependent operations per stage is one cell's row instead of seven
+// divisions (PreSmooth's black cells forming their red neighbours' values) or
+// eight rows in a row (Restrict's coarse cell summing its fine residuals).
+// The same operations on the same values: the same bits.
+// Red half of PreSmooth: x = b / d.
+struct PreRed {
+  PreSmooth p;
+  LBDEM_HD void operator()(Index ci) const {
+    if (p.scal[slot::kDone] != 0) return;
+    int c[3];
+    p.L.coords(ci, c);
+    if (!is_red(c)) return;
+    const double d = p.dg[ci];
+    p.x[ci] = d > 0 ? p.b[ci] / d : 0.0;
+  }
+};
+// Black half of PreSmooth, reading its red neighbours' values from x (every
+// neighbour of a black cell is red: the periodic axes have an even length or
+// one cell, whose self-coupling for_row skips).
+struct PreBlack {
+  PreSmooth p;
+  LBDEM_HD void operator()(Index ci) const {
+    if (p.scal[slot::kDone] != 0) return;
+    int c[3];
+    p.L.coords(ci, c);
+    if (is_red(c)) return;
+    double acc = p.b[ci];
+    const double* xv = p.x;
+    const double d = for_row(p.L, ci, c, [&](double w, Index j) { acc += w * xv[j]; });
+    p.x[ci] = d > 0 ? acc / d : 0.0;
+  }
+};
+// Restrict's fine residuals b - A x, one per fine cell, into r.
+struct FineResidual {
+  Restrict q;
+  double* r;
+  LBDEM_HD void operator()(Index ci) const {
+    if (q.scal[slot::kDone] != 0) return;
+    int c[3];
+    q.F.coords(ci, c);
+    const double* xv = q.xf;
+    double off = 0;
+    const double d = for_row(q.F, ci, c, [&](double w, Index j) { off += w * xv[j]; });
+    r[ci] = q.bf[ci] - (d * q.xf[ci] - off);
+  }
+};
+// Restrict's sums of those residuals over each coarse cell, in its order.
+struct CoarseSum {
+  Restrict q;
+  const double* r;
+  LBDEM_HD void operator()(Index t) const {
+    if (q.scal[slot::kDone] != 0) return;
+    int I[3];
+    split3(t, q.cn[0], q.cn[1], I);
+    int lo[3], hi[3];
+    for (int d = 0; d < 3; ++d) {
+      lo[d] = q.r[d] * I[d];
+      hi[d] = lo[d] + q.r[d] < q.F.n[d] ? lo[d] + q.r[d] : q.F.n[d];
+    }
+    double sum = 0;
+    int c[3];
+    for (c[2] = lo[2]; c[2] < hi[2]; ++c[2])
+      for (c[1] = lo[1]; c[1] < hi[1]; ++c[1])
+        for (c[0] = lo[0]; c[0] < hi[0]; ++c[0]) sum += r[q.F.cell(c)];
+    q.bc[t] = sum;
+  }
+};
+
 // The coarsest grid (a few cells): `sweeps` symmetric Gauss-Seidel sweeps
 // (forward, then backward) from zero, in one thread.
 struct Coarsest {
@@ -309,8 +379,9 @@ LBDEM_HD inline Index tail_level_doubles(const LevelView& L) {
 // of every tail level and the top level's right-hand side are loaded once,
 // the coarser right-hand sides and all iterates live only here, and the top
 // level's iterate (the coarse correction the levels above read) is written
-// back at the end. The functors and their order are those of mg_tail_kernel:
-// the same bits.
+// back at the end. The stages are those of mg_tail_kernel with PreSmooth and
+// Restrict each split in two (PreRed, PreBlack; FineResidual into a shared
+// scratch of the first tail level's size, CoarseSum): the same bits.
 __global__ void __launch_bounds__(kTailThreads) mg_tail_shared_kernel(const TailArgs a) {
   extern __shared__ double sm[];
   if (a.co.scal[slot::kDone] != 0) return;
@@ -357,6 +428,8 @@ __global__ void __launch_bounds__(kTailThreads) mg_tail_shared_kernel(const Tail
     for (int ax = 0; ax < 3; ++ax) L.af[ax] = s.af[ax];
     return L;
   };
+  // The fine residuals of Restrict: after the coarsest grid's arrays.
+  double* const rs = arrays(a.count).x + a.co.L.cells();
   for (int k = 0; k < a.count; ++k) {
     const Arrays s = arrays(k), c = arrays(k + 1);
     PreSmooth pre = a.pre[k];
@@ -364,14 +437,18 @@ __global__ void __launch_bounds__(kTailThreads) mg_tail_shared_kernel(const Tail
     pre.dg = s.dg;
     pre.b = s.b;
     pre.x = s.x;
-    for (Index i = t0; i < a.cells[k]; i += dt) pre(i);
+    for (Index i = t0; i < a.cells[k]; i += dt) PreRed{pre}(i);
+    __syncthreads();
+    for (Index i = t0; i < a.cells[k]; i += dt) PreBlack{pre}(i);
     __syncthreads();
     Restrict res = a.res[k];
     res.F = view(res.F, s);
     res.bf = s.b;
     res.xf = s.x;
     res.bc = c.b;
-    for (Index i = t0; i < a.ccells[k]; i += dt) res(i);
+    for (Index i = t0; i < a.cells[k]; i += dt) FineResidual{res, rs}(i);
+    __syncthreads();
+    for (Index i = t0; i < a.ccells[k]; i += dt) CoarseSum{res, rs}(i);
     __syncthreads();
   }
   if (t0 == 0) {
@@ -532,6 +609,8 @@ void PressureSolver::init_multigrid() {
       const double* none[3] = {nullptr, nullptr, nullptr};
       doubles += tail_level_doubles(level_view(lg, none));
     }
+    // Restrict's fine residuals (the largest fine level is the tail's first).
+    doubles += tail_ == 0 ? nc : lv_[static_cast<std::size_t>(tail_ - 1)].g.cells();
     int dev = 0, optin = 0;
     LBDEM_CUDA_CHECK(cudaGetDevice(&dev));
     LBDEM_CUDA_CHECK(cudaDeviceGetAttribute(&optin, cudaDevAttrMaxSharedMemoryPerBlockOptin, dev));
