@@ -220,9 +220,12 @@ struct PostBlack {
     double acc = b[ci];
     const double* xv = x;
     const double* ev = e;
-    const int r0 = r[0], r1 = r[1], r2 = r[2], c0 = cn[0], c1 = cn[1];
+    // The coarsening factors are 1 or 2 and the coordinates not negative:
+    // o / r is a shift by r - 1 (a division by a runtime divisor is a long
+    // sequence on the device, and there are three per neighbour).
+    const int s0 = r[0] - 1, s1 = r[1] - 1, s2 = r[2] - 1, c0 = cn[0], c1 = cn[1];
     const double d = for_row_at(F, ci, c, [&](double w, Index j, int o0, int o1, int o2) {
-      const Index pc = o0 / r0 + static_cast<Index>(c0) * (o1 / r1 + static_cast<Index>(c1) * (o2 / r2));
+      const Index pc = (o0 >> s0) + static_cast<Index>(c0) * ((o1 >> s1) + static_cast<Index>(c1) * (o2 >> s2));
       acc += w * (xv[j] + ev[pc]);
     });
     x[ci] = d > 0 ? acc / d : 0.0;
