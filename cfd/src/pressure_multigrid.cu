@@ -250,8 +250,8 @@ struct PostRed {
   }
 };
 
-// The one-block tail's shorter chains (mg_tail_shared_kernel): PreSmooth and
-// Restrict each as two stages with a barrier between them, so that a thread's
+// Shorter chains for the device (mg_tail_shared_kernel; Restrict also on the
+// levels above the tail): PreSmooth and Restrict each as two stages, so that a thread's
 // chain of dependent operations per stage is one cell's row instead of seven
 // divisions (PreSmooth's black cells forming their red neighbours' values) or
 // eight rows in a row (Restrict's coarse cell summing its fine residuals).
@@ -583,6 +583,7 @@ void PressureSolver::init_multigrid() {
   }
   ticket_ = Buffer<unsigned int>(b, 1);
   ticket_.fill_zero();
+  if (ex_.on_device() && p_.graphs) rs_ = Buffer<double>(b, nc);
   // The first level small enough for one block, at most kTailMax above the
   // coarsest. LBDEM_PRESSURE_TAIL_CELLS replaces the size limit (A/B timing:
   // the kernels and their order, hence the bits, are the same for any limit).
@@ -676,9 +677,15 @@ void PressureSolver::vcycle(const Exec& ex, const double* const af[3], const dou
   const Coarsest coarsest{view(nl), bb(nl), xx(nl), std::max(1, p_.coarse_sweeps), s};
   auto cells = [&](int l) { return l == 0 ? g_.cells() : lv_[static_cast<std::size_t>(l - 1)].g.cells(); };
   const int top = ex.on_device() && p_.graphs ? tail_ : nl;
+  const bool split = ex.on_device() && p_.graphs;
   for (int l = 0; l < top; ++l) {
     for_each(ex, cells(l), pre(l));
-    for_each(ex, cells(l + 1), restrict_(l));
+    if (split) {
+      for_each(ex, cells(l), FineResidual{restrict_(l), rs_.data()});
+      for_each(ex, cells(l + 1), CoarseSum{restrict_(l), rs_.data()});
+    } else {
+      for_each(ex, cells(l + 1), restrict_(l));
+    }
   }
   if (ex.on_device() && p_.graphs) {
 #if defined(__CUDACC__)

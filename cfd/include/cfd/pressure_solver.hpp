@@ -158,6 +158,10 @@ class PressureSolver {
   // (0: it reads them in global memory). LBDEM_PRESSURE_TAIL_SHARED=0 keeps
   // them in global memory (the same bits; for comparison).
   int tail_shared_bytes_ = 0;
+  // Restrict's fine residuals on the levels above the tail (device, graphs on):
+  // one kernel over the fine cells, then the coarse sums (the same bits as one
+  // kernel over the coarse cells, which leaves most of the GPU idle).
+  Buffer<double> rs_;
   // The device's CUDA graphs (0: the start of a solve, 1: `poll_every`
   // iterations, 2: those iterations in a device-side loop), the stream they
   // were captured on, and the pointers each was captured with (unused by a
