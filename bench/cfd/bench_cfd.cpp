@@ -36,6 +36,8 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <optional>
@@ -143,7 +145,10 @@ Result run(const Options& o, Backend b, int threads) {
   gp.cg_poll_every = gp.pressure_solver == cfd::PressureSolverKind::Multigrid ? 2 : 25;
 
   if (b == Backend::Host) omp_set_num_threads(threads);
-  const Exec ex(b);
+  Exec ex(b);
+  // LBDEM_OVERLAP_LAUNCHES=1: overlapped kernel launches (core/exec.hpp), as the bed scene.
+  const char* overlap = std::getenv("LBDEM_OVERLAP_LAUNCHES");
+  ex.set_overlap_launches(overlap && std::strcmp(overlap, "1") == 0);
   dem::DemSystem dem(ex, dp, init);
   // Lagged forces (cfd/lagged_coupling.hpp): the gas on a second queue.
   const Lanes lanes;
@@ -306,7 +311,9 @@ int main(int argc, char** argv) {
        << "0.5 x 0.5 x 1.2 m, 50 x 50 x 120 cells, d = 2.5 mm, U = 0.9 m/s, Gidaspow, void fraction "
        << o.deposition << ", pressure solve " << o.pressure << ", DEM sub-step graphs " << (o.dem_graphs ? "on" : "off")
        << ", forces " << o.coupling << "\",\n  \"pressure_solver\": \"" << o.pressure
-       << "\",\n  \"force_coupling\": \"" << o.coupling << "\",\n  \"dem_substep_graphs\": "
+       << "\",\n  \"force_coupling\": \"" << o.coupling << "\",\n  \"overlap_launches\": "
+       << (std::getenv("LBDEM_OVERLAP_LAUNCHES") && std::strcmp(std::getenv("LBDEM_OVERLAP_LAUNCHES"), "1") == 0 ? "true" : "false")
+       << ",\n  \"dem_substep_graphs\": "
        << (o.dem_graphs ? "true" : "false") << ",\n  \"runs\": [\n";
     md << "# CFD-DEM coupled step, Yu et al. 2024 Sec. 5.2 system\n\n"
        << "Device: " << dev << ", commit " << bench::git_commit() << ", " << bench::utc_date() << ". Void fraction "

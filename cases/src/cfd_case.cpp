@@ -62,6 +62,8 @@
 #include <cmath>
 #include <filesystem>
 #include <limits>
+#include <cstdlib>
+#include <cstring>
 #include <optional>
 #include <sstream>
 
@@ -290,7 +292,11 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
           .add("force_path", dem::to_string(c.dem.path)),
       opt.restart, comm);
   halo::prepare_output_on_writer(ck, true, comm, opt.overwrite, c.outdir);
-  const Exec ex(backend);
+  Exec ex(backend);
+  // LBDEM_OVERLAP_LAUNCHES=1: the gas's and the DEM's small kernels launched
+  // overlapped (core/exec.hpp; the same results).
+  const char* overlap = std::getenv("LBDEM_OVERLAP_LAUNCHES");
+  ex.set_overlap_launches(overlap && std::strcmp(overlap, "1") == 0);
   dem::DemSystem dem(ex, c.dem, c.particles);
   // Lagged forces: the gas on a second queue beside the DEM's (one queue on the host).
   const Lanes lanes;
@@ -572,6 +578,7 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
         .set("void_fraction", cfd::to_string(c.gas.deposition))
         .set("pressure_tolerance", c.gas.cg_tolerance)
         .set("force_coupling", c.lagged_forces ? "lagged" : "sequential")
+        .set("overlap_launches", ex.on_device() && ex.overlap_launches())
         .set("dem_force_lanes", dem.params().force_lanes)
         .set("weight_per_area_pa", weight_per_area)
         .set("statistics_samples", samples)

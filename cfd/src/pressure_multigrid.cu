@@ -832,6 +832,7 @@ void PressureSolver::run_graph(int k, const double* const af[3], const double* b
     cudaStream_t cs = static_cast<cudaStream_t>(cap_stream_);
     Exec cex(Backend::Cuda);
     cex.set_stream(cs);
+    cex.set_overlap_launches(ex_.overlap_launches());
     cudaGraph_t graph = nullptr;
     if (k == 2) {
       LBDEM_CUDA_CHECK(cudaGraphCreate(&graph, 0));

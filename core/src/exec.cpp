@@ -101,6 +101,7 @@ void Lanes::make(const Exec& main) const {
     cudaStream_t s = nullptr;
     LBDEM_CUDA_CHECK(cudaStreamCreateWithPriority(&s, cudaStreamNonBlocking, greatest));
     edge_.set_stream(s);
+    edge_.set_overlap_launches(main.overlap_launches());
     cudaEvent_t a = nullptr, b = nullptr;
     LBDEM_CUDA_CHECK(cudaEventCreateWithFlags(&a, cudaEventDisableTiming));
     LBDEM_CUDA_CHECK(cudaEventCreateWithFlags(&b, cudaEventDisableTiming));

@@ -63,6 +63,7 @@ void SubstepGraphs::capture(Entry& e) {
   cudaStream_t cs = static_cast<cudaStream_t>(cap_stream_);
   Exec cex(Backend::Cuda);
   cex.set_stream(cs);
+  cex.set_overlap_launches(ex_.overlap_launches());
   LBDEM_CUDA_CHECK(cudaStreamBeginCapture(cs, cudaStreamCaptureModeThreadLocal));
   for (int j = 0; j < len_; ++j) issue_(cex, kick_[j], rec_[j], next_[j], force_[j], friction_);
   cudaGraph_t graph = nullptr;

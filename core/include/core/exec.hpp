@@ -46,9 +46,17 @@ class Exec {
 #endif
   // Waits for all work queued on this Exec (no-op on the host).
   void synchronize() const;
+  // Overlapped launches (programmatic dependent launch, sm_90): a for_each
+  // kernel queued on this Exec is launched while the kernel before it in the
+  // stream is still running, and its threads wait for that kernel's end and
+  // its memory (griddepcontrol.wait) before they do anything. The same order
+  // of effects, a shorter gap between small kernels. Off by default.
+  bool overlap_launches() const { return overlap_; }
+  void set_overlap_launches(bool on) { overlap_ = on; }
 
  private:
   Backend backend_;
+  bool overlap_ = false;
 #if defined(LBDEM_HAVE_CUDA)
   cudaStream_t stream_ = nullptr;
 #endif
@@ -80,10 +88,36 @@ class Lanes {
 [[noreturn]] void throw_not_compiled_for_cuda(const char* where);
 
 #if defined(__CUDACC__)
+// Waits for the kernel before this one in the stream (its end and its
+// memory) where this one was launched overlapped (no-op otherwise), then lets
+// an overlapped kernel after this one start launching.
+__device__ __forceinline__ void wait_previous_kernel() {
+#if defined(__CUDA_ARCH__) && __CUDA_ARCH__ >= 900
+  asm volatile("griddepcontrol.wait;" ::: "memory");
+  asm volatile("griddepcontrol.launch_dependents;" :::);
+#endif
+}
+
 template <class F>
 __global__ void for_each_kernel(Index n, F f) {
+  wait_previous_kernel();
   const Index i = static_cast<Index>(blockIdx.x) * blockDim.x + threadIdx.x;
   if (i < n) f(i);
+}
+
+// Launches for_each_kernel with the programmatic-serialisation attribute.
+template <class F>
+void launch_overlapped(unsigned grid, int block, cudaStream_t stream, Index n, const F& f) {
+  cudaLaunchConfig_t cfg{};
+  cfg.gridDim = dim3(grid);
+  cfg.blockDim = dim3(static_cast<unsigned>(block));
+  cfg.stream = stream;
+  cudaLaunchAttribute at[1];
+  at[0].id = cudaLaunchAttributeProgrammaticStreamSerialization;
+  at[0].val.programmaticStreamSerializationAllowed = 1;
+  cfg.attrs = at;
+  cfg.numAttrs = 1;
+  LBDEM_CUDA_CHECK(cudaLaunchKernelEx(&cfg, for_each_kernel<F>, n, f));
 }
 #endif
 
@@ -94,6 +128,10 @@ void for_each(const Exec& ex, Index n, const F& f, int block_size = 256) {
   if (ex.on_device()) {
 #if defined(__CUDACC__)
     const Index grid = (n + block_size - 1) / block_size;
+    if (ex.overlap_launches()) {
+      launch_overlapped(static_cast<unsigned>(grid), block_size, ex.stream(), n, f);
+      return;
+    }
     for_each_kernel<<<static_cast<unsigned>(grid), block_size, 0, ex.stream()>>>(n, f);
     LBDEM_CUDA_CHECK(cudaGetLastError());
     return;
