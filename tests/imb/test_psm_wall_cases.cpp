@@ -98,6 +98,11 @@ TEST(WallCases, GapCorrectionDl6) {
   const double unb = bench::unbounded_factor(s, 0.25, Backend::Host);
   EXPECT_NEAR(unb, 0.9906, 2e-3);  // the harness at d/l 6, tau 0.8 (NOTES.md)
   for (const auto* r : {&r1, &r2}) {
+    std::printf("d/l 6, h/a %.4f: F/F_inf %.5f bare (%+.2f %%), %.5f with the engine's correction (%+.2f %%), Brenner "
+                "%.5f; %ld steps\n",
+                r->h_over_a, r->F / r->F_stokes / unb, 100 * (r->F / r->F_stokes / unb / r->lambda - 1),
+                r->F_engine / r->F_stokes / unb, 100 * (r->F_engine / r->F_stokes / unb / r->lambda - 1), r->lambda,
+                r->run.steps);
     EXPECT_NEAR(r->F_engine / r->F_stokes / unb / r->lambda, 1.0, 0.03) << "gap h/a " << r->h_over_a;
     EXPECT_LT(r->F / r->F_stokes / unb / r->lambda, 0.99) << "bare, gap h/a " << r->h_over_a;
   }
