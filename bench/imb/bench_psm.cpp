@@ -13,6 +13,7 @@
 //                   [--tau 0.8] [--magic auto] [--seeds 1] [--sweeps 200] [--min-gap 1] [--weights ntw] [--tol 1e-5]
 //                   [--backend host|cuda]
 //   lbdem_bench_psm brenner [--out FILE.jsonl] [--diameter 10] [--gaps 1,2,4,8,2d (cells; Nd: N diameters)]
+//                           [--lubrication bench|engine (who adds the gap correction; default bench)]
 //                   [--box 8 (W = H = box * d, a list)] [--height H/d (default: the box)] [--wall bb|psm] [--tau 0.8] [--magic auto] [--weights ntw] [--re 0.1]
 //                   [--chi-ref 0.25] [--unbounded F_inf/F_St (skips its run)] [--tol 1e-5] [--max-steps N]
 //                   [--precision fp64] [--backend host|cuda]
@@ -718,6 +719,13 @@ int wall_cases(const std::string& mode, int argc, char** argv) {
       if (w != "bb" && w != "psm") throw ConfigError("--wall " + w + ": must be bb (half-way bounce-back) or psm (solid cells)");
       base.psm_wall = w == "psm";
     }
+    else if (k == "--lubrication" && mode == "brenner") {
+      const std::string w = next();
+      if (w != "bench" && w != "engine")
+        throw ConfigError("--lubrication " + w + ": must be bench (the bench adds the gap correction to the normalised "
+                          "drag) or engine (the coupled step's psm.wall_lubrication kernel adds it to the force)");
+      base.engine_lubrication = w == "engine";
+    }
     else if (k == "--k" && mode == "tube") ks = next();
     else if (k == "--length" && mode == "tube") length = std::stod(next());
     else if (k == "--tau") base.tau = std::stod(next());
@@ -783,8 +791,8 @@ int wall_cases(const std::string& mode, int argc, char** argv) {
            << ", \"magic\": " << jnum(s.magic) << ", \"weight\": \"" << weight << "\", \"precision\": \"" << prec
            << "\", \"re\": " << jnum(s.re) << ", \"unbounded\": " << jnum(unb) << ", \"chi_ref\": " << jnum(chi_ref);
     if (mode == "brenner") {
-      std::printf("| d/l | box W x H | wall | gap | h/a | F/F_St | F/F_inf | Brenner | err %% | + gap corr. | err %% | steps | s | "
-                  "MLUPS |\n");
+      std::printf("| d/l | box W x H | wall | gap | h/a | F/F_St | F/F_inf | Brenner | err %% | + gap corr.%s | err %% | steps | s | "
+                  "MLUPS |\n", base.engine_lubrication ? " (engine)" : "");
       std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
       for (const auto& bx : split(boxes)) {
         const long W = std::lround(std::stod(bx) * s.diameter);
@@ -793,8 +801,13 @@ int wall_cases(const std::string& mode, int argc, char** argv) {
           const double gap = gs.back() == 'd' ? std::stod(gs.substr(0, gs.size() - 1)) * s.diameter : std::stod(gs);
           const auto r = bench::run_brenner(s, W, H, gap, b);
           const double lam = r.F / r.F_stokes / unb, err = 100 * (lam / r.lambda - 1);
-          // With the gap correction (imb::wall_lubrication_lambda, units of the Stokes drag).
-          const double lamc = lam + r.lubrication, errc = 100 * (lamc / r.lambda - 1);
+          // With the gap correction: the bench's (imb::wall_lubrication_lambda, units of the Stokes
+          // drag, added to the normalised drag), or the engine's (--lubrication engine: the coupled
+          // step's kernel added it to the force, normalised with it).
+          const double lamc = s.engine_lubrication ? r.F_engine / r.F_stokes / unb : lam + r.lubrication,
+                       errc = 100 * (lamc / r.lambda - 1);
+          if (s.engine_lubrication && !r.engine.applied && gs == split(gaps).front())
+            std::fprintf(stderr, "# psm.wall_lubrication %s\n", r.engine.note.c_str());
           std::printf("| %s | %ld x %ld | %s | %g | %.4f | %.5f | %.5f | %.5f | %+.2f | %.5f | %+.2f | %ld%s | %.1f | %.1f |\n",
                       dstr.c_str(), W, H, s.psm_wall ? "psm" : "bb", gap, r.h_over_a, r.F / r.F_stokes, lam, r.lambda,
                       err, lamc, errc, r.run.steps, r.run.converged ? "" : "*", r.run.seconds, r.run.mlups);
@@ -803,7 +816,11 @@ int wall_cases(const std::string& mode, int argc, char** argv) {
           o << "{\"bench\": \"brenner\", " << common.str() << ", \"box\": " << W << ", \"height\": " << H << ", \"wall\": \"" << (s.psm_wall ? "psm" : "bb") << "\", \"gap\": " << jnum(gap)
             << ", \"h_over_a\": " << jnum(r.h_over_a) << ", \"F_over_stokes\": " << jnum(r.F / r.F_stokes)
             << ", \"lambda\": " << jnum(lam) << ", \"brenner\": " << jnum(r.lambda) << ", \"error\": " << jnum(err / 100)
-            << ", \"lubrication\": " << jnum(r.lubrication) << ", \"error_corrected\": " << jnum(errc / 100)
+            << ", \"lubrication\": " << jnum(r.lubrication) << ", \"error_corrected\": " << jnum(errc / 100);
+          if (s.engine_lubrication)  // (bench-side lines stay as they were)
+            o << ", \"correction\": \"engine\", \"engine_applied\": " << (r.engine.applied ? "true" : "false")
+              << ", \"F_engine_over_stokes\": " << jnum(r.F_engine / r.F_stokes);
+          o
             << ", \"steps\": " << r.run.steps << ", \"converged\": " << (r.run.converged ? "true" : "false")
             << ", \"remaining\": " << jnum(r.run.remaining) << ", \"seconds\": " << jnum(r.run.seconds)
             << ", \"cells\": " << r.run.cells << ", \"mlups\": " << jnum(r.run.mlups) << "}";

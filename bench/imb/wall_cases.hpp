@@ -99,6 +99,13 @@ struct WallCaseSpec {
   // z = 1 by another operator, to tell the wall's share of an error from the
   // sphere's.
   bool psm_wall = false;
+  // brenner: the engine's gap correction (psm.wall_lubrication: on, the
+  // coupled step's kernel imb::add_wall_lubrication with the setting
+  // imb::resolve_wall_lubrication gives at this tau, Lambda and weighting)
+  // added to the gathered force at every read, as the coupled step adds it:
+  // BrennerResult::F_engine. Off: the bench's own correction only
+  // (BrennerResult::lubrication, added to the normalised drag), as before.
+  bool engine_lubrication = false;
 };
 
 // One steady run of a sphere held at `centre` with velocity `velocity` in a
@@ -106,6 +113,7 @@ struct WallCaseSpec {
 // storage cell ε, e.g. the tube).
 struct WallRun {
   std::array<double, 3> force{0, 0, 0};  // hydrodynamic force on the sphere (lattice units)
+  std::array<double, 3> force_engine{0, 0, 0};  // with the engine's gap correction (WallScene::lubrication; else = force)
   double flux = 0;         // total volume flux along `axis` times the length (sum over cells, sphere's V included)
   long steps = 0;
   bool converged = false;
@@ -122,6 +130,10 @@ struct WallScene {
   std::array<double, 3> body_force{0, 0, 0};
   int axis = 2;                          // force and flux component watched
   bool track_flux = false;               // steady state also on the flux
+  // The engine's wall gap correction (imb/wall_lubrication.hpp), added to the
+  // sphere's gathered force by the coupled step's kernel at each read; the
+  // steady state is watched on the bare force (the same steps either way).
+  const imb::WallLubricationParams* lubrication = nullptr;
 };
 
 inline WallRun run_wall_scene(const WallCaseSpec& s, const WallScene& sc, Backend b) {
@@ -252,12 +264,21 @@ inline WallRun run_wall_scene(const WallCaseSpec& s, const WallScene& sc, Backen
     }
   } wf, wq;
   long step = 0;
+  std::array<double, 3> last_bare{0, 0, 0};
   while (step < s.max_steps) {
     for (long k = 0; k < check; ++k)
       coupling.step(p, opt, k == check - 1 ? imb::ForceOut::six(f6.data()) : imb::ForceOut{});
     step += check;
     const auto f = f6.to_vector();
+    if (sc.lubrication) {  // the engine's correction on the force just gathered (the sphere: particle 0)
+      imb::add_wall_lubrication(Exec(b), *sc.lubrication, p, 1, f6.data(), 6);
+      const auto fe = f6.to_vector();
+      r.force_engine = {fe[0], fe[1], fe[2]};
+    } else {
+      r.force_engine = {f[0], f[1], f[2]};
+    }
     if (!std::isfinite(f[ax])) throw DivergenceError("wall case: drag not finite at step " + std::to_string(step));
+    last_bare = {f[0], f[1], f[2]};
     wf.add(f[ax], step, check);
     r.remaining = wf.remaining;
     if (sc.track_flux) {
@@ -273,8 +294,12 @@ inline WallRun run_wall_scene(const WallCaseSpec& s, const WallScene& sc, Backen
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   r.steps = step;
   r.mlups = double(r.cells) * double(step) / r.seconds / 1e6;
-  const auto f = f6.to_vector();
-  r.force = {f[0], f[1], f[2]};
+  if (!sc.lubrication) {
+    const auto f = f6.to_vector();
+    r.force = {f[0], f[1], f[2]};
+  } else {
+    r.force = last_bare;
+  }
   r.flux = flux();
   return r;
 }
@@ -311,6 +336,8 @@ struct BrennerResult {
   double F_stokes = 0;              // 3 pi mu d U
   double U = 0;
   double lubrication = 0;           // the gap correction's share of lambda (imb::wall_lubrication_lambda; 0 outside its Lambda range)
+  double F_engine = 0;              // engine_lubrication: the drag with the engine's correction (else F)
+  imb::WallLubricationSetting engine;  // engine_lubrication: the setting the engine resolves here
 };
 
 inline BrennerResult run_brenner(const WallCaseSpec& s, long W, long H, double gap, Backend b) {
@@ -340,12 +367,24 @@ inline BrennerResult run_brenner(const WallCaseSpec& s, long W, long H, double g
   sc.centre = {cxy, cxy, zc};
   sc.velocity = {0, 0, -r.U};
   sc.axis = 2;
+  const double magic = s.magic >= 0 ? s.magic : imb::psm_magic_auto(d, s.tau);
+  if (s.engine_lubrication) {
+    // The walls as a case declares them: the closed z axis of a W x W x H
+    // grid (planes z = 1 and H - 1), the run's tau, Lambda and weighting,
+    // NEBB and exact fractions (run_wall_scene's), fluid density 1.
+    imb::LubricationWall walls[imb::kMaxLubricationWalls];
+    const int nw = imb::closed_box_walls(Grid::whole({W, W, H}, {true, true, false}), 3, walls);
+    r.engine = imb::resolve_wall_lubrication(true, 3, s.tau, true, magic, s.weight, imb::PsmVariant::NEBB,
+                                             imb::FractionMethod::Exact, 1.0, walls, nw);
+    if (r.engine.applied) sc.lubrication = &r.engine.k;
+  }
   r.run = run_wall_scene(s, sc, b);
   r.F = r.run.force[2];  // the fluid pushes back along +z
+  r.F_engine = r.run.force_engine[2];
   r.F_stokes = 3 * M_PI * nu * d * r.U;
   r.h_over_a = (zc - 1.0) / a;
   r.lambda = brenner_lambda(r.h_over_a);
-  r.lubrication = imb::wall_lubrication_lambda(a, gap, s.magic >= 0 ? s.magic : imb::psm_magic_auto(d, s.tau));
+  r.lubrication = imb::wall_lubrication_lambda(a, gap, magic);
   return r;
 }
 

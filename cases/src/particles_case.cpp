@@ -196,12 +196,21 @@ ParticlesCase parse_particles(const Config& root, const RunOptions& opt) {
   p.skin = 0.1 * diam;
   dm.finish();
   c.coupling.psm.weight = imb::PsmWeight::NobleTorczynskiWall;  // the default with or without a psm section
+  bool wall_lubrication = false;  // psm.wall_lubrication: off by default (an old case's answer stays)
   if (auto ps = root.optional_section("psm")) {
     imb::read_psm(*ps, c.coupling.psm, c.coupling.slots, c.max_drag_error);
+    wall_lubrication = ps->choice("wall_lubrication", "off", {"on", "off"}) == "on";
     ps->finish();
   }
   c.coupling.psm.map.max_radius = r;
   s.magic = imb::resolve_magic(s.magic, diam, s.tau);
+  {  // the gap correction at the fluid's walls (the bounce-back faces of the closed axes), if inside its fit
+    imb::LubricationWall walls[imb::kMaxLubricationWalls];
+    const int nw = imb::closed_box_walls(s.domain, dim, walls);
+    c.coupling.wall_lubrication = imb::resolve_wall_lubrication(
+        wall_lubrication, dim, s.tau, s.collision == lbm::CollisionKind::TRT, s.magic, c.coupling.psm.weight,
+        c.coupling.psm.variant, c.coupling.psm.map.method, c.coupling.fluid_density, walls, nw);
+  }
   c.steps = imb::read_coupled_steps(t, U, c.physical);  // time.end in seconds with physical units
   t.finish();
   const OutputSettings o = read_output(root, kOutputInterval | kOutputSeries | kOutputFields);
@@ -403,6 +412,12 @@ int run_particles(const Config& root, const RunOptions& opt) {
   c.psm = imb::psm_settings(root, imb::drag_query(c.diameter, c.setup.tau, c.setup.collision, c.setup.magic,
                                         c.coupling.psm, c.setup.precision, c.dim),
                        imb::to_string(imb::resolve_pipeline(c.coupling.psm, c.coupling.slots)), c.setup.precision, writer);
+  c.psm.wall_lubrication = c.coupling.wall_lubrication;
+  if (writer) {  // psm.wall_lubrication: told at check always, at the start of a run when asked for
+    const auto& wl = c.coupling.wall_lubrication;
+    if (wl.requested && !wl.applied) spdlog::warn("{}: psm.wall_lubrication {}", root.source(), wl.note);
+    else if (opt.validate_only || (wl.requested && !opt.quiet)) spdlog::info("psm.wall_lubrication {}", wl.note);
+  }
   const Backend backend = resolve_backend(opt.backend);
   const MemoryUse planned = imb::coupled_memory(c.setup, c.coupling, static_cast<double>(c.particles.size()), backend,
                                                 {c.async_output, c.fields_fp32});

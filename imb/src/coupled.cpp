@@ -42,6 +42,8 @@ CoupledSolver::CoupledSolver(lbm::LbmSolver& fluid, dem::DemSystem& dem, const C
   psm_ = std::make_unique<PsmCoupling>(fluid_, p_.slots);
   clock_ = std::make_unique<PhaseClock>(fluid_.backend(), std::vector<std::string>(std::begin(kPhaseNames), std::end(kPhaseNames)));
   p_.psm.map.keep_overflow = true;
+  if (p_.wall_lubrication.applied && dim_ != 3)
+    throw ConfigError("coupling: the wall gap correction is fitted for spheres (3D), not for this 2D scene");
   // A body force on the fluid here is the balancing mean pressure gradient
   // (balancing_body_force): the particles take it on their share of each cell.
   p_.psm.body_force_on_solid = true;
@@ -94,6 +96,7 @@ void CoupledSolver::fluid_step(const dem::ParticleView& v) {
   clock_->begin_step();
   if (!ranks_.halo) {
     psm_->step(particle_view(), p_.psm, out);  // no particles: the plain LBM kernel
+    add_wall_lubrication(v);
     clock_->mark(0);
     return;
   }
@@ -103,7 +106,25 @@ void CoupledSolver::fluid_step(const dem::ParticleView& v) {
   psm_->step(particle_view(), p_.psm, out, *ranks_.halo);
   clock_->mark(0);
   dem_.return_ghost_coupling();
+  add_wall_lubrication(v);
   clock_->mark(1);
+}
+
+// The wall gap correction on the owned particles' summed hydrodynamic force
+// (same queue as the gather: ordered after it, no host round trip).
+void CoupledSolver::add_wall_lubrication(const dem::ParticleView& v) {
+  if (!p_.wall_lubrication.applied || v.n == 0 || v.ext_force == nullptr) return;
+  PsmParticles p;
+  p.x = &v.pos_r->x;
+  p.y = &v.pos_r->y;
+  p.z = &v.pos_r->z;
+  p.r = &v.pos_r->w;
+  p.vx = &v.vel_im->x;
+  p.vy = &v.vel_im->y;
+  p.vz = &v.vel_im->z;
+  p.n = v.n;
+  p.stride = 4;
+  imb::add_wall_lubrication(Exec(fluid_.backend()), p_.wall_lubrication.k, p, v.n, &v.ext_force->x, 4);
 }
 
 // 3. Remap the particles (possibly reordered by a neighbour-list rebuild) to cells.

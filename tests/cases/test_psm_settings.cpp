@@ -13,6 +13,7 @@
 #include <sstream>
 #include <string>
 
+#include "core/output.hpp"
 #include "imb/psm_settings.hpp"
 #include "run_lbdem.hpp"
 
@@ -171,6 +172,83 @@ output: {directory: unused, interval: 0, series_interval: 2}
                           "\"operator\": \"nebb\"", "\"fraction\": \"exact\"", "\"pipeline\": \"mapped\"",
                           "\"warnings\": 0"})
     EXPECT_NE(js.find(key), std::string::npos) << key << "\n" << js;
+}
+
+
+// psm.wall_lubrication (imb/wall_lubrication.hpp): off by default, told at
+// check either way; on, the start report names the coefficients, summary.json
+// records them, and the particles' hydrodynamic forces change; off gives the
+// bits of a file without the key; a bad value is refused naming the key, the
+// value and what is valid; outside the fit (tau 0.6) it is applied nowhere
+// and the run says so.
+class WallLubricationCli : public PsmSettingsCli {
+ protected:
+  // Two spheres of d/l 6 in a box closed along y (walls at y = 1 and 21), a
+  // cell and a half from the floor and from the ceiling, moving down.
+  static std::string scene(const std::string& psm, const std::string& dir, double tau = 0.8) {
+    return "scene: particles\nunits: lattice\ndomain: {cells: [16, 20, 16], periodic: [1, 0, 1]}\n"
+           "fluid: {tau: " + std::to_string(tau) + ", magic: auto}\nphysics: {gravity: [0, -1.0e-5, 0]}\n"
+           "particles: {init: list, diameter: 6, density_ratio: 2, velocity: [0, -0.002, 0], "
+           "list: [{position: [8, 5.5, 8]}, {position: [8, 16.5, 8]}]}\n"
+           "dem: {stiffness: 20, restitution: 0.5, substeps: 12}\n" + psm +
+           "time: {steps: 20}\noutput: {directory: " + dir + ", interval: 20, series_interval: 10}\n";
+  }
+  std::vector<double> forces(const std::string& psm, const std::string& name, std::string* summary = nullptr) {
+    const fs::path out = dir_ / name;
+    const auto r = run("run " + write_case(scene(psm, out.string()), name + ".yaml") +
+                       " --backend cpu --quiet --overwrite");
+    EXPECT_EQ(r.code, 0) << r.out;
+    if (summary) *summary = read(out / "summary.json");
+    try {
+      return lbdem::io::read_dataset((out / "particles_00000020.h5").string(), "hydrodynamic_force");
+    } catch (const std::exception& e) {
+      ADD_FAILURE() << e.what();
+      return {};
+    }
+  }
+};
+
+TEST_F(WallLubricationCli, CheckTellsTheSetting) {
+  auto r = run("check " + write_case(scene("", "unused"), "default.yaml"));
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("psm.wall_lubrication off (the default)"), std::string::npos) << r.out;
+  r = run("check " + write_case(scene("psm: {wall_lubrication: on}\n", "unused"), "on.yaml"));
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("psm.wall_lubrication on: a normal force 6 pi mu a U_n c a g^-p (c = 0.11, p = 2.6"),
+            std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("2 wall plane(s)"), std::string::npos) << r.out;
+  r = run("check " + write_case(scene("psm: {wall_lubrication: on}\n", "unused", 0.6), "tau06.yaml"));
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("psm.wall_lubrication on but NOT applied: Lambda"), std::string::npos) << r.out;
+  r = run("check " + write_case(scene("psm: {wall_lubrication: maybe}\n", "unused"), "bad.yaml"));
+  EXPECT_NE(r.code, 0) << r.out;
+  for (const char* w : {"psm.wall_lubrication", "maybe", "on", "off"})
+    EXPECT_NE(r.out.find(w), std::string::npos) << w << "\n" << r.out;
+}
+
+TEST_F(WallLubricationCli, OffKeepsTheBitsOnChangesTheForces) {
+  std::string js_on, js_off;
+  const auto absent = forces("", "absent");
+  const auto off = forces("psm: {wall_lubrication: off}\n", "off", &js_off);
+  const auto on = forces("psm: {wall_lubrication: on}\n", "on", &js_on);
+  ASSERT_EQ(absent.size(), 6u);
+  EXPECT_EQ(off, absent);  // bit for bit
+  ASSERT_EQ(on.size(), 6u);
+  // The spheres move down: the correction pushes the lower one up (+y) and
+  // pulls the upper one toward the ceiling it leaves (+y); x and z unchanged
+  // to round-off (the trajectories differ only along y).
+  int up = 0;
+  for (std::size_t i = 0; i < 2; ++i) {
+    up += on[3 * i + 1] > off[3 * i + 1];
+    EXPECT_NEAR(on[3 * i], off[3 * i], 1e-9 * std::abs(off[3 * i + 1]));
+  }
+  EXPECT_EQ(up, 2);
+  EXPECT_NE(js_off.find("\"wall_lubrication\": {\"requested\": \"off\", \"applied\": false"), std::string::npos)
+      << js_off;
+  for (const char* k : {"\"wall_lubrication\": {\"requested\": \"on\", \"applied\": true", "\"c\": 0.11", "\"p\": 2.6",
+                        "\"g_min\": 0.5", "\"g_max\": 8", "\"walls\": 2", "\"fit_magic_min\": 0.06"})
+    EXPECT_NE(js_on.find(k), std::string::npos) << k << "\n" << js_on;
 }
 
 }  // namespace

@@ -12,6 +12,11 @@
 //      held constant;
 //   3. remap: particles -> cells at their new positions for the next step;
 //   4. every overflow_check_every steps: the cell-slot overflow check.
+// With psm.wall_lubrication applied (CoupledParams::wall_lubrication), step 1
+// ends by adding the wall gap correction (imb/wall_lubrication.hpp) to the
+// force of each particle near a plane wall of the fluid, after the ranks'
+// shares are summed: each rank corrects the particles it owns, from their
+// positions and velocities at the fluid step.
 //
 // Units: everything in lattice units (dx = dt_fluid = 1, fluid density 1); the
 // DEM runs with dt = 1/N. Scenes convert SI input once (core/units.hpp).
@@ -58,6 +63,7 @@
 #include "dem/system.hpp"
 #include "halo/comm.hpp"
 #include "imb/psm_coupling.hpp"
+#include "imb/wall_lubrication.hpp"
 #include "lbm/solver.hpp"
 
 namespace lbdem::imb {
@@ -89,6 +95,9 @@ struct CoupledParams {
   int slots = 4;                              // K: overlap slots per cell
   PsmOptions psm;
   long overflow_check_every = 100;            // steps between slot-overflow reads
+  // psm.wall_lubrication (imb/wall_lubrication.hpp): the gap correction added
+  // to each owned particle's force after the gather; off unless applied.
+  WallLubricationSetting wall_lubrication;
   CoupledKeys keys;                           // what messages call the above
 };
 
@@ -181,6 +190,7 @@ class CoupledSolver : private dem::FluidCoupling {
   void particles_moved(const dem::ParticleView& v) override;
   void after_step(long steps_done) override;
   void map();
+  void add_wall_lubrication(const dem::ParticleView& v);
 
   lbm::LbmSolver& fluid_;
   dem::DemSystem& dem_;

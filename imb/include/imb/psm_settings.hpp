@@ -22,6 +22,7 @@
 #include "imb/drag_error.hpp"
 #include "imb/psm.hpp"
 #include "imb/psm_coupling.hpp"
+#include "imb/wall_lubrication.hpp"
 
 namespace lbdem::imb {
 
@@ -46,7 +47,23 @@ struct PsmSettings {
   double magic_rule = 0;        // Lambda of the rule at this d/l and tau (psm_magic_auto)
   DragErrorEstimate estimate;   // expected drag error of the setting (or why none)
   std::vector<std::string> warnings;
+  WallLubricationSetting wall_lubrication;  // psm.wall_lubrication (off unless the scene reads it)
 };
+
+// psm.wall_lubrication as one JSON object: asked for, applied, the
+// coefficients in use (0 when not applied), the fit's range and the note.
+inline std::string wall_lubrication_json(const WallLubricationSetting& w) {
+  std::ostringstream o;
+  o.precision(17);
+  o << "{\"requested\": \"" << (w.requested ? "on" : "off") << "\", \"applied\": " << (w.applied ? "true" : "false")
+    << ", \"c\": " << w.k.c << ", \"p\": " << w.k.p << ", \"g_min\": " << w.k.g_min << ", \"g_max\": " << w.k.g_max
+    << ", \"mu\": " << w.k.mu << ", \"walls\": " << w.k.count << ", \"fit_magic_min\": " << w.fit.w.magic_min
+    << ", \"fit_magic_max\": " << w.fit.w.magic_max << ", \"fit_tau_min\": " << w.fit.tau_min
+    << ", \"fit_tau_max\": " << w.fit.tau_max << ", \"note\": \"";
+  for (char ch : w.note) o << (ch == '"' || ch == '\\' ? '\'' : ch);
+  o << "\"}";
+  return o.str();
+}
 
 namespace detail {
 inline std::string fmt_num(double v) {
@@ -114,7 +131,8 @@ inline std::string psm_settings_json(const PsmSettings& s) {
   else o << "null";
   o << ", \"expected_drag_error_note\": \"";
   for (char c : s.estimate.reason) o << (c == '"' || c == '\\' ? '\'' : c);
-  o << "\", \"warnings\": " << s.warnings.size() << "}";
+  o << "\", \"warnings\": " << s.warnings.size() << ", \"wall_lubrication\": " << wall_lubrication_json(s.wall_lubrication)
+    << "}";
   return o.str();
 }
 
