@@ -14,6 +14,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdint>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <string>
@@ -66,16 +67,19 @@ class FusedEnv {
 };
 
 // Mueller's particles (d = 1.2 mm, k = 800 N/m, e = 0.97, mu 0.1 or none) at
-// random speeds up to 0.3 m/s per axis in a closed 12 x 6 x 30 mm box under
-// gravity, with an upward coupling force that changes between calls: wall
-// and particle contacts, a rebuild every ~70 sub-steps, reports every few.
+// random speeds up to 0.3 m/s per axis in a closed 12 x 6 x 30 mm box (each
+// side `scale` times that) under gravity, with an upward coupling force that
+// changes between calls: wall and particle contacts, a rebuild every ~70
+// sub-steps, reports every few. ~560 particles (the host runs them on one
+// thread); scale 2: ~4,500 (on the host's threads).
 struct Bed {
   DemParams p;
   HostParticles h;
-  explicit Bed(bool friction) {
+  explicit Bed(bool friction, double scale = 1) {
+    const double X = 0.012 * scale, Y = 0.006 * scale, Z = 0.03 * scale;
     RandomPackingSpec spec;
     spec.lo = {0, 0, 0};
-    spec.hi = {0.012, 0.006, 0.02};
+    spec.hi = {X, Y, 0.02 * scale};
     spec.periodic = {false, false, false};
     spec.solid_fraction = 0.35;
     spec.r_min = spec.r_max = 0.6e-3;
@@ -93,13 +97,13 @@ struct Bed {
       for (auto& w : h.w) w = {300 * uniform(), 300 * uniform(), 300 * uniform()};
     }
     p.lo = {0, 0, 0};
-    p.hi = {0.012, 0.006, 0.03};
+    p.hi = {X, Y, Z};
     for (int a = 0; a < 3; ++a) {
       Vec3d n{0, 0, 0};
       n[a] = 1;
       p.walls.push_back(Wall{{0, 0, 0}, n});
       n[a] = -1;
-      p.walls.push_back(Wall{{0.012, 0.006, 0.03}, n});
+      p.walls.push_back(Wall{{X, Y, Z}, n});
     }
     p.material.stiffness = p.material.wall_stiffness = 800;
     p.material.restitution = p.material.wall_restitution = 0.97;
@@ -209,11 +213,15 @@ TEST_P(DemFusedSubsteps, SameStateBitwiseAsTwoKernelsPerSubstep) {
       EXPECT_EQ(fused.stats.fused_steps, calls * (steps - 1)) << what;
       const BedRun fused1 = run(backend, bed, p, "1", calls, steps);
       expect_same(fused1, ref, what + ", LBDEM_DEM_FUSED_SUBSTEPS=1");
+      std::printf("%s: %ld sub-steps (%ld fused), %ld rebuilds, %ld reports read\n", what.c_str(),
+                  fused.stats.steps, fused.stats.fused_steps, fused.stats.rebuilds, fused.stats.status_reads);
       if (backend == Backend::Cuda && check == RebuildCheck::Lookahead) {
         p.substep_graphs = true;
         const BedRun graphs = run(backend, bed, p, nullptr, calls, steps);
         expect_same(graphs, ref, what + ", fused in sub-step graphs");
         EXPECT_GT(graphs.stats.graph_steps, graphs.stats.steps / 4) << what;
+        std::printf("%s, graphs: %ld launched holding %ld sub-steps, %ld captured\n", what.c_str(),
+                    graphs.stats.graph_launches, graphs.stats.graph_steps, graphs.stats.graph_captures);
         const BedRun graphs2 = run(backend, bed, p, "0", calls, steps);
         expect_same(graphs2, ref, what + ", two kernels per sub-step in sub-step graphs");
       }
@@ -237,6 +245,21 @@ TEST_P(DemFusedSubsteps, ShortCallsSameStateBitwise) {
     EXPECT_EQ(fused.stats.fused_steps, calls * (steps - 1)) << what;
     EXPECT_GE(ref.stats.rebuilds, 2) << what;
   }
+}
+
+// A bed of more than 4,096 particles, which the host backend runs on all its
+// threads (smaller ones run serially): the fused kernel's reads of other
+// particles' positions and predictors race with no write.
+TEST_P(DemFusedSubsteps, LargeBedSameStateBitwise) {
+  const auto [backend, friction] = GetParam();
+  if (backend == Backend::Cuda && !test::gpu_available()) GTEST_SKIP() << cuda_unavailable_reason();
+  const Bed bed(friction, 2);
+  ASSERT_GT(bed.h.size(), 4096);
+  const BedRun ref = run(backend, bed, bed.p, "0", 2, 101);
+  const BedRun fused = run(backend, bed, bed.p, "1", 2, 101);
+  expect_same(fused, ref, "large bed");
+  EXPECT_EQ(fused.stats.fused_steps, 2 * 100);
+  EXPECT_GE(ref.stats.rebuilds, 1);
 }
 
 // The pair path (several kernels per force evaluation) is never fused, and
