@@ -3,7 +3,7 @@
 # time goes (~4-5 min after the build, one GPU, one run after another):
 #   0. the GPU tests of what this touches (TESTS=0 leaves them out; ~1-2 min): cfd_tests' pressure tests on both
 #      backends (the device loop against the host-polled loop and kernel-by-kernel launches, bitwise, converged
-#      and cut by the iteration limit), dem_tests' GPU-against-host and sub-step graph tests
+#      and cut by the iteration limit), dem_tests' GPU-against-host, sub-step graph and fused sub-step tests
 #   1. Mueller's bed at 0.9 m/s (cases/fluidized_bed_muller_u09.yaml), MULLER_STEPS gas steps, twice: the host-polled
 #      pressure loop (LBDEM_PRESSURE_DEVICE_LOOP=0, the step as before) and the device loop (the default); statistics
 #      from 0.3 s (the bed has settled) so that both report a mean pressure drop over the bed weight
@@ -25,8 +25,9 @@
 #        0.42 s simulated, ~40 s at 95 s per simulated s), PHASE_STEPS (default 2000), NSYS_STEPS (default 600),
 #        GPU (default 0), BASE_BUILD (default none: step 4 left out; built here if needed), BASE_STEPS (default 1000);
 #        PAIR=tail compares the pressure solve's one-block tail in shared memory (the default) with the tail in global
-#        memory (LBDEM_PRESSURE_TAIL_SHARED=0) in steps 1-2 instead of the two pressure loops; PHASE_STEPS=0 and
-#        NSYS_STEPS=0 leave steps 3 and 5 out
+#        memory (LBDEM_PRESSURE_TAIL_SHARED=0) in steps 1-2 instead of the two pressure loops; PAIR=fused compares
+#        two DEM kernels per sub-step (LBDEM_DEM_FUSED_SUBSTEPS=0) with the fused sub-steps (the default) in steps
+#        1-2, and step 3 times Mueller's bed both ways; PHASE_STEPS=0 and NSYS_STEPS=0 leave steps 3 and 5 out
 # Output under $OUT/bed_speed: speed.jsonl (one JSON line per run: seconds per simulated second, simulated time,
 # mean pressure drop over bed weight, per gas step the DEM's rebuilds, report reads and waits; a line per bed
 # "match": whether the two paths' final checkpoint, series and profiles are the same bytes), phases.jsonl (ms per
@@ -61,6 +62,7 @@ yaml() {
 bed() {
   local name="$1" loop="$2" y="$3" var=LBDEM_PRESSURE_DEVICE_LOOP
   [ "${PAIR:-loop}" = tail ] && var=LBDEM_PRESSURE_TAIL_SHARED
+  [ "${PAIR:-loop}" = fused ] && var=LBDEM_DEM_FUSED_SUBSTEPS
   CUDA_VISIBLE_DEVICES="$g" env "$var=$loop" timeout -s TERM -k 30 240 "$exe" run "$y" \
     --backend cuda --output "$out/$name" --overwrite --quiet > "$out/$name.log" 2>&1
   local rc=$? s="$out/$name/summary.json"
@@ -69,6 +71,7 @@ bed() {
   local gs; gs="$(get gas_steps)"
   per() { awk -v a="$1" -v b="$gs" 'BEGIN { printf "%.4g", (b > 0 ? a / b : 0) }'; }
   local which=pressure_device_loop; [ "${PAIR:-loop}" = tail ] && which=pressure_tail_shared
+  [ "${PAIR:-loop}" = fused ] && which=dem_fused_substeps
   json_line "$out/speed.jsonl" run="$name" "$which=$loop" exit="$rc" gas_steps="$gs" \
     simulated_s="$(get time_s)" s_per_simulated_s="$(get seconds_per_simulated_second)" \
     particle_steps_per_s="$(get particle_steps_per_second)" dp_over_weight="$(get mean_pressure_drop_over_weight)" \
@@ -91,9 +94,9 @@ match() {
 }
 # clean RUN: the run's checkpoints and field snapshots go (only small files come back).
 clean() { find "$out/$1" -type f \( -name 'checkpoint*' -o -name '*.h5' -o -name '*.xdmf' \) -delete 2> /dev/null; }
-# phases NAME YAML: the gas step and the DEM sub-steps timed apart (LBDEM_STEP_PHASES=1).
+# phases NAME YAML [VAR=VALUE...]: the gas step and the DEM sub-steps timed apart (LBDEM_STEP_PHASES=1).
 phases() {
-  CUDA_VISIBLE_DEVICES="$g" LBDEM_STEP_PHASES=1 timeout -s TERM -k 30 120 "$exe" run "$2" --backend cuda \
+  CUDA_VISIBLE_DEVICES="$g" LBDEM_STEP_PHASES=1 env "${@:3}" timeout -s TERM -k 30 120 "$exe" run "$2" --backend cuda \
     --output "$out/$1" --overwrite --quiet > "$out/$1.log" 2>&1
   local rc=$? l
   l="$(grep -a '^step phases:' "$out/$1.log" | tail -1)"
@@ -110,13 +113,14 @@ if [ "${TESTS:-1}" = 1 ]; then
   CUDA_VISIBLE_DEVICES="$g" timeout 300 "$build/tests/cfd/cfd_tests" --gtest_filter='*Pressure.*:PressureLoop.*' \
     > "$out/cfd_tests.log" 2>&1
   echo "cfd_tests (pressure) exit $?"
-  CUDA_VISIBLE_DEVICES="$g" timeout 300 "$build/tests/dem/dem_tests" --gtest_filter='DemCrossBackend.*:*SubstepGraphs*' \
+  CUDA_VISIBLE_DEVICES="$g" timeout 300 "$build/tests/dem/dem_tests" --gtest_filter='DemCrossBackend.*:*SubstepGraphs*:*DemFusedSubsteps*' \
     > "$out/dem_tests.log" 2>&1
-  echo "dem_tests (GPU against host, sub-step graphs) exit $?"
+  echo "dem_tests (GPU against host, sub-step graphs, fused sub-steps) exit $?"
   grep -a -E "^\[  (PASSED|FAILED) |^\[  FAILED  \]" "$out/cfd_tests.log" "$out/dem_tests.log"
 fi
 off=polled on=device_loop
 [ "${PAIR:-loop}" = tail ] && off=tail_global on=tail_shared
+[ "${PAIR:-loop}" = fused ] && off=two_kernels on=fused
 ym="$(yaml fluidized_bed_muller_u09.yaml u09 "$muller_steps" 0.3)"
 bed u09_$off 0 "$ym"
 bed u09_$on 1 "$ym"
@@ -126,6 +130,10 @@ bed link_$off 0 "$yl"
 bed link_$on 1 "$yl"
 match link link_$off link_$on
 if [ "$phase_steps" -gt 0 ]; then
+  if [ "${PAIR:-loop}" = fused ]; then
+    phases u09_phases_two_kernels "$(yaml fluidized_bed_muller_u09.yaml u09_p "$phase_steps" 0.3)" \
+      LBDEM_DEM_FUSED_SUBSTEPS=0
+  fi
   phases u09_phases "$(yaml fluidized_bed_muller_u09.yaml u09_p "$phase_steps" 0.3)"
   phases link_phases "$(yaml fluidized_bed_link_spout.yaml link_p "$phase_steps" 0.1)"
 fi

@@ -3,6 +3,7 @@
 // particle-parallel path, and the three stages of the pair path. Include only
 // from kernel translation units (*.cu).
 #include "atomics.hpp"
+#include "kernels.hpp"
 #include "state.hpp"
 
 namespace lbdem::dem {
@@ -131,6 +132,40 @@ struct ForceParticle {
   }
 };
 
+// The fused sub-step (dem/README.md, "Fused sub-steps"): the forces of the
+// state in k.s, exactly as ForceParticle computes and stores them, then the
+// next sub-step's kick-drift of the same particle from those forces still in
+// registers (KickDrift::step). The forces of other particles read this
+// state's positions and predicted velocities (k.s.pos, k.s.vpr, k.s.wpr), so
+// the kick-drift writes its positions and predictors into the other copies
+// (pos_out, vpr_out, wpr_out), which the store then swaps in. Every other
+// array the kick-drift writes (vel, omg) is particle i's own and read by no
+// force of another particle. The arithmetic is that of the two kernels run
+// one after the other: the same bits.
+template <bool Friction>
+struct ForceKickDrift {
+  KickDrift<Friction> k;
+  Real4 *pos_out, *vpr_out, *wpr_out;
+  LBDEM_HD void operator()(Index i) const {
+    const State& s = k.s;
+    const Real4 p = s.pos[i];
+    const Real4 v = s.vpr[i];
+    Real4 w{0, 0, 0, 0};
+    if constexpr (Friction) w = s.wpr[i];
+    Vec3d F, T;
+    particle_forces<Friction>(s, i, p, v, w, F, T);
+    list_contacts<Friction>(s, i, p, v, w, s.ncount[i], 0, 1, F, T);
+    const Real4 f{F.x, F.y, F.z, 0.0};
+    Real4 t{0, 0, 0, 0};
+    s.frc[i] = f;
+    if constexpr (Friction) {
+      t = Real4{T.x, T.y, T.z, 0.0};
+      s.trq[i] = t;
+    }
+    k.step(i, p, f, t, pos_out, vpr_out, wpr_out);
+  }
+};
+
 #if defined(__CUDACC__)
 // Particle-parallel with L lanes per particle (State::lanes, DemParams::
 // force_lanes): lane l sums the list slots l, l + L, ... and lane 0 also the
@@ -140,13 +175,14 @@ struct ForceParticle {
 // warps per multiprocessor) this divides the dependent chain of list loads by
 // L and gives the device L times the warps to hide their latency. The sums
 // differ from ForceParticle's sequential order by rounding only.
+// Particle i's forces summed by its L lanes (lane = t % L of thread t):
+// every lane of the warp must call it (the shuffles), i >= n included; F and
+// T end with the same bits in every lane of a particle.
 template <bool Friction, int L>
-__global__ void __launch_bounds__(256) force_lanes_kernel(const State s, Index n) {
+__device__ __forceinline__ void lanes_forces(const State& s, Index n, Index i, int lane, Vec3d& F, Vec3d& T) {
   static_assert(L >= 2 && L <= 32 && (L & (L - 1)) == 0, "lanes: a power of two up to a warp");
-  const Index t = static_cast<Index>(blockIdx.x) * blockDim.x + threadIdx.x;
-  const Index i = t / L;
-  const int lane = static_cast<int>(t % L);
-  Vec3d F{}, T{};
+  F = Vec3d{};
+  T = Vec3d{};
   if (i < n) {  // no early return: every lane of the warp takes part in the shuffles
     const Real4 p = s.pos[i];
     const Real4 v = s.vpr[i];
@@ -166,9 +202,42 @@ __global__ void __launch_bounds__(256) force_lanes_kernel(const State s, Index n
       T.z += __shfl_xor_sync(0xffffffffu, T.z, off);
     }
   }
+}
+
+template <bool Friction, int L>
+__global__ void __launch_bounds__(256) force_lanes_kernel(const State s, Index n) {
+  const Index t = static_cast<Index>(blockIdx.x) * blockDim.x + threadIdx.x;
+  const Index i = t / L;
+  const int lane = static_cast<int>(t % L);
+  Vec3d F, T;
+  lanes_forces<Friction, L>(s, n, i, lane, F, T);
   if (i < n && lane == 0) {
     s.frc[i] = Real4{F.x, F.y, F.z, 0.0};
     if constexpr (Friction) s.trq[i] = Real4{T.x, T.y, T.z, 0.0};
+  }
+}
+
+// ForceKickDrift with L lanes per particle: the lanes' forces as
+// force_lanes_kernel sums them, then lane 0 stores them and runs the
+// particle's kick-drift.
+template <bool Friction, int L>
+__global__ void __launch_bounds__(256) force_lanes_kick_drift_kernel(const ForceKickDrift<Friction> fk, Index n) {
+  const Index t = static_cast<Index>(blockIdx.x) * blockDim.x + threadIdx.x;
+  const Index i = t / L;
+  const int lane = static_cast<int>(t % L);
+  const State& s = fk.k.s;
+  Vec3d F, T;
+  lanes_forces<Friction, L>(s, n, i, lane, F, T);
+  if (i < n && lane == 0) {
+    const Real4 f{F.x, F.y, F.z, 0.0};
+    Real4 tq{0, 0, 0, 0};
+    s.frc[i] = f;
+    if constexpr (Friction) {
+      tq = Real4{T.x, T.y, T.z, 0.0};
+      s.trq[i] = tq;
+    }
+    const Real4 p = s.pos[i];
+    fk.k.step(i, p, f, tq, fk.pos_out, fk.vpr_out, fk.wpr_out);
   }
 }
 #endif

@@ -28,6 +28,30 @@ void force_particle(const Exec& ex, Index n, const State& s) {
   launch(ex, n, ForceParticle<Friction>{s});
 }
 
+// The fused sub-step (ForceKickDrift) on `ex`: the particle path's forces of
+// the state in k.s and the next kick-drift, positions and predictors into
+// the arrays of `out` (the view after the store's swap); on the device with
+// State::lanes > 1 the lane-parallel kernel.
+template <bool Friction>
+void force_kick_drift(const Exec& ex, Index n, const KickDrift<Friction>& k, const State& out) {
+  const ForceKickDrift<Friction> fk{k, out.pos, out.vpr, out.wpr};
+#if defined(__CUDACC__)
+  if (ex.on_device() && k.s.lanes > 1) {
+    if (n <= 0) return;
+    const unsigned grid = static_cast<unsigned>((n * k.s.lanes + 255) / 256);
+    switch (k.s.lanes) {
+      case 2: force_lanes_kick_drift_kernel<Friction, 2><<<grid, 256, 0, ex.stream()>>>(fk, n); break;
+      case 4: force_lanes_kick_drift_kernel<Friction, 4><<<grid, 256, 0, ex.stream()>>>(fk, n); break;
+      case 8: force_lanes_kick_drift_kernel<Friction, 8><<<grid, 256, 0, ex.stream()>>>(fk, n); break;
+      default: force_lanes_kick_drift_kernel<Friction, 16><<<grid, 256, 0, ex.stream()>>>(fk, n); break;
+    }
+    LBDEM_CUDA_CHECK(cudaGetLastError());
+    return;
+  }
+#endif
+  launch(ex, n, fk);
+}
+
 template <bool Friction>
 void force_step(DemSystem::Impl& m) {
   const State s = m.state();

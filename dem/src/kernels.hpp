@@ -38,10 +38,16 @@ struct KickDrift {
   StatusRecord* next;  // the report after it (zeroed by particle 0 when `report`)
   int report;          // 1: record maxima into *rec (a report step)
   int check;           // 1: record displacements > skin/2 (no rebuild follows this step, or the every-step test)
-  LBDEM_HD void operator()(Index i) const {
+  // Particle i's kick-drift from its position p0 (s.pos[i]), force f
+  // (s.frc[i]) and torque t (s.trq[i]; unused without friction); the new
+  // position and predicted velocities go to pos_out, vpr_out and wpr_out:
+  // s.pos, s.vpr and s.wpr here, the other copies in the fused sub-step
+  // (ForceKickDrift), whose force evaluation still reads these of other
+  // particles.
+  LBDEM_HD LBDEM_FORCEINLINE void step(Index i, const Real4& p0, const Real4& f, const Real4& t, Real4* pos_out,
+                                       Real4* vpr_out, Real4* wpr_out) const {
     Real4 v = s.vel[i];
-    const Real4 f = s.frc[i];
-    Real4 p = s.pos[i];
+    Real4 p = p0;
     const double h = 0.5 * s.dt * v.w;
     const double k1 = synced ? h : 2.0 * h;
     v.x += k1 * f.x; v.y += k1 * f.y; v.z += k1 * f.z;
@@ -49,7 +55,7 @@ struct KickDrift {
     x = s.box.wrap(x);
     set_xyz(p, x);
     s.vel[i] = v;
-    s.pos[i] = p;
+    pos_out[i] = p;
     Real4 vp = v;
     if (extrap) {
       const Real4 fo = s.frc_old[i];
@@ -57,10 +63,9 @@ struct KickDrift {
     } else {
       vp.x += h * f.x; vp.y += h * f.y; vp.z += h * f.z;
     }
-    s.vpr[i] = vp;
+    vpr_out[i] = vp;
     if constexpr (Friction) {
       Real4 w = s.omg[i];
-      const Real4 t = s.trq[i];
       const double b = 0.5 * s.dt * w.w;
       const double b1 = synced ? b : 2.0 * b;
       w.x += b1 * t.x; w.y += b1 * t.y; w.z += b1 * t.z;
@@ -72,7 +77,10 @@ struct KickDrift {
       } else {
         wp.x += b * t.x; wp.y += b * t.y; wp.z += b * t.z;
       }
-      s.wpr[i] = wp;
+      wpr_out[i] = wp;
+    } else {
+      (void)t;
+      (void)wpr_out;
     }
     const Vec3d d = s.box.min_image(x - xyz(s.x0[i]));
     const double d2 = dot(d, d);
@@ -81,6 +89,13 @@ struct KickDrift {
       if (i == 0) *next = StatusRecord{};
       report_particle(rec, d2, v, f);
     }
+  }
+  LBDEM_HD void operator()(Index i) const {
+    const Real4 f = s.frc[i];
+    const Real4 p = s.pos[i];
+    Real4 t{0, 0, 0, 0};
+    if constexpr (Friction) t = s.trq[i];
+    step(i, p, f, t, s.pos, s.vpr, s.wpr);
   }
 };
 

@@ -53,6 +53,15 @@ class ParticleStore {
   void reorder(const Exec& ex, const int* perm);
   // Particles in storage order, with the last forces (torques when rotating).
   HostParticles download() const;
+  // Swaps the positions and the predicted velocities (and angular ones) with
+  // their twins: a fused sub-step (dem/README.md, "Fused sub-steps") writes
+  // the new ones into the twins while its forces still read these; the swap
+  // makes them the current arrays, which every other reader then sees.
+  void swap_drift_targets() {
+    pos.swap(pos2);
+    vpr.swap(vpr2);
+    wpr.swap(wpr2);
+  }
   // The particle arrays of the kernel view.
   void bind(State& s) const;
   ParticleView view();
@@ -73,7 +82,9 @@ class ParticleStore {
   Buffer<Vec3d> whist;  // wall histories [w * n + i] (friction)
 
  private:
-  // Reorder targets, swapped with the arrays above by reorder().
+  // Reorder targets, swapped with the arrays above by reorder(); pos2, vpr2
+  // and wpr2 are also the targets of a fused sub-step (swap_drift_targets()).
+  // Each is written whole before it is swapped in.
   Buffer<Real4> pos2, vel2, omg2, frc2, trq2, frco2, trqo2, vpr2, wpr2, extf2, extt2;
   Buffer<std::int64_t> gid2;
   Buffer<int> type2;

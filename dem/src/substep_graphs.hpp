@@ -1,10 +1,11 @@
 #pragma once
 // CUDA graphs of "plain" DEM sub-steps (dem/README.md, "Sub-step graphs"): a
 // sub-step that neither reports to the rebuild scheduler nor rebuilds the
-// list, and is not the first of an advance() call, is the same two kernels
+// list, and is not the first of an advance() call, is the same launches
 // (KickDrift with synced 0, extrapolation 1, no report, displacement check
-// on; then the particle-path force) with arguments the host knows in
-// advance. DemSystem::advance() queues such steps here instead of launching
+// on, then the particle-path force; or, with fused sub-steps, the previous
+// step's forces and this kick-drift in one kernel) with arguments the host
+// knows in advance. DemSystem::advance() queues such steps here instead of launching
 // them and flushes the queue, as one graph launch, before anything else is
 // issued (a report, a rebuild, the closing kick) and before the host waits
 // for a report. Each graph is the capture of exactly the launches the queue
@@ -29,12 +30,17 @@ class SubstepGraphs {
   static constexpr int kMaxRun = 16;  // sub-steps per graph (a longer run is flushed in parts)
   // Graphs kept: a run's key takes 2 rebuild parities (the reorder and the
   // list swap their arrays at each build) x 2 force parities x 4 report
-  // slots = 16 values per run length, so every key of runs up to kMaxRun
-  // long fits and a steady schedule never captures again.
-  static constexpr int kTable = 16 * kMaxRun;
+  // slots x 2 position parities (fused sub-steps swap the positions at each
+  // step but an advance() call's first) = 32 values per run length, so every
+  // key of runs up to kMaxRun long fits and a steady schedule never captures
+  // again.
+  static constexpr int kTable = 32 * kMaxRun;
 
-  // Issues one plain sub-step's two launches on `ex` (DemSystem's own
-  // kernels, so that a capture records exactly what a direct launch runs).
+  // Issues one plain sub-step's launches on `ex` (DemSystem's own kernels, so
+  // that a capture records exactly what a direct launch runs): the kick-drift
+  // on the first view and the forces on the second, or, fused, the forces of
+  // the first view and the kick-drift into the second's positions and
+  // predictors.
   using IssueStep = void (*)(const Exec& ex, const State& kick, StatusRecord* rec, StatusRecord* next,
                              const State& force, bool friction);
   SubstepGraphs(const Exec& ex, bool friction, IssueStep issue);
@@ -42,8 +48,8 @@ class SubstepGraphs {
   SubstepGraphs(const SubstepGraphs&) = delete;
   SubstepGraphs& operator=(const SubstepGraphs&) = delete;
 
-  // Queues one plain sub-step: its kick-drift's view and report slots, then
-  // the view its force evaluation uses (the forces swapped).
+  // Queues one plain sub-step: its first view and report slots, then its
+  // second view (IssueStep).
   void add(const State& kick, StatusRecord* rec, StatusRecord* next, const State& force);
   int queued() const { return len_; }
   bool full() const { return len_ == kMaxRun; }
@@ -55,7 +61,7 @@ class SubstepGraphs {
   long captures = 0;        // graphs captured (table misses)
 
  private:
-  // Per queued step: every pointer and count its two launches read (the
+  // Per queued step: every pointer and count its launches read (the
   // views' constants — box, walls, contact laws, dt, skin — are fixed for a
   // system's life, and the table is the system's).
   static constexpr int kWords = 2 * 20 + 2;

@@ -107,6 +107,36 @@ void issue_plain_step(const Exec& ex, const State& kick, StatusRecord* rec, Stat
   }
 }
 
+// One plain sub-step of the fused pipeline (SubstepGraphs captures it): the
+// forces of the state in `s` and the next kick-drift (synced 0,
+// extrapolation 1, no report, displacement check on) into the arrays of
+// `out`, the very launch advance() issues for such a step.
+void issue_fused_step(const Exec& ex, const State& s, StatusRecord* rec, StatusRecord* next, const State& out,
+                      bool friction) {
+  const KickArgs a{0, 1, rec, next, 0, 1};
+  if (friction) launch_force_kick_drift_frictional(ex, s.n, s, out, a);
+  else launch_force_kick_drift_frictionless(ex, s.n, s, out, a);
+}
+
+// Whether each sub-step's forces are fused with the next sub-step's
+// kick-drift (dem/README.md, "Fused sub-steps"): the particle path on one rank
+// (a decomposed step refreshes the ghosts between the kick-drift and the
+// forces; the pair path's forces are several kernels), unless the
+// environment variable LBDEM_DEM_FUSED_SUBSTEPS is 0 (A/B comparison and
+// timing). Either way the particles are the same bit for bit.
+bool fused_apply(const DemSystem::Impl& m) {
+  const char* env = std::getenv("LBDEM_DEM_FUSED_SUBSTEPS");
+  bool on = true;
+  if (env) {
+    if (std::strcmp(env, "0") == 0) on = false;
+    else if (std::strcmp(env, "1") != 0)
+      throw ConfigError(std::string("LBDEM_DEM_FUSED_SUBSTEPS: '") + env +
+                        "' is not 0 or 1 (1: fuse each DEM sub-step's forces with the next kick-drift, the default; "
+                        "0: two kernels per sub-step)");
+  }
+  return on && !m.decomposed() && m.p.path == ForcePath::Particle;
+}
+
 // Whether plain sub-steps run as graphs: DemParams::substep_graphs (and no
 // LBDEM_DEM_GRAPHS=0) where the step's launches are the plain pair — CUDA, one
 // rank (a decomposed step exchanges ghosts between them), the particle path
@@ -184,7 +214,9 @@ DemSystem::DemSystem(Exec ex, DemParams params, const HostParticles& hp, const D
     if (refit) rebuild();
   }
   m.rebuilds = 0;  // the initial build is not counted
-  if (graphs_apply(m)) m.graphs = std::make_unique<SubstepGraphs>(m.ex, p.friction, issue_plain_step);
+  m.fused = fused_apply(m);
+  if (graphs_apply(m))
+    m.graphs = std::make_unique<SubstepGraphs>(m.ex, p.friction, m.fused ? issue_fused_step : issue_plain_step);
 }
 
 DemSystem::~DemSystem() = default;
@@ -238,6 +270,18 @@ void DemSystem::advance(long steps) {
   auto flush = [graphs] {
     if (graphs) graphs->flush();
   };
+  // Fused sub-steps (m.fused): a step's force evaluation is not issued after
+  // its kick-drift but deferred, and goes out with the next step's
+  // kick-drift as one kernel (ForceKickDrift) once that step's arguments are
+  // decided, or on its own before the closing kick. `deferred`: the forces
+  // of the current state are not issued yet.
+  bool deferred = false;
+  auto issue_deferred = [&m, &deferred, &flush] {
+    if (!deferred) return;
+    flush();
+    run_forces(m);
+    deferred = false;
+  };
   for (long s = 0; s < steps; ++s) {
     const long t = m.steps + 1;  // the state this step produces
     bool build = false;
@@ -247,6 +291,7 @@ void DemSystem::advance(long steps) {
         r.read_due(t);
       } catch (const DivergenceError&) {
         flush();
+        issue_deferred();
         if (s > 0) close();  // leave a consistent state (stopped at step t - 1)
         throw;
       }
@@ -261,27 +306,53 @@ void DemSystem::advance(long steps) {
     const int synced = s == 0, extrap = m.old_valid ? 1 : 0;
     StatusRecord *rec = r.slot(r.reports), *next = r.slot(r.reports + 1);
     const int rep = report ? 1 : 0, check = build ? 0 : 1;
-    if (graphs && !report && !build && !synced && extrap && n > 0) {
-      // A plain step: the same bookkeeping, its launches queued.
+    const bool plain = graphs && !report && !build && !synced && extrap && n > 0;
+    if (deferred) {
+      // The forces of the current state (view st) and this step's kick-drift
+      // in one kernel: its positions and predictors go to the store's twins,
+      // swapped in here with the forces' swap (the view `out`), so that all
+      // that follows reads the new state from the store's usual arrays.
+      m.store.swap_drift_targets();
+      m.store.frc.swap(m.store.frco);
+      if (m.p.friction) m.store.trq.swap(m.store.trqo);
+      const State out = m.state();
+      ++m.fused_steps;
+      ++m.steps;
+      m.time += dt;
+      if (plain) {
+        // A plain step: queued (its own forces stay deferred).
+        graphs->add(st, rec, next, out);
+        m.old_valid = true;
+        continue;
+      }
+      flush();
+      const KickArgs a{synced, extrap, rec, next, rep, check};
+      if (m.p.friction) launch_force_kick_drift_frictional(m.ex, n, st, out, a);
+      else launch_force_kick_drift_frictionless(m.ex, n, st, out, a);
+      deferred = false;
+    } else {
+      if (plain && !m.fused) {
+        // A plain step: the same bookkeeping, its launches queued.
+        m.store.frc.swap(m.store.frco);
+        if (m.p.friction) m.store.trq.swap(m.store.trqo);
+        ++m.steps;
+        m.time += dt;
+        graphs->add(st, rec, next, m.state());
+        m.old_valid = true;
+        continue;
+      }
+      flush();
+      if (m.p.friction) launch(m.ex, n, KickDrift<true>{st, synced, extrap, rec, next, rep, check});
+      else launch(m.ex, n, KickDrift<false>{st, synced, extrap, rec, next, rep, check});
+      // The forces just used become the "old" ones of the velocity predictor.
       m.store.frc.swap(m.store.frco);
       if (m.p.friction) m.store.trq.swap(m.store.trqo);
       ++m.steps;
       m.time += dt;
-      graphs->add(st, rec, next, m.state());
-      m.old_valid = true;
-      continue;
     }
-    flush();
-    if (m.p.friction) launch(m.ex, n, KickDrift<true>{st, synced, extrap, rec, next, rep, check});
-    else launch(m.ex, n, KickDrift<false>{st, synced, extrap, rec, next, rep, check});
     // A rank without particles reports zeros (a decomposed run; the kernel's
     // particle 0 zeroes the next slot otherwise).
     if (n == 0 && report) r.zero_slot(r.reports + 1);
-    // The forces just used become the "old" ones of the velocity predictor.
-    m.store.frc.swap(m.store.frco);
-    if (m.p.friction) m.store.trq.swap(m.store.trqo);
-    ++m.steps;
-    m.time += dt;
     if (ahead) {
       if (report) r.take_report(t, t == t_end ? t + 1 : t + k);
     } else {
@@ -289,10 +360,12 @@ void DemSystem::advance(long steps) {
     }
     if (build) rebuild_list(m);
     else if (m.decomposed()) m.domain->refresh(m);
-    run_forces(m);
+    if (m.fused) deferred = true;
+    else run_forces(m);
     m.old_valid = true;
   }
   flush();
+  issue_deferred();
   close();
 }
 

@@ -43,6 +43,11 @@ struct DemSystem::Impl {
   // Plain sub-steps as CUDA graphs (substep_graphs.hpp): made at construction
   // where DemParams::substep_graphs applies (null otherwise).
   std::unique_ptr<SubstepGraphs> graphs;
+  // Each sub-step's force evaluation fused with the next sub-step's
+  // kick-drift (dem/README.md, "Fused sub-steps"): one rank, particle path,
+  // and LBDEM_DEM_FUSED_SUBSTEPS not 0 (set at construction).
+  bool fused = false;
+  long fused_steps = 0;  // sub-steps run fused (DemStats::fused_steps)
 
   // The set-up constants of the kernel view (no arrays bound).
   State physics() const {
@@ -68,5 +73,17 @@ void run_forces_frictional(DemSystem::Impl& m);
 // sub-step graphs capture it; the same kernel run_forces_* launches).
 void launch_force_particle_frictionless(const Exec& ex, Index n, const State& s);
 void launch_force_particle_frictional(const Exec& ex, Index n, const State& s);
+// The fused sub-step (ForceKickDrift, dem/README.md "Fused sub-steps"): the
+// particle path's forces of the state in `s`, then the next sub-step's
+// kick-drift with the arguments `a`, its positions and predicted velocities
+// written into the arrays of `out` (the view after ParticleStore::
+// swap_drift_targets() and the force swap).
+struct KickArgs {
+  int synced, extrap;
+  StatusRecord *rec, *next;
+  int report, check;
+};
+void launch_force_kick_drift_frictionless(const Exec& ex, Index n, const State& s, const State& out, const KickArgs& a);
+void launch_force_kick_drift_frictional(const Exec& ex, Index n, const State& s, const State& out, const KickArgs& a);
 
 }  // namespace lbdem::dem

@@ -18,6 +18,7 @@ DemStats DemSystem::stats() const {
   s.neighbour_capacity = m.lists.cap;
   s.status_reads = m.sched.status_reads;
   s.status_waits = m.sched.status_waits;
+  s.fused_steps = m.fused_steps;
   if (m.graphs) {
     s.graph_launches = m.graphs->graph_launches;
     s.graph_steps = m.graphs->graph_steps;

@@ -109,6 +109,7 @@ struct DemStats {
   long graph_launches = 0;  // sub-step graphs launched (DemParams::substep_graphs)
   long graph_steps = 0;     // sub-steps run inside them (the rest were launched kernel by kernel)
   long graph_captures = 0;  // graphs captured (a new set of buffers, counts or run length)
+  long fused_steps = 0;     // sub-steps whose kick-drift ran fused with the previous forces (one kernel)
   // Decomposed run, this rank: particles sent to another rank across a face,
   // an edge and a corner of its piece (1, 2 and 3 piece coordinates changed,
   // periodic wrap included), and the ghosts held at the last build.

@@ -1,0 +1,299 @@
+// Fused DEM sub-steps (dem/README.md, "Fused sub-steps": each sub-step's
+// forces and the next sub-step's kick-drift in one kernel, the positions and
+// predicted velocities into the store's twin arrays) against two kernels per
+// sub-step (LBDEM_DEM_FUSED_SUBSTEPS=0): the same state bit for bit. The
+// state compared is the whole checkpoint section of the system (every
+// particle array in storage order, the forces of the last two steps, the
+// predicted velocities, the positions at the last build, the wall and
+// contact histories, the Verlet list, the report ring on the device and its
+// host copies, the decisions read from it) and the counters (sub-steps,
+// rebuilds, reports read), over runs of coupled-step-long advance() calls
+// with many list rebuilds, with and without friction. The host instances
+// run everywhere; the CUDA instances (every lane count of the force kernel,
+// with and without sub-step graphs) where a GPU is usable.
+#include <gtest/gtest.h>
+
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include "common/backends.hpp"
+#include "core/buffer.hpp"
+#include "core/checkpoint.hpp"
+#include "core/error.hpp"
+#include "dem/init.hpp"
+#include "dem/system.hpp"
+
+using namespace lbdem;
+using namespace lbdem::dem;
+
+namespace {
+
+// The checkpoint bytes of a system, in memory.
+struct Bytes final : ckpt::Sink {
+  std::vector<unsigned char> b;
+  void write(const void* data, std::size_t bytes) override {
+    const auto* p = static_cast<const unsigned char*>(data);
+    b.insert(b.end(), p, p + bytes);
+  }
+};
+
+// Sets LBDEM_DEM_FUSED_SUBSTEPS for the scope (read when a DemSystem is
+// constructed), restoring what was there.
+class FusedEnv {
+ public:
+  explicit FusedEnv(const char* value) {
+    const char* old = std::getenv(kName);
+    had_ = old != nullptr;
+    if (had_) old_ = old;
+    if (value) setenv(kName, value, 1);
+    else unsetenv(kName);
+  }
+  ~FusedEnv() {
+    if (had_) setenv(kName, old_.c_str(), 1);
+    else unsetenv(kName);
+  }
+  FusedEnv(const FusedEnv&) = delete;
+  FusedEnv& operator=(const FusedEnv&) = delete;
+
+ private:
+  static constexpr const char* kName = "LBDEM_DEM_FUSED_SUBSTEPS";
+  bool had_ = false;
+  std::string old_;
+};
+
+// Mueller's particles (d = 1.2 mm, k = 800 N/m, e = 0.97, mu 0.1 or none) at
+// random speeds up to 0.3 m/s per axis in a closed 12 x 6 x 30 mm box (each
+// side `scale` times that) under gravity, with an upward coupling force that
+// changes between calls: wall and particle contacts, a rebuild every ~70
+// sub-steps, reports every few. ~560 particles (the host runs them on one
+// thread); scale 2: ~4,500 (on the host's threads).
+struct Bed {
+  DemParams p;
+  HostParticles h;
+  explicit Bed(bool friction, double scale = 1) {
+    const double X = 0.012 * scale, Y = 0.006 * scale, Z = 0.03 * scale;
+    RandomPackingSpec spec;
+    spec.lo = {0, 0, 0};
+    spec.hi = {X, Y, 0.02 * scale};
+    spec.periodic = {false, false, false};
+    spec.solid_fraction = 0.35;
+    spec.r_min = spec.r_max = 0.6e-3;
+    spec.density = 1000;
+    spec.seed = 11;
+    h = random_packing(spec);
+    std::uint64_t z = 987654321;
+    auto uniform = [&z] {
+      z = z * 6364136223846793005ULL + 1442695040888963407ULL;
+      return static_cast<double>(z >> 11) * (1.0 / 9007199254740992.0) * 2.0 - 1.0;
+    };
+    for (auto& v : h.v) v = {0.3 * uniform(), 0.3 * uniform(), 0.3 * uniform()};
+    if (friction) {
+      h.w.resize(h.v.size());
+      for (auto& w : h.w) w = {300 * uniform(), 300 * uniform(), 300 * uniform()};
+    }
+    p.lo = {0, 0, 0};
+    p.hi = {X, Y, Z};
+    for (int a = 0; a < 3; ++a) {
+      Vec3d n{0, 0, 0};
+      n[a] = 1;
+      p.walls.push_back(Wall{{0, 0, 0}, n});
+      n[a] = -1;
+      p.walls.push_back(Wall{{X, Y, Z}, n});
+    }
+    p.material.stiffness = p.material.wall_stiffness = 800;
+    p.material.restitution = p.material.wall_restitution = 0.97;
+    p.material.friction = p.material.wall_friction = friction ? 0.1 : 0.0;
+    p.friction = friction;
+    p.gravity = {0, 0, -9.80665};
+    p.external_forcing = true;
+    p.dt = min_collision_time(p, h) / 50;
+  }
+};
+
+// Coupling input of call c: an upward force of (0.4 + 0.2 (c % 2)) times each
+// particle's weight, a small sideways part by id, and a torque with friction.
+void write_coupling(DemSystem& s, int c) {
+  const ParticleView v = s.view();
+  const HostParticles hp = s.download();
+  std::vector<Real4> f(static_cast<std::size_t>(v.n)), t(f.size());
+  for (Index i = 0; i < v.n; ++i) {
+    const double w = hp.mass[i] * 9.80665;
+    f[i] = Real4{1e-3 * w * static_cast<double>(hp.id[i] % 3 - 1), 0, (0.4 + 0.2 * (c % 2)) * w, 0};
+    t[i] = Real4{0, 1e-9 * static_cast<double>(hp.id[i] % 5 - 2), 0, 0};
+  }
+  backend_copy_from_host(s.backend(), v.ext_force, f.data(), sizeof(Real4) * f.size());
+  backend_copy_from_host(s.backend(), v.ext_torque, t.data(), sizeof(Real4) * t.size());
+}
+
+struct BedRun {
+  std::vector<unsigned char> state;  // the checkpoint section at the end
+  DemStats stats;
+  std::vector<DemStats> per_call;
+};
+
+// `calls` advance() calls of `steps` sub-steps (101: a gas step of Mueller's
+// bed), the coupling input rewritten before each. `fused`: the value of
+// LBDEM_DEM_FUSED_SUBSTEPS (null: unset, the default).
+BedRun run(Backend b, const Bed& bed, DemParams p, const char* fused, int calls, long steps) {
+  const FusedEnv env(fused);
+  DemSystem s(Exec(b), p, bed.h);
+  BedRun r;
+  for (int c = 0; c < calls; ++c) {
+    write_coupling(s, c);
+    s.advance(steps);
+    r.per_call.push_back(s.stats());
+  }
+  Bytes out;
+  s.save_state(out);
+  r.state = std::move(out.b);
+  r.stats = s.stats();
+  return r;
+}
+
+// Bit-for-bit comparison of two runs, naming the first differing byte.
+void expect_same(const BedRun& a, const BedRun& b, const std::string& what) {
+  ASSERT_EQ(a.state.size(), b.state.size()) << what;
+  std::size_t first = a.state.size();
+  for (std::size_t k = 0; k < a.state.size(); ++k)
+    if (a.state[k] != b.state[k]) {
+      first = k;
+      break;
+    }
+  EXPECT_EQ(first, a.state.size()) << what << ": the checkpoint sections differ from byte " << first << " of "
+                                   << a.state.size();
+  EXPECT_EQ(a.stats.steps, b.stats.steps) << what;
+  EXPECT_EQ(a.stats.rebuilds, b.stats.rebuilds) << what;
+  EXPECT_EQ(a.stats.status_reads, b.stats.status_reads) << what;
+  ASSERT_EQ(a.per_call.size(), b.per_call.size());
+  for (std::size_t c = 0; c < a.per_call.size(); ++c) {
+    EXPECT_EQ(a.per_call[c].rebuilds, b.per_call[c].rebuilds) << what << ", call " << c;
+    EXPECT_EQ(a.per_call[c].status_reads, b.per_call[c].status_reads) << what << ", call " << c;
+  }
+}
+
+std::string param_name(const ::testing::TestParamInfo<std::tuple<Backend, bool>>& i) {
+  return std::string(to_string(std::get<0>(i.param))) + (std::get<1>(i.param) ? "_frictional" : "_frictionless");
+}
+
+}  // namespace
+
+class DemFusedSubsteps : public ::testing::TestWithParam<std::tuple<Backend, bool>> {};
+
+// Fused (the default, and LBDEM_DEM_FUSED_SUBSTEPS=1) against two kernels
+// per sub-step, with look-ahead and every-step rebuild decisions; on the
+// device with 1, 2, 4, 8 and 16 lanes per particle and with and without
+// sub-step graphs (the reference: every kernel launched on its own).
+TEST_P(DemFusedSubsteps, SameStateBitwiseAsTwoKernelsPerSubstep) {
+  const auto [backend, friction] = GetParam();
+  if (backend == Backend::Cuda && !test::gpu_available()) GTEST_SKIP() << cuda_unavailable_reason();
+  const Bed bed(friction);
+  const int calls = 8;
+  const long steps = 101;
+  for (RebuildCheck check : {RebuildCheck::Lookahead, RebuildCheck::EveryStep}) {
+    const std::vector<int> lanes = backend == Backend::Cuda ? std::vector<int>{1, 2, 4, 8, 16} : std::vector<int>{1};
+    for (int l : lanes) {
+      DemParams p = bed.p;
+      p.rebuild_check = check;
+      p.force_lanes = l;
+      p.substep_graphs = false;
+      const std::string what = std::string(to_string(check)) + ", lanes " + std::to_string(l);
+      const BedRun ref = run(backend, bed, p, "0", calls, steps);
+      // Lists rebuilt several times, reports read: the decisions are exercised.
+      EXPECT_GE(ref.stats.rebuilds, 4) << what;
+      EXPECT_GE(ref.stats.status_reads, calls) << what;
+      EXPECT_EQ(ref.stats.fused_steps, 0) << what;
+      const BedRun fused = run(backend, bed, p, nullptr, calls, steps);
+      expect_same(fused, ref, what + ", fused by default");
+      // Every sub-step but the first of each call runs fused.
+      EXPECT_EQ(fused.stats.fused_steps, calls * (steps - 1)) << what;
+      const BedRun fused1 = run(backend, bed, p, "1", calls, steps);
+      expect_same(fused1, ref, what + ", LBDEM_DEM_FUSED_SUBSTEPS=1");
+      std::printf("%s: %ld sub-steps (%ld fused), %ld rebuilds, %ld reports read\n", what.c_str(),
+                  fused.stats.steps, fused.stats.fused_steps, fused.stats.rebuilds, fused.stats.status_reads);
+      if (backend == Backend::Cuda && check == RebuildCheck::Lookahead) {
+        p.substep_graphs = true;
+        const BedRun graphs = run(backend, bed, p, nullptr, calls, steps);
+        expect_same(graphs, ref, what + ", fused in sub-step graphs");
+        EXPECT_GT(graphs.stats.graph_steps, graphs.stats.steps / 4) << what;
+        std::printf("%s, graphs: %ld launched holding %ld sub-steps, %ld captured\n", what.c_str(),
+                    graphs.stats.graph_launches, graphs.stats.graph_steps, graphs.stats.graph_captures);
+        const BedRun graphs2 = run(backend, bed, p, "0", calls, steps);
+        expect_same(graphs2, ref, what + ", two kernels per sub-step in sub-step graphs");
+      }
+    }
+  }
+}
+
+// advance() calls of one and two sub-steps (a first step alone; a fused step
+// that is also the call's last, report and closing kick after it), and a
+// call that ends on a rebuild, against two kernels per sub-step.
+TEST_P(DemFusedSubsteps, ShortCallsSameStateBitwise) {
+  const auto [backend, friction] = GetParam();
+  if (backend == Backend::Cuda && !test::gpu_available()) GTEST_SKIP() << cuda_unavailable_reason();
+  const Bed bed(friction);
+  for (long steps : {1L, 2L, 3L, 17L}) {
+    const int calls = static_cast<int>(300 / steps) + 1;
+    const std::string what = std::to_string(calls) + " calls of " + std::to_string(steps);
+    const BedRun ref = run(backend, bed, bed.p, "0", calls, steps);
+    const BedRun fused = run(backend, bed, bed.p, "1", calls, steps);
+    expect_same(fused, ref, what);
+    EXPECT_EQ(fused.stats.fused_steps, calls * (steps - 1)) << what;
+    EXPECT_GE(ref.stats.rebuilds, 2) << what;
+  }
+}
+
+// A bed of more than 4,096 particles, which the host backend runs on all its
+// threads (smaller ones run serially): the fused kernel's reads of other
+// particles' positions and predictors race with no write.
+TEST_P(DemFusedSubsteps, LargeBedSameStateBitwise) {
+  const auto [backend, friction] = GetParam();
+  if (backend == Backend::Cuda && !test::gpu_available()) GTEST_SKIP() << cuda_unavailable_reason();
+  const Bed bed(friction, 2);
+  ASSERT_GT(bed.h.size(), 4096);
+  const BedRun ref = run(backend, bed, bed.p, "0", 2, 101);
+  const BedRun fused = run(backend, bed, bed.p, "1", 2, 101);
+  expect_same(fused, ref, "large bed");
+  EXPECT_EQ(fused.stats.fused_steps, 2 * 100);
+  EXPECT_GE(ref.stats.rebuilds, 1);
+}
+
+// The pair path (several kernels per force evaluation) is never fused, and
+// gives the same bits whatever the switch says.
+TEST_P(DemFusedSubsteps, PairPathUnfused) {
+  const auto [backend, friction] = GetParam();
+  if (backend == Backend::Cuda) GTEST_SKIP() << "the pair path's atomic sums are not reproducible on the device";
+  const Bed bed(friction);
+  DemParams p = bed.p;
+  p.path = ForcePath::Pair;
+  const BedRun on = run(backend, bed, p, "1", 3, 101);
+  const BedRun off = run(backend, bed, p, "0", 3, 101);
+  expect_same(on, off, "pair path");
+  EXPECT_EQ(on.stats.fused_steps, 0);
+}
+
+INSTANTIATE_TEST_SUITE_P(All, DemFusedSubsteps,
+                         ::testing::Combine(::testing::Values(Backend::Host, Backend::Cuda),
+                                            ::testing::Values(false, true)),
+                         param_name);
+
+// A value of the switch other than 0 or 1 is refused, naming the variable
+// and the value.
+TEST(DemFusedSubstepsSwitch, RefusesOtherValues) {
+  const Bed bed(false);
+  for (const char* bad : {"2", "yes", ""}) {
+    const FusedEnv env(bad);
+    try {
+      DemSystem s(Exec(Backend::Host), bed.p, bed.h);
+      ADD_FAILURE() << "LBDEM_DEM_FUSED_SUBSTEPS='" << bad << "' accepted";
+    } catch (const ConfigError& e) {
+      const std::string msg = e.what();
+      EXPECT_NE(msg.find("LBDEM_DEM_FUSED_SUBSTEPS: '" + std::string(bad) + "'"), std::string::npos) << msg;
+      EXPECT_NE(msg.find("not 0 or 1"), std::string::npos) << msg;
+    }
+  }
+}
