@@ -54,7 +54,7 @@ struct PsmOptions {
   // Fused: warps whose row of cells no candidate can reach collide plainly
   // without waiting for the candidates (imb/psm_fused.hpp; the same bits
   // either way). 1 on, 0 off, -1: the environment variable
-  // LBDEM_PSM_PLAIN_WARPS (0 or 1, read once), on where it is not set.
+  // LBDEM_PSM_PLAIN_WARPS (0 or 1, read once), off where it is not set.
   int plain_warps = -1;
   // The fluid's body force F stands for a mean pressure gradient, which acts
   // on the particles' volume too: each particle also receives B_k F from

@@ -18,7 +18,7 @@
 //      halves of the six values: warp_sum6_exchange), then the warps in order,
 //      into the particle's entry for this tile. TileMap::finish adds a
 //      particle's entries in order.
-// Plain warps (TileView::warps, on unless LBDEM_PSM_PLAIN_WARPS=0): a warp
+// Plain warps (TileView::warps, on with LBDEM_PSM_PLAIN_WARPS=1): a warp
 // whose row no candidate can reach skips steps 2 and 4; it takes the plain
 // collision, as it would after finding no slot, without waiting for the
 // candidates, and the force sums leave out its zeros (x + 0 = x).
