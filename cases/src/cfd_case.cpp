@@ -299,8 +299,12 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
   ex.set_overlap_launches(overlap && std::strcmp(overlap, "1") == 0);
   dem::DemSystem dem(ex, c.dem, c.particles);
   // Lagged forces: the gas on a second queue beside the DEM's (one queue on the host).
+  // LBDEM_LAGGED_ONE_QUEUE=1 keeps the gas on the DEM's queue (the same
+  // lagged arithmetic, nothing at the same time: for comparison).
   const Lanes lanes;
-  cfd::GasSolver gas(c.lagged_forces ? lanes.edge(ex) : ex, c.grid, c.gas);
+  const char* one_queue = std::getenv("LBDEM_LAGGED_ONE_QUEUE");
+  const bool second_queue = c.lagged_forces && !(one_queue && std::strcmp(one_queue, "1") == 0);
+  cfd::GasSolver gas(second_queue ? lanes.edge(ex) : ex, c.grid, c.gas);
   gas.set_velocity(c.initial_velocity);
   cfd::GasDemCoupling coupling(gas);
   dem::CoupledLoop loop(dem, coupling, c.substeps);
