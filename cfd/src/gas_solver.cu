@@ -588,7 +588,7 @@ void GasSolver::step(const dem::ParticleView& p) {
   mark(&StepTimes::void_fraction);
   // 2. drag coefficients at the particles, deposited.
   gamma_.reserve_discard(ex_.backend(), std::max<Index>(p.n, 1));
-  acc_.fill_zero();
+  acc_.fill_zero(ex_);
   const DragParams dp{p_.drag, p_.rho, p_.mu};
   for_each(ex_, p.n, DragDeposit{v, p_.deposition, dp, vf_.solid().data(), 1.0 - p_.min_gas_fraction, p,
                                  gamma_.data(), acc_.data()});

@@ -798,6 +798,7 @@ void PressureSolver::solve_mg(const double* const af[3], const double* b, double
       iterate_mg(ex_, af, x, 1);
     it += chunk;
     if (it >= next_poll || it >= p_.max_iterations) {
+      ex_.synchronize();  // the copy below is ordered after the legacy stream only
       scal_.copy_to_host(flags, 2, slot::kDone);
       if (!keep_iterating(flags[0], flags[1], p_.max_iterations)) break;
       next_poll = it + (dev ? std::max(1, p_.poll_every) : 1);

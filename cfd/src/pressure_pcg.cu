@@ -101,6 +101,7 @@ void PressureSolver::solve_cg(const double* const af[3], const double* b, double
     for_each(ex_, n, CgDir{d_.data(), z_.data(), s});
     const int poll = ex_.on_device() ? p_.poll_every : 1;
     if ((it + 1) % poll == 0) {
+      ex_.synchronize();  // the copy below is ordered after the legacy stream only
       scal_.copy_to_host(&done, 1, slot::kDone);
       if (done != 0) break;
     }

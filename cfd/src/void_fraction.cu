@@ -35,7 +35,7 @@ VoidFraction::VoidFraction(const Exec& ex, const GasGridView& g, Deposition sche
 }
 
 void VoidFraction::deposit(const dem::ParticleView& p) {
-  acc_.fill_zero();
+  acc_.fill_zero(ex_);
   for_each(ex_, p.n, DepositVolume{g_, scheme_, p.pos_r, acc_.data(), kFixedScale / g_.volume()});
   for_each(ex_, g_.cells(), FixedToDouble{acc_.data(), solid_.data()});
 }

@@ -84,6 +84,17 @@ void backend_copy(Backend b, void* dst, const void* src, std::size_t bytes) {
   std::memmove(dst, src, bytes);
 }
 
+void backend_memset_on(const Exec& ex, void* dst, int value, std::size_t bytes) {
+  if (bytes == 0) return;
+  if (ex.on_device()) {
+#if defined(LBDEM_HAVE_CUDA)
+    LBDEM_CUDA_CHECK(cudaMemsetAsync(dst, value, bytes, ex.stream()));
+    return;
+#endif
+  }
+  std::memset(dst, value, bytes);
+}
+
 void backend_memset(Backend b, void* dst, int value, std::size_t bytes) {
   if (bytes == 0) return;
   if (b == Backend::Cuda) {

@@ -16,6 +16,8 @@ void backend_copy_to_host(Backend b, void* dst_host, const void* src, std::size_
 void backend_copy_from_host(Backend b, void* dst, const void* src_host, std::size_t bytes);
 void backend_copy(Backend b, void* dst, const void* src, std::size_t bytes);
 void backend_memset(Backend b, void* dst, int value, std::size_t bytes);
+// The same in the order of the Exec's queue (asynchronous on the device).
+void backend_memset_on(const Exec& ex, void* dst, int value, std::size_t bytes);
 // Bytes a new allocation can still take on this backend (device: free memory;
 // host: available physical memory), at most the limit set below.
 std::size_t backend_free_bytes(Backend b);
@@ -89,7 +91,11 @@ class Buffer {
     if (n_ > 0) copy_to_host(v.data(), n_);
     return v;
   }
+  // Zeroes the buffer in the legacy default stream's order (setup code).
   void fill_zero() { if (n_ > 0) backend_memset(backend_, ptr_, 0, bytes()); }
+  // Zeroes the buffer in the order of `queue` (a stream on the device): what
+  // work queued on another stream than the legacy default one must use.
+  void fill_zero(const Exec& queue) { if (n_ > 0) backend_memset_on(queue, ptr_, 0, bytes()); }
 
  private:
   Backend backend_ = Backend::Host;
