@@ -26,7 +26,7 @@
 #        GPU (default 0), BASE_BUILD (default none: step 4 left out; built here if needed), BASE_STEPS (default 1000);
 #        PAIR=tail compares the pressure solve's one-block tail in shared memory (the default) with the tail in global
 #        memory (LBDEM_PRESSURE_TAIL_SHARED=0) in steps 1-2 instead of the two pressure loops; PAIR=fused compares
-#        two DEM kernels per sub-step (LBDEM_DEM_FUSED_SUBSTEPS=0) with the fused sub-steps (the default) in steps
+#        two DEM kernels per sub-step (LBDEM_DEM_FUSED_SUBSTEPS=0, the default) with the fused sub-steps (=1) in steps
 #        1-2, and step 3 times Mueller's bed both ways; PHASE_STEPS=0 and NSYS_STEPS=0 leave steps 3 and 5 out
 # Output under $OUT/bed_speed: speed.jsonl (one JSON line per run: seconds per simulated second, simulated time,
 # mean pressure drop over bed weight, per gas step the DEM's rebuilds, report reads and waits; a line per bed
@@ -133,6 +133,8 @@ if [ "$phase_steps" -gt 0 ]; then
   if [ "${PAIR:-loop}" = fused ]; then
     phases u09_phases_two_kernels "$(yaml fluidized_bed_muller_u09.yaml u09_p "$phase_steps" 0.3)" \
       LBDEM_DEM_FUSED_SUBSTEPS=0
+    phases u09_phases_fused "$(yaml fluidized_bed_muller_u09.yaml u09_p "$phase_steps" 0.3)" \
+      LBDEM_DEM_FUSED_SUBSTEPS=1
   fi
   phases u09_phases "$(yaml fluidized_bed_muller_u09.yaml u09_p "$phase_steps" 0.3)"
   phases link_phases "$(yaml fluidized_bed_link_spout.yaml link_p "$phase_steps" 0.1)"
