@@ -130,11 +130,11 @@ bool fused_apply(const DemSystem::Impl& m) {
   const char* env = std::getenv("LBDEM_DEM_FUSED_SUBSTEPS");
   bool on = false;
   if (env) {
-    if (std::strcmp(env, "0") == 0) on = false;
-    else if (std::strcmp(env, "1") != 0)
+    if (std::strcmp(env, "1") == 0) on = true;
+    else if (std::strcmp(env, "0") != 0)
       throw ConfigError(std::string("LBDEM_DEM_FUSED_SUBSTEPS: '") + env +
                         "' is not 0 or 1 (1: fuse each DEM sub-step's forces with the next kick-drift; "
-                        "0: two kernels per sub-step)");
+                        "0: two kernels per sub-step, the default)");
   }
   return on && !m.decomposed() && m.p.path == ForcePath::Particle;
 }
