@@ -1,12 +1,13 @@
 #!/usr/bin/env python3
 """Compares fluidized_bed runs of Mueller et al.'s bed with the measured profiles.
 
-    compare_mueller.py --run LABEL CASE RUN_DIR [--run ...] [--out DIR] [--data DIR]
+    compare_mueller.py --run LABEL CASE RUN_DIR [--run ...] [--reference LABEL] [--out DIR] [--data DIR]
 
 CASE is u06 or u09 (the superficial velocity 0.6 or 0.9 m/s, which selects the
 measured profiles of bench/cfd/mueller2009/); RUN_DIR holds the run's
-profiles.csv (cases/src/cfd_case.cpp: quantity,height,x,value,samples; one row
-per gas cell along x, the time average over y and over the statistics window).
+profiles.csv (cases/src/cfd_case.cpp: quantity,height,x,value,samples[,standard_error];
+one row per gas cell along x, the time average over y and over the statistics
+window, and its standard error from batch means where the run wrote one).
 
 Per run and measured profile:
   rms         root mean square of (simulation - measurement) over the measured
@@ -15,7 +16,15 @@ Per run and measured profile:
   centre      the simulation and the measurement at the bed's centre x = 22 mm
               (each interpolated linearly);
   wall        the mean over both walls of the simulation and the measurement at
-              the measured point nearest each wall.
+              the measured point nearest each wall;
+  noise       the RMS over the measured points of the simulation's standard
+              error (null where profiles.csv has none).
+With --reference LABEL, every other run of the same case is also compared with
+that run, profile by profile on the simulation's own cells (comparison_runs.jsonl,
+and a second table): the RMS of their difference, the RMS of their combined
+standard error sqrt(se_a^2 + se_b^2), and "within_noise" when the difference is
+at most twice the combined error (two standard errors: the batch means' own
+estimate of the error is uncertain by about a third with five blocks).
 The simulated profile must be sampled at the measured height (within 0.01 mm);
 a height between two sampled ones is interpolated linearly between them (said in
 the "sim_height" column); otherwise the profile is reported as not sampled.
@@ -73,26 +82,30 @@ def read_measured(data_dir, name, offset):
 
 
 def read_profiles(run_dir):
-    """{(quantity, height): (x array, value array, min samples)} from RUN_DIR/profiles.csv."""
+    """{(quantity, height): (x, value, min samples, standard error or None)} from RUN_DIR/profiles.csv."""
     path = os.path.join(run_dir, "profiles.csv")
     if not os.path.isfile(path):
         fail("%s: no profiles.csv (does the case have statistics.profiles, and did the run end?)" % run_dir)
     rows = {}
     with open(path) as f:
         head = f.readline().strip()
-        if head != "quantity,height,x,value,samples":
-            fail("%s: header '%s', expected 'quantity,height,x,value,samples'" % (path, head))
+        heads = ("quantity,height,x,value,samples", "quantity,height,x,value,samples,standard_error")
+        if head not in heads:
+            fail("%s: header '%s', expected '%s' or '%s'" % (path, head, heads[0], heads[1]))
+        fields = head.count(",") + 1
         for n, line in enumerate(f, start=2):
             parts = line.strip().split(",")
             if not parts or parts == [""]:
                 continue
-            if len(parts) != 5:
-                fail("%s line %d: expected 5 fields" % (path, n))
+            if len(parts) != fields:
+                fail("%s line %d: expected %d fields" % (path, n, fields))
             try:
-                h, x, v, s = (float(p) for p in parts[1:])
+                nums = [float(p) for p in parts[1:]]
             except ValueError:
                 fail("%s line %d: not numbers" % (path, n))
-            rows.setdefault((parts[0], h), []).append((x, v, s))
+            if fields == 5:
+                nums.append(float("nan"))
+            rows.setdefault((parts[0], nums[0]), []).append(tuple(nums[1:]))
     out = {}
     for key, r in rows.items():
         r.sort()
@@ -100,28 +113,49 @@ def read_profiles(run_dir):
         ok = np.isfinite(a[:, 1])
         if ok.sum() < 1:
             continue
-        out[key] = (a[ok, 0], a[ok, 1], float(a[:, 2].min()))
+        se = a[ok, 3]
+        out[key] = (a[ok, 0], a[ok, 1], float(a[:, 2].min()), se if np.all(np.isfinite(se)) else None)
     return out
 
 
 def simulated(profiles, quantity, height):
-    """(x, values, samples, description) at `height`: sampled there, or between the two nearest sampled heights."""
+    """(x, values, samples, description, standard error or None) at `height`: sampled there, or between the
+    two nearest sampled heights (the errors then combined as of independent averages)."""
     hs = sorted(h for (q, h) in profiles if q == quantity)
     for h in hs:
         if abs(h - height) <= HEIGHT_TOL:
-            x, v, s = profiles[(quantity, h)]
-            return x, v, s, "%.4g mm" % (1e3 * h)
+            x, v, s, se = profiles[(quantity, h)]
+            return x, v, s, "%.4g mm" % (1e3 * h), se
     below = [h for h in hs if h < height]
     above = [h for h in hs if h > height]
     if not below or not above:
         return None
     h0, h1 = below[-1], above[0]
-    x0, v0, s0 = profiles[(quantity, h0)]
-    x1, v1, s1 = profiles[(quantity, h1)]
+    x0, v0, s0, e0 = profiles[(quantity, h0)]
+    x1, v1, s1, e1 = profiles[(quantity, h1)]
     x = np.union1d(x0, x1)
     w = (height - h0) / (h1 - h0)
     v = (1 - w) * np.interp(x, x0, v0) + w * np.interp(x, x1, v1)
-    return x, v, min(s0, s1), "%.4g-%.4g mm interpolated" % (1e3 * h0, 1e3 * h1)
+    se = None
+    if e0 is not None and e1 is not None:
+        se = np.sqrt(((1 - w) * np.interp(x, x0, e0)) ** 2 + (w * np.interp(x, x1, e1)) ** 2)
+    return x, v, min(s0, s1), "%.4g-%.4g mm interpolated" % (1e3 * h0, 1e3 * h1), se
+
+
+def rms(a):
+    return float(np.sqrt(np.mean(np.asarray(a) ** 2)))
+
+
+def compare_runs(a, b):
+    """A run's profile against a reference run's: (RMS difference, RMS combined error or None, points)."""
+    xa, va, sa = a
+    xb, vb, sb = b
+    x = np.union1d(xa, xb)
+    d = np.interp(x, xa, va) - np.interp(x, xb, vb)
+    noise = None
+    if sa is not None and sb is not None:
+        noise = rms(np.sqrt(np.interp(x, xa, sa) ** 2 + np.interp(x, xb, sb) ** 2))
+    return rms(d), noise, int(len(x))
 
 
 def compare(xs, vs, xm, vm):
@@ -145,6 +179,8 @@ def main():
                     help="a run to compare: its label, u06 or u09, its folder")
     ap.add_argument("--out", default=".", help="folder for comparison.md, comparison.jsonl and the PNGs")
     ap.add_argument("--data", default=os.path.join(HERE, "mueller2009"), help="folder of the measured profiles")
+    ap.add_argument("--reference", metavar="LABEL",
+                    help="compare every other run of the same case with this run (its label in --run)")
     args = ap.parse_args()
     os.makedirs(args.out, exist_ok=True)
     runs = []
@@ -152,6 +188,8 @@ def main():
         if case not in ("u06", "u09"):
             fail("--run %s: case '%s' (valid: u06, u09)" % (label, case))
         runs.append((label, case, read_profiles(run_dir)))
+    if args.reference is not None and args.reference not in [r[0] for r in runs]:
+        fail("--reference %s: no --run has that label (labels: %s)" % (args.reference, ", ".join(r[0] for r in runs)))
 
     rows = []
     curves = {}  # (case, quantity, height) -> [(label, x, v)]
@@ -165,27 +203,58 @@ def main():
                    "measured_points": int(len(xm)), "target_rms": target}
             if sim is None:
                 row.update({"sim_height": "not sampled", "rms": None, "sim_centre": None, "exp_centre": None,
-                            "sim_wall": None, "exp_wall": None, "within_target": None, "sim_samples": None})
+                            "sim_wall": None, "exp_wall": None, "within_target": None, "sim_samples": None,
+                            "noise": None})
             else:
-                xs, vs, samples, desc = sim
-                rms, sc, ec, sw, ew = compare(xs, vs, xm, vm)
-                row.update({"sim_height": desc, "rms": rms, "sim_centre": sc, "exp_centre": ec, "sim_wall": sw,
-                            "exp_wall": ew, "within_target": bool(rms <= target), "sim_samples": samples})
-                curves.setdefault((case, quantity, height), []).append((label, xs, vs))
+                xs, vs, samples, desc, se = sim
+                r, sc, ec, sw, ew = compare(xs, vs, xm, vm)
+                row.update({"sim_height": desc, "rms": r, "sim_centre": sc, "exp_centre": ec, "sim_wall": sw,
+                            "exp_wall": ew, "within_target": bool(r <= target), "sim_samples": samples,
+                            "noise": None if se is None else rms(np.interp(xm, xs, se))})
+                curves.setdefault((case, quantity, height), []).append((label, xs, vs, se))
             rows.append(row)
 
-    lines = ["| run | profile | height | sim height | RMS | target | centre sim | centre exp | wall sim | wall exp |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
+    lines = ["| run | profile | height | sim height | RMS | target | noise | centre sim | centre exp | wall sim | wall exp |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         q = "void fraction" if r["quantity"] == "void_fraction" else "particle vz [m/s]"
         ok = "" if r["within_target"] is None else (" ok" if r["within_target"] else " **over**")
-        lines.append("| %s | %s %s | %g mm | %s | %s%s | %g | %s | %s | %s | %s |" % (
+        lines.append("| %s | %s %s | %g mm | %s | %s%s | %g | %s | %s | %s | %s | %s |" % (
             r["run"], r["case"], q, r["height_mm"], r["sim_height"], fmt(r["rms"]), ok, r["target_rms"],
-            fmt(r["sim_centre"]), fmt(r["exp_centre"]), fmt(r["sim_wall"]), fmt(r["exp_wall"])))
+            fmt(r["noise"]), fmt(r["sim_centre"]), fmt(r["exp_centre"]), fmt(r["sim_wall"]), fmt(r["exp_wall"])))
     lines.append("")
     lines.append("RMS: simulation interpolated to the measured x; centre: x = 22 mm; wall: mean of both walls at the "
                  "measured points nearest them. Measured: Mueller et al., Particuology 7 (2009) 297-306 "
-                 "(bench/cfd/mueller2009/README.md).")
+                 "(bench/cfd/mueller2009/README.md). noise: RMS of the simulation's standard error (batch means) "
+                 "at the measured points.")
+    pairs = []
+    if args.reference is not None:
+        ref = next(r for r in runs if r[0] == args.reference)
+        for (case, quantity, height), cs in sorted(curves.items()):
+            if case != ref[1]:
+                continue
+            base = next((c for c in cs if c[0] == ref[0]), None)
+            if base is None:
+                continue
+            for label, xs, vs, se in cs:
+                if label == ref[0]:
+                    continue
+                d, noise, n = compare_runs((xs, vs, se), (base[1], base[2], base[3]))
+                pairs.append({"run": label, "reference": ref[0], "case": case, "quantity": quantity,
+                              "height_mm": round(1e3 * height, 3), "points": n, "rms_difference": d,
+                              "combined_noise": noise,
+                              "within_noise": None if noise is None else bool(d <= 2 * noise)})
+        lines += ["", "| run | reference | profile | height | RMS difference | combined noise | within 2 noise |",
+                  "|---|---|---|---|---|---|---|"]
+        for p in pairs:
+            q = "void fraction" if p["quantity"] == "void_fraction" else "particle vz [m/s]"
+            w = "n/a" if p["within_noise"] is None else ("yes" if p["within_noise"] else "**no**")
+            lines.append("| %s | %s | %s %s | %g mm | %s | %s | %s |" % (
+                p["run"], p["reference"], p["case"], q, p["height_mm"], fmt(p["rms_difference"]),
+                fmt(p["combined_noise"]), w))
+        with open(os.path.join(args.out, "comparison_runs.jsonl"), "w") as f:
+            for p in pairs:
+                f.write(json.dumps(p) + "\n")
     table = "\n".join(lines) + "\n"
     with open(os.path.join(args.out, "comparison.md"), "w") as f:
         f.write(table)
@@ -207,8 +276,10 @@ def main():
         xm, vm = read_measured(args.data, name, offset)
         fig, ax = plt.subplots(figsize=(5, 3.5))
         ax.plot(1e3 * xm, vm, "ko", ms=4, label="Mueller et al. 2009 (MRI)")
-        for label, xs, vs in curves.get((pc, quantity, height), []):
-            ax.plot(1e3 * xs, vs, "-", label=label)
+        for label, xs, vs, se in curves.get((pc, quantity, height), []):
+            line, = ax.plot(1e3 * xs, vs, "-", label=label)
+            if se is not None:
+                ax.fill_between(1e3 * xs, vs - 2 * se, vs + 2 * se, color=line.get_color(), alpha=0.2, lw=0)
         ax.set_xlabel("x [mm]")
         ax.set_ylabel("void fraction" if quantity == "void_fraction" else "particle vz [m/s]")
         ax.set_title("U = %s m/s, z = %g mm" % ("0.6" if pc == "u06" else "0.9", 1e3 * height))

@@ -8,7 +8,11 @@ and the centre and wall differences are c, to round-off (asserted to 1e-9).
 Run u09 "between": constant void-fraction profiles 0.40 at 10 mm and 0.70 at
 40 mm only: the 16.4 and 31.2 mm profiles are interpolated between them
 (0.464 and 0.612 everywhere), the velocity profiles are reported as not
-sampled. Exit 77 (skipped) without numpy.
+sampled. Runs "se_a", "se_b", "se_c" (u09, with the standard_error column, 0.01
+everywhere) hold the measurement plus 0, 0.01 and 0.04: each reports a noise of
+0.01; against --reference se_a, b differs by 0.01 RMS with a combined noise of
+0.01 sqrt(2) (within two of it), c by 0.04 (not within). Exit 77 (skipped)
+without numpy.
 """
 import json
 import os
@@ -89,6 +93,37 @@ def main():
         check(len(pngs) == 8, "%d PNGs (8 expected: one per measured profile)" % len(pngs))
     except ImportError:
         print("matplotlib missing: PNGs not checked")
+    # Runs with standard errors, compared with one of them.
+    offsets = {"se_a": 0.0, "se_b": 0.01, "se_c": 0.04}
+    for label, off in offsets.items():
+        d = os.path.join(tmp, label)
+        os.makedirs(d)
+        with open(os.path.join(d, "profiles.csv"), "w") as f:
+            f.write("quantity,height,x,value,samples,standard_error\n")
+            for pc, q, h, name, offset, _ in cm.PROFILES:
+                if pc != "u09":
+                    continue
+                xm, vm = cm.read_measured(os.path.join(HERE, "mueller2009"), name, offset)
+                for x, v in zip(xm, vm):
+                    f.write("%s,%.6g,%r,%r,100,0.01\n" % (q, h, float(x), float(v + off)))
+    out2 = os.path.join(tmp, "out2")
+    args = [sys.executable, os.path.join(HERE, "compare_mueller.py"), "--out", out2, "--reference", "se_a"]
+    for label in offsets:
+        args += ["--run", label, "u09", os.path.join(tmp, label)]
+    r = subprocess.run(args, capture_output=True, text=True)
+    print(r.stdout, r.stderr)
+    check(r.returncode == 0, "compare_mueller.py --reference exit %d" % r.returncode)
+    rows = [json.loads(l) for l in open(os.path.join(out2, "comparison.jsonl"))]
+    check(len(rows) == 15 and all(abs(row["noise"] - 0.01) < 1e-12 for row in rows), "noise 0.01 in 15 rows")
+    pairs = [json.loads(l) for l in open(os.path.join(out2, "comparison_runs.jsonl"))]
+    check(len(pairs) == 10, "%d run pairs (10 expected)" % len(pairs))
+    for p in pairs:
+        off = offsets[p["run"]]
+        check(abs(p["rms_difference"] - off) < 1e-9, "%s: difference %r, expected %r" % (p["run"], p["rms_difference"], off))
+        check(abs(p["combined_noise"] - 0.01 * 2 ** 0.5) < 1e-12, "%s: combined noise %r" % (p["run"], p["combined_noise"]))
+        check(p["within_noise"] == (p["run"] == "se_b"), "%s: within_noise %r" % (p["run"], p["within_noise"]))
+    r = subprocess.run(args[:5] + ["nobody"] + args[6:], capture_output=True, text=True)
+    check(r.returncode == 2 and "--reference nobody" in r.stderr, "unknown --reference refused: %r" % r.stderr)
     if failures:
         print("%d failures; files kept in %s" % (len(failures), tmp))
         return 1

@@ -27,8 +27,11 @@
 //   time        end [s] or steps (gas steps)
 //   output      directory, interval (gas steps between field and particle snapshots; 0: first and last),
 //               series_interval, track (particle ids)
-//   statistics  start [s], interval (gas steps), profiles [{quantity: void_fraction |
-//               particle_velocity_z, height [m]}]: time averages along x at a height
+//   statistics  start [s], interval (gas steps), blocks (default 5), profiles [{quantity:
+//               void_fraction | particle_velocity_z, height [m]}]: time averages along x at a
+//               height; the window from start to the case's end (time, not --steps) is
+//               cut into `blocks` equal spans whose means give each average's standard
+//               error (batch means; profiles_blocks.csv)
 //   diagnostics check_interval (gas steps), max_courant
 //   checkpoint  interval (gas steps), minutes, on_signal (core/checkpoint.hpp)
 //
@@ -107,7 +110,8 @@ enum class ProfileQuantity { VoidFraction, ParticleVelocityZ };
 struct Profile {
   ProfileQuantity quantity = ProfileQuantity::VoidFraction;
   double height = 0;
-  std::vector<double> sum, count;  // per x cell
+  std::vector<double> sum, count;    // per x cell
+  std::vector<double> bsum, bcount;  // per block and x cell (block-major): the batch means
 };
 
 struct CfdCase {
@@ -119,11 +123,13 @@ struct CfdCase {
   dem::HostParticles particles;
   int substeps = 1;
   long steps = 0;
+  long case_steps = 0;  // the case file's own length (time.end or time.steps), whatever --steps says
   std::string outdir;
   long output_interval = 0, series_interval = 100;
   std::vector<std::int64_t> track;
   double stats_start = 0;
   long stats_interval = 0;  // 0: no statistics
+  int stats_blocks = 5;
   std::vector<Profile> profiles;
   long check_interval = 100;
   double max_courant = 0.5;
@@ -202,6 +208,7 @@ CfdCase read_case(const Config& root, const RunOptions& opt) {
       planned = static_cast<double>(*len.steps);
     }
     t.finish();
+    c.case_steps = static_cast<long>(planned);
     if (opt.steps) {
       planned = static_cast<double>(*opt.steps);
       key = "--steps";
@@ -221,6 +228,7 @@ CfdCase read_case(const Config& root, const RunOptions& opt) {
   if (const auto st = root.optional_section("statistics")) {
     c.stats_start = st->number_in("start", 0.0, 0.0, 1e9, "simulated time [s] from which averages are taken");
     c.stats_interval = st->integer_in("interval", 10, 1, std::numeric_limits<long>::max());
+    c.stats_blocks = static_cast<int>(st->integer_in("blocks", 5, 2, 1000));
     if (st->has("profiles")) {
       for (const Config& pc : st->sequence("profiles")) {
         Profile pr;
@@ -230,6 +238,8 @@ CfdCase read_case(const Config& root, const RunOptions& opt) {
         pr.height = pc.number_in("height", lo[2], hi[2], "a height inside the box (domain.lo, domain.hi) [m]");
         pr.sum.assign(static_cast<std::size_t>(c.grid.n[0]), 0.0);
         pr.count.assign(static_cast<std::size_t>(c.grid.n[0]), 0.0);
+        pr.bsum.assign(static_cast<std::size_t>(c.grid.n[0]) * static_cast<std::size_t>(c.stats_blocks), 0.0);
+        pr.bcount.assign(pr.bsum.size(), 0.0);
         c.profiles.push_back(pr);
         pc.finish();
       }
@@ -433,6 +443,24 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
     const dem::HostParticles hp = dem.gather();
     dem::write_particle_snapshot(particle_writer, step, t, hp);
   };
+  // The standard error of a profile's time average at x cell i from its
+  // batch means (the blocks that hold samples there; nan below two):
+  // sqrt(var(block means) / blocks). Blocks much longer than the bed's
+  // correlation time (bubbles: well under a second) make them independent.
+  auto batch_error = [&](const Profile& pr, int i) -> std::string {
+    double m = 0, m2 = 0;
+    int k = 0;
+    for (int b = 0; b < c.stats_blocks; ++b) {
+      const std::size_t at = static_cast<std::size_t>(b) * static_cast<std::size_t>(g.n[0]) + static_cast<std::size_t>(i);
+      if (pr.bcount[at] <= 0) continue;
+      const double x = pr.bsum[at] / pr.bcount[at];
+      ++k;
+      const double d = x - m;  // Welford
+      m += d / k;
+      m2 += d * (x - m);
+    }
+    return k >= 2 ? num(std::sqrt(m2 / (k - 1) / k)) : std::string("nan");
+  };
   // Time averages: the bed's pressure drop and height, and the profiles.
   double avg_dp = 0, avg_ratio = 0, avg_height = 0;
   long samples = 0;
@@ -446,6 +474,13 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
     avg_height += b.height;
     ++samples;
     if (c.profiles.empty()) return;
+    // The sample's block: the window [statistics.start, the case file's end]
+    // cut into equal spans (the case's end, not --steps: a chain of shorter
+    // runs and a straight run put each sample in the same block).
+    const double window = c.case_steps * c.gas.dt - c.stats_start;
+    const int nb = c.stats_blocks;
+    const int blk = window > 0 ? std::clamp(static_cast<int>(std::floor((t - c.stats_start) / window * nb)), 0, nb - 1) : 0;
+    const std::size_t boff = static_cast<std::size_t>(blk) * static_cast<std::size_t>(g.n[0]);
     eps_host = gas.gas_fraction().to_vector();
     for (Profile& pr : c.profiles) {
       if (pr.quantity == ProfileQuantity::VoidFraction) {
@@ -461,6 +496,8 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
                  w1 * eps_host[static_cast<std::size_t>(g.index(i, j, k1))];
           pr.sum[static_cast<std::size_t>(i)] += s / g.n[1];
           pr.count[static_cast<std::size_t>(i)] += 1;
+          pr.bsum[boff + static_cast<std::size_t>(i)] += s / g.n[1];
+          pr.bcount[boff + static_cast<std::size_t>(i)] += 1;
         }
       } else {
         // Particles whose centre lies within half a cell of the height, by x cell.
@@ -470,6 +507,8 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
           const int i = std::clamp(static_cast<int>(std::floor((x.x - g.origin[0]) / h)), 0, g.n[0] - 1);
           pr.sum[static_cast<std::size_t>(i)] += hp.v[static_cast<std::size_t>(q)].z;
           pr.count[static_cast<std::size_t>(i)] += 1;
+          pr.bsum[boff + static_cast<std::size_t>(i)] += hp.v[static_cast<std::size_t>(q)].z;
+          pr.bcount[boff + static_cast<std::size_t>(i)] += 1;
         }
       }
     }
@@ -513,16 +552,26 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
       v.insert(v.end(), pr.sum.begin(), pr.sum.end());
       v.insert(v.end(), pr.count.begin(), pr.count.end());
     }
+    for (const Profile& pr : c.profiles) {  // after the sums, so that older checkpoints keep their layout
+      v.insert(v.end(), pr.bsum.begin(), pr.bsum.end());
+      v.insert(v.end(), pr.bcount.begin(), pr.bcount.end());
+    }
     return v;
   };
   long step = 0, first_step = 0;
+  bool blocks_known = true;  // false after a restart from a checkpoint without the batch sums
   if (ck.restarting()) {  // the state of the checkpoint's step; its series and snapshots are kept
     const halo::RunValues v = cfd::load_bed(ck.reader(), gas, dem);
     const std::size_t want = run_values().size();
-    if (v.size() != want)
+    std::size_t without_blocks = 6;
+    for (const Profile& pr : c.profiles) without_blocks += pr.sum.size() + pr.count.size();
+    // A checkpoint written before the batch means holds the sums only: the
+    // averages continue, their standard errors are not known (nan).
+    if (v.size() != want && v.size() != without_blocks)
       throw ConfigError("--restart: the checkpoint holds " + std::to_string(v.size()) +
                         " statistics values where this case has " + std::to_string(want) +
-                        " (statistics.profiles differ)");
+                        " (statistics.profiles or statistics.blocks differ)");
+    blocks_known = v.size() == want;
     avg_dp = v[0];
     avg_ratio = v[1];
     avg_height = v[2];
@@ -534,6 +583,11 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
       for (double& x : pr.sum) x = v[at++];
       for (double& x : pr.count) x = v[at++];
     }
+    if (blocks_known)
+      for (Profile& pr : c.profiles) {
+        for (double& x : pr.bsum) x = v[at++];
+        for (double& x : pr.bcount) x = v[at++];
+      }
     step = first_step = ck.restart_step();
     loop.restore_steps(step);
     t = step * c.gas.dt;
@@ -550,15 +604,32 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
     const double seconds = run.elapsed();
     if (!c.profiles.empty()) {
       std::ostringstream csv;
-      csv << "quantity,height,x,value,samples\n";
+      csv << "quantity,height,x,value,samples,standard_error\n";
       for (const Profile& pr : c.profiles)
         for (int i = 0; i < g.n[0]; ++i) {
           const double n = pr.count[static_cast<std::size_t>(i)];
           csv << (pr.quantity == ProfileQuantity::VoidFraction ? "void_fraction" : "particle_velocity_z") << ","
               << num(pr.height) << "," << num(g.origin[0] + (i + 0.5) * h) << ","
-              << (n > 0 ? num(pr.sum[static_cast<std::size_t>(i)] / n) : std::string("nan")) << "," << num(n) << "\n";
+              << (n > 0 ? num(pr.sum[static_cast<std::size_t>(i)] / n) : std::string("nan")) << "," << num(n) << ","
+              << (blocks_known ? batch_error(pr, i) : std::string("nan")) << "\n";
         }
       io::write_text_atomically(c.outdir + "/profiles.csv", csv.str());
+      if (blocks_known) {  // each block's own means: how stationary the averages are
+        std::ostringstream bcsv;
+        bcsv << "quantity,height,x,block,t_start,t_end,value,samples\n";
+        const double span = (c.case_steps * c.gas.dt - c.stats_start) / c.stats_blocks;
+        for (const Profile& pr : c.profiles)
+          for (int b = 0; b < c.stats_blocks; ++b)
+            for (int i = 0; i < g.n[0]; ++i) {
+              const std::size_t at = static_cast<std::size_t>(b) * static_cast<std::size_t>(g.n[0]) + static_cast<std::size_t>(i);
+              const double n = pr.bcount[at];
+              bcsv << (pr.quantity == ProfileQuantity::VoidFraction ? "void_fraction" : "particle_velocity_z") << ","
+                   << num(pr.height) << "," << num(g.origin[0] + (i + 0.5) * h) << "," << b << ","
+                   << num(c.stats_start + b * span) << "," << num(c.stats_start + (b + 1) * span) << ","
+                   << (n > 0 ? num(pr.bsum[at] / n) : std::string("nan")) << "," << num(n) << "\n";
+            }
+        io::write_text_atomically(c.outdir + "/profiles_blocks.csv", bcsv.str());
+      }
     }
     const double ns = std::max<long>(samples, 1);
     auto mean = [&](double sum) { return samples ? json::Value(sum / ns) : json::Value(); };
@@ -586,6 +657,7 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
         .set("dem_force_lanes", dem.params().force_lanes)
         .set("weight_per_area_pa", weight_per_area)
         .set("statistics_samples", samples)
+        .set("statistics_blocks", c.stats_blocks)
         .set("mean_pressure_drop_pa", mean(avg_dp))
         .set("mean_pressure_drop_over_weight", mean(avg_ratio))
         .set("mean_bed_height_m", mean(avg_height))

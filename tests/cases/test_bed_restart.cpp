@@ -16,12 +16,14 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "core/checkpoint.hpp"
 #include "core/output.hpp"
@@ -120,12 +122,29 @@ void expect_same_end(const fs::path& A, const fs::path& B, long last) {
   EXPECT_TRUE(ca == cb) << "the final checkpoints differ: the restarted run is not in the straight run's state";
   EXPECT_EQ(slurp(A / "series.csv"), slurp(B / "series.csv"));
   EXPECT_EQ(slurp(A / "profiles.csv"), slurp(B / "profiles.csv"));
+  EXPECT_EQ(slurp(A / "profiles_blocks.csv"), slurp(B / "profiles_blocks.csv"));
   char name[64];
   std::snprintf(name, sizeof name, "%08ld.h5", last);
   expect_same_datasets(A / ("gas_" + std::string(name)), B / ("gas_" + std::string(name)),
                        {"gas_fraction", "pressure", "velocity"});
   expect_same_datasets(A / ("particles_" + std::string(name)), B / ("particles_" + std::string(name)),
                        {"positions", "velocity", "angular_velocity", "id"});
+}
+
+// The rows of a CSV file below its header, split at commas.
+std::vector<std::vector<std::string>> csv_rows(const fs::path& p, const std::string& header) {
+  std::ifstream in(p);
+  std::string line;
+  std::getline(in, line);
+  EXPECT_EQ(line, header) << p;
+  std::vector<std::vector<std::string>> rows;
+  while (std::getline(in, line)) {
+    std::vector<std::string> f;
+    std::stringstream ss(line);
+    for (std::string x; std::getline(ss, x, ',');) f.push_back(x);
+    rows.push_back(f);
+  }
+  return rows;
 }
 
 double json_number(const std::string& js, const std::string& key) {
@@ -278,4 +297,53 @@ TEST_F(BedRestart, CorruptOtherSceneOtherGridRefused) {
   EXPECT_NE(r.out.find("scene 'dem' (this run: 'fluidized_bed')"), std::string::npos) << r.out;
   EXPECT_EQ(slurp(D / "series.csv"), dem_series);
   refused(dem + " --restart " + R.string(), "scene 'fluidized_bed' (this run: 'dem')");
+}
+
+// The profiles' standard errors are the spread of their batch means: with
+// statistics.blocks 4, every profile cell's average is the sample-weighted
+// mean of its four block means (profiles_blocks.csv), its sample count their
+// sum, and its standard error sqrt(sum (m_b - mean m)^2 / (3 * 4)); the
+// files print 6 significant digits, hence the tolerances.
+TEST_F(BedRestart, ProfileStandardErrorsAreTheSpreadOfTheBlockMeans) {
+  std::string text = kBed;
+  const std::string key = "  interval: 3\n";
+  text.replace(text.find(key), key.size(), key + "  blocks: 4\n");
+  const fs::path A = dir_ / "A";
+  const auto r = lbdem(write_case(text) + " --output " + A.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto prof = csv_rows(A / "profiles.csv", "quantity,height,x,value,samples,standard_error");
+  const auto blocks = csv_rows(A / "profiles_blocks.csv", "quantity,height,x,block,t_start,t_end,value,samples");
+  ASSERT_EQ(prof.size(), 6u);  // two profiles of 3 cells
+  ASSERT_EQ(blocks.size(), 4 * prof.size());
+  int checked = 0;
+  for (const auto& p : prof) {
+    std::vector<double> m, n;
+    for (const auto& b : blocks)
+      if (b[0] == p[0] && b[1] == p[1] && b[2] == p[2] && std::stod(b[7]) > 0) {
+        m.push_back(std::stod(b[6]));
+        n.push_back(std::stod(b[7]));
+      }
+    double sn = 0, snm = 0, mean = 0, var = 0;
+    for (std::size_t k = 0; k < m.size(); ++k) sn += n[k], snm += n[k] * m[k], mean += m[k] / m.size();
+    for (double x : m) var += (x - mean) * (x - mean);
+    EXPECT_EQ(std::stod(p[4]), sn) << p[0] << " at x " << p[2];
+    if (m.size() < 2) {
+      EXPECT_EQ(p[5], "nan");
+      continue;
+    }
+    const double value = std::stod(p[3]), se = std::stod(p[5]);
+    EXPECT_NEAR(value, snm / sn, 1e-5 * std::max(1.0, std::fabs(value))) << p[0] << " at x " << p[2];
+    // Each printed block mean is off by up to 5e-7 of itself; se then by about as much.
+    EXPECT_NEAR(se, std::sqrt(var / (m.size() - 1) / m.size()), 1e-6 * std::max(1.0, std::fabs(value)) + 1e-5 * se)
+        << p[0] << " at x " << p[2];
+    EXPECT_GT(se, 0) << "a bubbling bed's profile does not stand still";
+    ++checked;
+  }
+  EXPECT_GE(checked, 3);
+  // The blocks tile the window [statistics.start, time.steps * gas.dt] = [0, 0.06] s
+  // (rows: profile, then block, then x).
+  EXPECT_EQ(std::stod(blocks[0][4]), 0.0);
+  EXPECT_NEAR(std::stod(blocks[3][4]), 0.015, 1e-12);
+  EXPECT_NEAR(std::stod(blocks[9][5]), 300 * 2.0e-4, 1e-12);
+  EXPECT_NE(slurp(A / "summary.json").find("\"statistics_blocks\": 4"), std::string::npos);
 }
