@@ -582,7 +582,7 @@ void PressureSolver::init_multigrid() {
     lv_.push_back(std::move(L));
   }
   ticket_ = Buffer<unsigned int>(b, 1);
-  ticket_.fill_zero();
+  ticket_.fill_zero(ex_);  // on the solver's queue, as d_ and scal_ (pressure_solver.cu)
   if (ex_.on_device() && p_.graphs) rs_ = Buffer<double>(b, nc);
   // The first level small enough for one block, at most kTailMax above the
   // coarsest. LBDEM_PRESSURE_TAIL_CELLS replaces the size limit (A/B timing:

@@ -231,6 +231,10 @@ void PsmCoupling::step_part(const CellBox& part, const PsmParticles& p, const Ps
     // to another rank), so their share of a particle's force stays zero here.
     slot_forces_ = Buffer<double>(solver_.backend(), SlotForceView::kComponents * static_cast<Index>(K_) * raw.grid.n);
     slot_forces_.fill_zero();
+    // Done before any queue's next work: this first part may run on the
+    // halo's edge lane, which does not wait for the legacy default stream
+    // (zeroing on a lane instead would race the other lane's part).
+    ex_.synchronize();
   }
   const SlotForceView sf{slot_forces_.data(), raw.grid.n, K_};
   raw.owned = part;
