@@ -383,6 +383,12 @@ struct Fill {
   LBDEM_HD void operator()(Index i) const { x[i] = value; }
 };
 
+struct CopyCells {
+  const double* from;
+  double* to;
+  LBDEM_HD void operator()(Index i) const { to[i] = from[i]; }
+};
+
 Index face_count(const GasGridView& g, int a) {
   Index n = 1;
   for (int d = 0; d < 3; ++d) n *= g.n[d] + (d == a ? 1 : 0);
@@ -473,6 +479,9 @@ const GasParams& validated(const GasParams& p, const GasGridView& g) {
 
 GasSolver::GasSolver(const Exec& ex, const GasGridView& g, const GasParams& p)
     : ex_(ex), g_(g), p_(validated(p, g)), vf_(ex, g, p.deposition), ps_(ex, g, pressure_params(p)) {
+  // Zeroed in the order of the gas's queue: on a second queue (lagged forces)
+  // the first kernels there (set_velocity) do not wait for memsets on the
+  // legacy default stream.
   const Backend b = ex.backend();
   const Index nc = g.cells();
   for (int a = 0; a < 3; ++a) {
@@ -480,24 +489,24 @@ GasSolver::GasSolver(const Exec& ex, const GasGridView& g, const GasParams& p)
     u_[a] = Buffer<double>(b, nf);
     uh_[a] = Buffer<double>(b, nf);
     af_[a] = Buffer<double>(b, nf);
-    u_[a].fill_zero();
-    uh_[a].fill_zero();
-    af_[a].fill_zero();
+    u_[a].fill_zero(ex_);
+    uh_[a].fill_zero(ex_);
+    af_[a].fill_zero(ex_);
     uc_[a] = Buffer<double>(b, nc);
     gradp_[a] = Buffer<double>(b, nc);
     BV_[a] = Buffer<double>(b, nc);
-    BV_[a].fill_zero();
-    uc_[a].fill_zero();
-    gradp_[a].fill_zero();
+    BV_[a].fill_zero(ex_);
+    uc_[a].fill_zero(ex_);
+    gradp_[a].fill_zero(ex_);
   }
   eps_ = Buffer<double>(b, nc);
   eps_old_ = Buffer<double>(b, nc);
-  eps_.fill_zero();  // set by initialise(); zeroed so that no copy reads unset bytes before it
-  eps_old_.fill_zero();
+  eps_.fill_zero(ex_);  // set by initialise(); zeroed so that no copy reads unset bytes before it
+  eps_old_.fill_zero(ex_);
   pres_ = Buffer<double>(b, nc);
-  pres_.fill_zero();
+  pres_.fill_zero(ex_);
   B_ = Buffer<double>(b, nc);
-  B_.fill_zero();
+  B_.fill_zero(ex_);
   acc_ = Buffer<unsigned long long>(b, 4 * nc);
   rhs_ = Buffer<double>(b, nc);
 }
@@ -545,7 +554,9 @@ GasView make_view(const GasGridView& g, const GasParams& p, Buffer<double>* u, B
 void GasSolver::initialise(const dem::ParticleView& p) {
   vf_.deposit(p);
   for_each(ex_, g_.cells(), GasFraction{vf_.solid().data(), eps_.data(), p_.min_gas_fraction});
-  backend_copy(ex_.backend(), eps_old_.data(), eps_.data(), eps_.bytes());
+  // A copy on the gas's queue, after GasFraction (a legacy-stream cudaMemcpy
+  // would not wait for it on a second queue).
+  for_each(ex_, g_.cells(), CopyCells{eps_.data(), eps_old_.data()});
   initialised_ = true;
 }
 
@@ -587,7 +598,15 @@ void GasSolver::step(const dem::ParticleView& p) {
   GasView v = make_view(g_, p_, u_, uh_, af_, eps_, eps_old_, pres_, B_, BV_, uc_, gradp_);
   mark(&StepTimes::void_fraction);
   // 2. drag coefficients at the particles, deposited.
-  gamma_.reserve_discard(ex_.backend(), std::max<Index>(p.n, 1));
+  if (gamma_.size() < std::max<Index>(p.n, 1)) {
+    // Grown (never in a steady time loop) in the order of the gas's queue:
+    // the old buffer freed once that queue's work is done, the new one zeroed
+    // there (Buffer::reserve_discard zeroes on the legacy default stream,
+    // which a second queue does not wait for).
+    ex_.synchronize();
+    gamma_ = Buffer<double>(ex_.backend(), std::max<Index>(p.n, 1));
+    gamma_.fill_zero(ex_);
+  }
   acc_.fill_zero(ex_);
   const DragParams dp{p_.drag, p_.rho, p_.mu};
   for_each(ex_, p.n, DragDeposit{v, p_.deposition, dp, vf_.solid().data(), 1.0 - p_.min_gas_fraction, p,
@@ -643,6 +662,7 @@ void GasSolver::save_state(ckpt::Sink& out) const {
 }
 
 void GasSolver::load_state(ckpt::Source& in) {
+  ex_.synchronize();  // the copies below are ordered after the legacy default stream only
   in.expect<std::uint32_t>(kGasStateTag, "the gas state's layout tag");
   for (int a = 0; a < 3; ++a) in.expect<std::int32_t>(g_.n[a], "the gas grid's cell count");
   in.expect<double>(g_.h, "the gas cell size");

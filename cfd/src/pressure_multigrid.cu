@@ -136,6 +136,13 @@ struct CoarseFaces {
   }
 };
 
+// A red cell's value in pre-smoothing from a zero guess: b / d (0 where the
+// cell has no coupling).
+LBDEM_HD inline double pre_red_value(const double* b, const double* dg, Index ci) {
+  const double d = dg[ci];
+  return d > 0 ? b[ci] / d : 0.0;
+}
+
 // Pre-smoothing from a zero guess: red cells x = b / d, then black cells
 // x = (b + sum w x_red) / d, the red values formed in place (one launch for
 // the red and the black half-sweep).
@@ -145,23 +152,30 @@ struct PreSmooth {
   const double* b;
   double* x;
   const double* scal;
-  LBDEM_HD void operator()(Index ci) const {
-    if (scal[slot::kDone] != 0) return;
-    int c[3];
+  // False once the solve is done; else cell ci's coordinates into c.
+  LBDEM_HD bool active(Index ci, int c[3]) const {
+    if (scal[slot::kDone] != 0) return false;
     L.coords(ci, c);
+    return true;
+  }
+  // A black cell's value (b + sum w x_j) / d, red neighbour j's value x_j
+  // given by red(j).
+  template <class Red>
+  LBDEM_HD double black_value(Index ci, const int c[3], Red red) const {
+    double acc = b[ci];
+    const double d = for_row(L, ci, c, [&](double w, Index j) { acc += w * red(j); });
+    return d > 0 ? acc / d : 0.0;
+  }
+  LBDEM_HD void operator()(Index ci) const {
+    int c[3];
+    if (!active(ci, c)) return;
     if (is_red(c)) {
-      const double d = dg[ci];
-      x[ci] = d > 0 ? b[ci] / d : 0.0;
+      x[ci] = pre_red_value(b, dg, ci);
       return;
     }
-    double acc = b[ci];
     const double* bv = b;
     const double* dv = dg;
-    const double d = for_row(L, ci, c, [&](double w, Index j) {
-      const double dn = dv[j];
-      acc += w * (dn > 0 ? bv[j] / dn : 0.0);
-    });
-    x[ci] = d > 0 ? acc / d : 0.0;
+    x[ci] = black_value(ci, c, [bv, dv](Index j) { return pre_red_value(bv, dv, j); });
   }
 };
 
@@ -176,8 +190,17 @@ struct Restrict {
   int r[3];
   double* bc;
   const double* scal;
-  LBDEM_HD void operator()(Index t) const {
-    if (scal[slot::kDone] != 0) return;
+  // The fine residual b - A x at cell ci (coordinates c).
+  LBDEM_HD double residual(Index ci, const int c[3]) const {
+    const double* xv = xf;
+    double off = 0;
+    const double d = for_row(F, ci, c, [&](double w, Index j) { off += w * xv[j]; });
+    return bf[ci] - (d * xf[ci] - off);
+  }
+  // The sum of term(fine cell, its coordinates) over the fine cells that
+  // coarse cell t covers, x fastest.
+  template <class Term>
+  LBDEM_HD double sum_covered(Index t, Term term) const {
     int I[3];
     split3(t, cn[0], cn[1], I);
     int lo[3], hi[3];
@@ -189,14 +212,12 @@ struct Restrict {
     int c[3];
     for (c[2] = lo[2]; c[2] < hi[2]; ++c[2])
       for (c[1] = lo[1]; c[1] < hi[1]; ++c[1])
-        for (c[0] = lo[0]; c[0] < hi[0]; ++c[0]) {
-          const Index ci = F.cell(c);
-          const double* xv = xf;
-          double off = 0;
-          const double d = for_row(F, ci, c, [&](double w, Index j) { off += w * xv[j]; });
-          sum += bf[ci] - (d * xf[ci] - off);
-        }
-    bc[t] = sum;
+        for (c[0] = lo[0]; c[0] < hi[0]; ++c[0]) sum += term(F.cell(c), c);
+    return sum;
+  }
+  LBDEM_HD void operator()(Index t) const {
+    if (scal[slot::kDone] != 0) return;
+    bc[t] = sum_covered(t, [&](Index ci, const int c[3]) { return residual(ci, c); });
   }
 };
 
@@ -260,12 +281,9 @@ struct PostRed {
 struct PreRed {
   PreSmooth p;
   LBDEM_HD void operator()(Index ci) const {
-    if (p.scal[slot::kDone] != 0) return;
     int c[3];
-    p.L.coords(ci, c);
-    if (!is_red(c)) return;
-    const double d = p.dg[ci];
-    p.x[ci] = d > 0 ? p.b[ci] / d : 0.0;
+    if (!p.active(ci, c) || !is_red(c)) return;
+    p.x[ci] = pre_red_value(p.b, p.dg, ci);
   }
 };
 // Black half of PreSmooth, reading its red neighbours' values from x (every
@@ -274,14 +292,10 @@ struct PreRed {
 struct PreBlack {
   PreSmooth p;
   LBDEM_HD void operator()(Index ci) const {
-    if (p.scal[slot::kDone] != 0) return;
     int c[3];
-    p.L.coords(ci, c);
-    if (is_red(c)) return;
-    double acc = p.b[ci];
+    if (!p.active(ci, c) || is_red(c)) return;
     const double* xv = p.x;
-    const double d = for_row(p.L, ci, c, [&](double w, Index j) { acc += w * xv[j]; });
-    p.x[ci] = d > 0 ? acc / d : 0.0;
+    p.x[ci] = p.black_value(ci, c, [xv](Index j) { return xv[j]; });
   }
 };
 // Restrict's fine residuals b - A x, one per fine cell, into r.
@@ -292,10 +306,7 @@ struct FineResidual {
     if (q.scal[slot::kDone] != 0) return;
     int c[3];
     q.F.coords(ci, c);
-    const double* xv = q.xf;
-    double off = 0;
-    const double d = for_row(q.F, ci, c, [&](double w, Index j) { off += w * xv[j]; });
-    r[ci] = q.bf[ci] - (d * q.xf[ci] - off);
+    r[ci] = q.residual(ci, c);
   }
 };
 // Restrict's sums of those residuals over each coarse cell, in its order.
@@ -304,19 +315,8 @@ struct CoarseSum {
   const double* r;
   LBDEM_HD void operator()(Index t) const {
     if (q.scal[slot::kDone] != 0) return;
-    int I[3];
-    split3(t, q.cn[0], q.cn[1], I);
-    int lo[3], hi[3];
-    for (int d = 0; d < 3; ++d) {
-      lo[d] = q.r[d] * I[d];
-      hi[d] = lo[d] + q.r[d] < q.F.n[d] ? lo[d] + q.r[d] : q.F.n[d];
-    }
-    double sum = 0;
-    int c[3];
-    for (c[2] = lo[2]; c[2] < hi[2]; ++c[2])
-      for (c[1] = lo[1]; c[1] < hi[1]; ++c[1])
-        for (c[0] = lo[0]; c[0] < hi[0]; ++c[0]) sum += r[q.F.cell(c)];
-    q.bc[t] = sum;
+    const double* rv = r;
+    q.bc[t] = q.sum_covered(t, [rv](Index ci, const int*) { return rv[ci]; });
   }
 };
 
@@ -582,7 +582,7 @@ void PressureSolver::init_multigrid() {
     lv_.push_back(std::move(L));
   }
   ticket_ = Buffer<unsigned int>(b, 1);
-  ticket_.fill_zero();
+  ticket_.fill_zero(ex_);  // on the solver's queue, as d_ and scal_ (pressure_solver.cu)
   if (ex_.on_device() && p_.graphs) rs_ = Buffer<double>(b, nc);
   // The first level small enough for one block, at most kTailMax above the
   // coarsest. LBDEM_PRESSURE_TAIL_CELLS replaces the size limit (A/B timing:

@@ -61,7 +61,9 @@ PressureSolver::PressureSolver(const Exec& ex, const GasGridView& g, const Press
   const Backend b = ex.backend();
   const Index nc = g.cells();
   for (Buffer<double>* x : {&r_, &z_, &d_, &Ad_, &diag_}) *x = Buffer<double>(b, nc);
-  d_.fill_zero();
+  // Zeroed on the solver's queue, which (a second queue, lagged forces) does
+  // not wait for memsets on the legacy default stream.
+  d_.fill_zero(ex);
   parts1_ = std::min<Index>(nc, 4096);
   parts2_ = std::min<Index>(parts1_, 64);
   // Pairs (multigrid) use twice the slots; the device's one-launch dot its
@@ -69,7 +71,7 @@ PressureSolver::PressureSolver(const Exec& ex, const GasGridView& g, const Press
   part1_ = Buffer<double>(b, std::max<Index>(2 * parts1_, 512));
   part2_ = Buffer<double>(b, 2 * parts2_);
   scal_ = Buffer<double>(b, slot::kCount);
-  scal_.fill_zero();
+  scal_.fill_zero(ex);
   if (p_.kind == PressureSolverKind::Multigrid) init_multigrid();
   const char* env = std::getenv("LBDEM_PRESSURE_DEVICE_LOOP");
   device_loop_ = p_.kind == PressureSolverKind::Multigrid && ex.on_device() && p_.graphs && p_.device_loop &&

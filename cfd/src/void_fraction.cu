@@ -30,8 +30,10 @@ struct FixedToDouble {
 
 VoidFraction::VoidFraction(const Exec& ex, const GasGridView& g, Deposition scheme)
     : ex_(ex), g_(g), scheme_(scheme), acc_(ex.backend(), g.cells()), solid_(ex.backend(), g.cells()) {
-  acc_.fill_zero();
-  solid_.fill_zero();
+  // On the Exec's queue: deposit() there (a second queue, lagged forces)
+  // does not wait for memsets on the legacy default stream.
+  acc_.fill_zero(ex_);
+  solid_.fill_zero(ex_);
 }
 
 void VoidFraction::deposit(const dem::ParticleView& p) {

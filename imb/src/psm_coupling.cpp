@@ -2,8 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdlib>
-#include <string>
 
 #include "psm_fused_impl.hpp"
 
@@ -41,19 +39,6 @@ const char* to_string(PsmPipeline p) {
     case PsmPipeline::Mapped: return "mapped";
   }
   return "?";
-}
-
-bool resolve_plain_warps(const PsmOptions& o) {
-  if (o.plain_warps == 0 || o.plain_warps == 1) return o.plain_warps == 1;
-  static const std::string env = [] {
-    const char* v = std::getenv("LBDEM_PSM_PLAIN_WARPS");
-    return std::string(v ? v : "");
-  }();
-  // Off by default until it is timed on the GPU: its kernel spills in the
-  // table-fraction instantiations where the one-path kernel does not.
-  if (env.empty() || env == "0") return false;
-  if (env == "1") return true;
-  throw ConfigError("LBDEM_PSM_PLAIN_WARPS = '" + env + "': must be 0 (off, the default) or 1 (on)");
 }
 
 PsmPipeline resolve_pipeline(const PsmOptions& o, int K, const std::string& slots_key) {
@@ -106,8 +91,7 @@ void PsmCoupling::map(const PsmParticles& p, const PsmOptions& opt, bool check_o
         table_id_ = opt.map.table->id;
       }
     }
-    plain_warps_ = resolve_plain_warps(opt);
-    tiles_->build(ex_, p, opt.map.max_radius, plain_warps_);
+    tiles_->build(ex_, p, opt.map.max_radius);
     if (before != pipeline_ || !parts_ready_) { parts_ = compute_parts(); parts_ready_ = true; }
   } else {
     if (before != pipeline_ || !parts_ready_) { parts_ = compute_parts(); parts_ready_ = true; }
@@ -227,7 +211,6 @@ void PsmCoupling::step_part(const CellBox& part, const PsmParticles& p, const Ps
                   ? (ex_.on_device() ? table_.data() : opt.map.table->values.data())
                   : nullptr;
     a.K = K_;
-    a.plain_warps = plain_warps_;
     const lbm::Precision pr = solver_.setup().precision;
     if (dim == 2) {
       if (sixteen_bit(pr)) psm_fused_d2q9_f16(ex, a);
@@ -248,6 +231,10 @@ void PsmCoupling::step_part(const CellBox& part, const PsmParticles& p, const Ps
     // to another rank), so their share of a particle's force stays zero here.
     slot_forces_ = Buffer<double>(solver_.backend(), SlotForceView::kComponents * static_cast<Index>(K_) * raw.grid.n);
     slot_forces_.fill_zero();
+    // Done before any queue's next work: this first part may run on the
+    // halo's edge lane, which does not wait for the legacy default stream
+    // (zeroing on a lane instead would race the other lane's part).
+    ex_.synchronize();
   }
   const SlotForceView sf{slot_forces_.data(), raw.grid.n, K_};
   raw.owned = part;
@@ -345,7 +332,7 @@ MemoryUse psm_memory(const lbm::LbmSetup& s, int K, const PsmOptions& opt, Index
     auto tiles_on = [](Index cells, int T) { return static_cast<std::size_t>((cells + T - 1) / T); };
     const std::size_t tiles = tiles_on(g.nx, t.tx) * tiles_on(g.ny, t.ty) * tiles_on(g.nz, t.tz);
     const auto cap = static_cast<std::size_t>(opt.tile_capacity);
-    m.add("tile lists", 2 * tiles * sizeof(int) + 2 * tiles * cap * sizeof(int));  // counts, warp masks, lists
+    m.add("tile lists", tiles * sizeof(int) + 2 * tiles * cap * sizeof(int));
     const std::size_t max_tiles = static_cast<std::size_t>(2 + (B - 1) / t.tx) * static_cast<std::size_t>(2 + (B - 1) / t.ty) *
                                   (dim == 3 ? static_cast<std::size_t>(2 + (B - 1) / t.tz) : 1);
     m.add("tile partial forces", np * max_tiles * 6 * sizeof(double));

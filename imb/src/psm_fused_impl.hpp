@@ -122,121 +122,6 @@ __global__ void __launch_bounds__(Kern::kCells, MinBlocks) psm_fused_kernel(Kern
     if (c0 + Kern::kForceChunk < nc) __syncthreads();  // part[] is reused by the next chunk
   }
 }
-
-// The same with plain warps (PsmFusedKernel::plain_warps, TileView::warps).
-// The warps of the tile's mask (Kern::psm_warps) run steps 2 and 4; warp 0
-// stages the candidates whether in the mask or not; the others collide
-// plainly and end without waiting for the candidates.
-template <int MinBlocks, class Kern>
-__global__ void __launch_bounds__(Kern::kCells, MinBlocks) psm_fused_plain_kernel(Kern k) {
-  using R = typename Kern::R;
-  __shared__ FusedCand<R> cand[kFusedMaxCapacity];
-  __shared__ R part[Kern::kWarps][Kern::kForceChunk][6];
-  __shared__ R slot_eps[kFusedMaxSlots][Kern::kCells];
-  __shared__ int tile_nc;        // the candidates and the warp mask, read back by the
-  __shared__ unsigned tile_psm;  // mask's warps after barrier 1 rather than held in registers
-  // Named barriers (bar.sync id, threads) that count only the warps of the
-  // tile's mask (id 0 is __syncthreads').
-  constexpr unsigned kStage = 1, kForce = 2;
-  const int tid = static_cast<int>(threadIdx.x);
-  const int lane = tid & 31, warp = tid >> 5;
-  const int ix = static_cast<int>(blockIdx.x) + k.tiles.lo[0], iy = static_cast<int>(blockIdx.y) + k.tiles.lo[1],
-            iz = static_cast<int>(blockIdx.z) + k.tiles.lo[2];
-  const typename Kern::TileId tile{ix + static_cast<Index>(k.tv.ntx) * (iy + static_cast<Index>(k.tv.nty) * iz), ix, iy, iz};
-  int x, y, z;
-  bool fluid = k.coords(tile, tid, x, y, z);
-  const Index cell = fluid ? k.g.index(x, y, z) : 0;
-  if constexpr (Kern::kBnd) fluid = fluid && k.flags[cell] == 0;
-  // 1. Populations first (their latency hides the candidate reads and the
-  // fraction arithmetic), then the tile's candidates.
-  lbm::Neighbours nb;
-  R f[Kern::kQ];
-  if (fluid) k.load(x, y, z, cell, nb, f);
-  // The tile's list entries are read beside its count, not after it (entries
-  // past the count are defined but unused): the chain the block's barrier
-  // waits for is then count|list -> particle, not count -> list -> particle.
-  const Index slot = tile.linear * k.tv.capacity + tid;
-  const bool listed = tid < k.tv.capacity;
-  const int pi = listed ? k.tv.particle[slot] : 0;
-  const int ei = listed ? k.tv.entry[slot] : 0;
-  const int nc = k.candidates(tile.linear);
-  const unsigned psm = nc > 0 ? k.psm_warps(tile.linear, nc) : 0u;  // block-uniform
-  const bool in_psm = (psm >> warp) & 1u;                            // warp-uniform
-  if (nc > 0 && psm == 0u) {
-    // No warp can meet a candidate: each candidate's entry for this tile is zero.
-    if (tid < nc)
-      for (int a = 0; a < 6; ++a) k.tv.partial[static_cast<Index>(ei) * 6 + a] = 0.0;
-  } else if (nc > 0) {
-    if (nc <= 32) {
-      // Rank in particle-index order (indices are unique in a tile) by shuffles within warp 0.
-      if (warp == 0) {
-        int r = 0;
-        for (int j = 0; j < nc; ++j) r += __shfl_sync(0xffffffffu, pi, j) < pi ? 1 : 0;
-        if (lane < nc) k.load_candidate(tile, pi, ei, cand[r]);
-      }
-    } else if (tid < nc) {  // (every warp is in the mask)
-      k.load_candidate(tile, pi, ei, cand[k.rank(tile.linear, nc, tid)]);
-    }
-    if (tid == 0) {
-      tile_nc = nc;
-      tile_psm = psm;
-    }
-    // Barrier 1: the mask's warps and warp 0 (the last to arrive: it stages).
-    if (in_psm || warp == 0) __barrier_sync_count(kStage, 32 * __popc(psm | 1u));
-  }
-  // 2. Slots, B and solid moments of this cell.
-  FusedSolid<R> s;
-  s.eps = &slot_eps[0][tid];
-  s.stride = Kern::kCells;
-  int lx, ly, lz;  // offsets in the tile: the per-cell arithmetic is relative to its first cell
-  Kern::local(tid, lx, ly, lz);
-  if (fluid && in_psm) k.overlap(lx, ly, lz, cell, cand, nc, s);
-  // 3. Collide and store; a warp without a solid lane takes the plain collision.
-  const bool plain = !__any_sync(0xffffffffu, s.m > 0);
-  R rho = R(1), u[3] = {R(0), R(0), R(0)};
-  // The neighbour offsets are formed again for the store rather than kept
-  // from the load: nine fewer values live across steps 2 and 3, which keeps
-  // the odd-parity kernel within its 64 registers without spilling.
-  if (fluid) k.collide_store(cell, lbm::neighbours_at<typename Kern::Lattice>(k.g, x, y, z), f, s, plain, rho, u);
-  if (!in_psm) return;  // warp-uniform; all warps when the tile has no candidate
-  const int nc_f = tile_nc;
-  const unsigned psm_f = tile_psm;
-  // 4. Force and torque per candidate: exchange tree per warp (warp_sum6_exchange),
-  // the mask's warps in order (the others' zeros left out: x + 0 = x).
-  const unsigned force_threads = 32u * static_cast<unsigned>(__popc(psm_f));
-  const int prank = 32 * __popc(psm_f & ((1u << warp) - 1u)) + lane;  // this thread among the mask's warps
-  for (int c0 = 0; c0 < nc_f; c0 += Kern::kForceChunk) {
-    const int cn = nc_f - c0 < Kern::kForceChunk ? nc_f - c0 : Kern::kForceChunk;
-    if (plain) {  // no slot in this warp: zeros for every candidate
-      if (lane == 0)
-        for (int c = 0; c < cn; ++c)
-          for (int a = 0; a < 6; ++a) part[warp][c][a] = R(0);
-    } else {
-    for (int c = 0; c < cn; ++c) {
-      // Warps whose cells hold no slot of this candidate write zeros and skip the tree.
-      const int ks = fluid ? Kern::slot_of(s, c0 + c) : -1;
-      const bool any = __any_sync(0xffffffffu, ks >= 0);
-      R v[6] = {R(0), R(0), R(0), R(0), R(0), R(0)};  // lanes without a slot (or off the grid) add zeros
-      R sum = R(0);
-      if (any) {
-        if (ks >= 0) k.contribution(lx, ly, lz, s, ks, cand[c0 + c], rho, u, v);
-        sum = warp_sum6_exchange(v, lane);
-      }
-      const int a = 4 * ((lane >> 4) & 1) + 2 * ((lane >> 3) & 1) + ((lane >> 2) & 1);
-      if ((lane & 3) == 0 && a < 6) part[warp][c][a] = sum;
-    }
-    }
-    __barrier_sync_count(kForce, force_threads);
-    for (int i = prank; i < 6 * cn; i += static_cast<int>(force_threads)) {
-      const int c = i / 6, a = i % 6;
-      double sum = 0.0;
-      for (int w = 0; w < Kern::kWarps; ++w)
-        if ((psm_f >> w) & 1u) sum += static_cast<double>(part[w][c][a]);
-      k.tv.partial[static_cast<Index>(cand[c0 + c].entry) * 6 + a] = sum;
-    }
-    if (c0 + Kern::kForceChunk < nc_f) __barrier_sync_count(kForce, force_threads);  // part[] is reused by the next chunk
-  }
-}
 #endif
 
 template <class Kern>
@@ -252,10 +137,7 @@ void launch_fused(const Exec& ex, const Kern& k) {
                         " tiles along y and z exceed the launch grid (65535 each); use psm.pipeline: mapped");
     const dim3 grid(static_cast<unsigned>(k.tiles.ext[0]), static_cast<unsigned>(k.tiles.ext[1]),
                     static_cast<unsigned>(k.tiles.ext[2]));
-    // Two kernels rather than one with a runtime branch: the plain-warp path
-    // costs registers, and without it the kernel stays as it was.
-    if (k.plain_warps) psm_fused_plain_kernel<kMinBlocks><<<grid, Kern::kCells, 0, ex.stream()>>>(k);
-    else psm_fused_kernel<kMinBlocks><<<grid, Kern::kCells, 0, ex.stream()>>>(k);
+    psm_fused_kernel<kMinBlocks><<<grid, Kern::kCells, 0, ex.stream()>>>(k);
     LBDEM_CUDA_CHECK(cudaGetLastError());
     return;
 #else
@@ -274,7 +156,6 @@ struct FusedArgs {
   const PsmOptions* opt;
   const float* table;  // table values on the Exec's backend (Table method)
   int K;
-  bool plain_warps = false;  // warps outside the tile's warp mask skip the overlap and force steps
 };
 
 template <class L, class T, lbm::StreamKind S, int P, bool B, bool Force, PsmVariant V, FractionMethod M>
@@ -283,7 +164,6 @@ void fused_launch(const Exec& ex, const FusedArgs& a) {
   PsmFusedKernel<L, T, S, P, B, Force, V, Frac> k;
   k.set_lattice(*a.raw, a.setup->tau, a.opt->weight, a.opt->body_force_on_solid, a.opt->even_relaxation);
   k.K = a.K;
-  k.plain_warps = a.plain_warps && a.tv.warps != nullptr;
   k.tv = a.tv;
   k.tiles = a.tiles;
   for (int d = 0; d < 3; ++d) {

@@ -63,29 +63,12 @@ LBDEM_HD inline int axis_tile(int l, double c, double R, Index n, int T, bool pe
   }
 }
 
-LBDEM_HD inline int atomic_or(int* p, int v) {
-#if defined(__CUDA_ARCH__)
-  return atomicOr(p, v);
-#else
-  return __atomic_fetch_or(p, v, __ATOMIC_RELAXED);
-#endif
-}
-
-// Offset from c to p along an axis of n cells, the nearest image on a
-// periodic axis (the smallest offset any image has).
-LBDEM_HD inline double axis_offset(double p, double c, int n, bool periodic) {
-  const double d = p - c;
-  return periodic ? d - n * rint(d / n) : d;
-}
-
 struct TileBuild {
   SphereView p;
   TileView tv;
   int* count;
   int* particle;
   int* entry;
-  int* warps;  // per-tile warp masks, or null
-  double reach;  // added to a candidate's radius in the warp test (see row_mask)
   int dim, B;
   int mx, my, mz;
   int* flags;
@@ -95,31 +78,6 @@ struct TileBuild {
 
   LBDEM_HD void zero_entry(Index e) const {
     for (int a = 0; a < 6; ++a) tv.partial[e * 6 + a] = 0.0;
-  }
-
-  // The warps of tile (tx, ty, tz) whose row of cell centres (x from
-  // tx TX + 1/2 to tx TX + TX - 1/2, one y, one z) comes within R + reach of
-  // the centre (cx, cy, cz) (storage coordinates), taking on periodic axes
-  // the nearest image. The fused kernel's overlap test (PsmFusedKernel::overlap)
-  // skips a candidate whose cell centre lies R + half a cell diagonal or more
-  // from the image it takes; that image is one of the candidate's images, so
-  // its offset is at least the nearest one's. reach = half diagonal plus a
-  // margin above the rounding of the kernel's offsets in its precision
-  // (TileMap::build): a cleared bit is a row no candidate can touch.
-  LBDEM_HD int row_mask(double cx, double cy, double cz, double R, int tx, int ty, int tz) const {
-    const double lim = R + reach;
-    const double hx = 0.5 * (tv.t.tx - 1);
-    double dx = fabs(axis_offset(tx * tv.t.tx + 0.5 * tv.t.tx, cx, tv.g.nx, tv.g.periodic[0]));
-    dx = dx > hx ? dx - hx : 0.0;
-    const int nw = tv.t.cells() / 32;
-    int m = 0;
-    for (int w = 0; w < nw; ++w) {
-      const int ly = w % tv.t.ty, lz = w / tv.t.ty;
-      const double dy = axis_offset(ty * tv.t.ty + ly + 0.5, cy, tv.g.ny, tv.g.periodic[1]);
-      const double dz = dim == 3 ? axis_offset(tz * tv.t.tz + lz + 0.5, cz, tv.g.nz, tv.g.periodic[2]) : 0.0;
-      if (dx * dx + dy * dy + dz * dz < lim * lim) m |= 1 << w;
-    }
-    return m;
   }
 
   LBDEM_HD void operator()(Index t) const {
@@ -133,12 +91,10 @@ struct TileBuild {
       flags[3] = static_cast<int>(pi);
     }
     // Centres in storage coordinates (GridView::shift: the global frame's offset).
-    const double cx = tv.g.nearest_image(0, p.x[o]) - tv.g.shift[0];
-    const double cy = tv.g.nearest_image(1, p.y[o]) - tv.g.shift[1];
-    const double cz = dim == 3 ? tv.g.nearest_image(2, p.z[o]) - tv.g.shift[2] : 0.5;
-    const int tx = axis_tile(lx, cx, R, tv.g.nx, tv.t.tx, tv.g.periodic[0]);
-    const int ty = axis_tile(ly, cy, R, tv.g.ny, tv.t.ty, tv.g.periodic[1]);
-    const int tz = dim == 3 ? axis_tile(lz, cz, R, tv.g.nz, tv.t.tz, tv.g.periodic[2]) : (lz == 0 ? 0 : -1);
+    const int tx = axis_tile(lx, tv.g.nearest_image(0, p.x[o]) - tv.g.shift[0], R, tv.g.nx, tv.t.tx, tv.g.periodic[0]);
+    const int ty = axis_tile(ly, tv.g.nearest_image(1, p.y[o]) - tv.g.shift[1], R, tv.g.ny, tv.t.ty, tv.g.periodic[1]);
+    const int tz = dim == 3 ? axis_tile(lz, tv.g.nearest_image(2, p.z[o]) - tv.g.shift[2], R, tv.g.nz, tv.t.tz, tv.g.periodic[2])
+                            : (lz == 0 ? 0 : -1);
     if (tx < 0 || ty < 0 || tz < 0) {
       zero_entry(t);
       return;
@@ -148,10 +104,6 @@ struct TileBuild {
     if (slot < tv.capacity) {
       particle[tile * tv.capacity + slot] = static_cast<int>(pi);
       entry[tile * tv.capacity + slot] = static_cast<int>(t);
-      if (warps) {
-        const int m = row_mask(cx, cy, cz, R, tx, ty, tz);
-        if (m != 0) atomic_or(&warps[tile], m);
-      }
     } else {
       zero_entry(t);
       const int e = atomic_add(&flags[1], 1);
@@ -205,7 +157,7 @@ TileMap::TileMap(Backend b, const Grid& grid, int K, int capacity, int overflow_
   nty_ = ceil_div(gv_.ny, shape_.ty);
   ntz_ = ceil_div(gv_.nz, shape_.tz);
   const Index tiles = static_cast<Index>(ntx_) * nty_ * ntz_;
-  count_ = Buffer<int>(b, 2 * tiles);  // counts, then warp masks
+  count_ = Buffer<int>(b, tiles);
   particle_ = Buffer<int>(b, tiles * capacity_);
   entry_ = Buffer<int>(b, tiles * capacity_);
   flags_ = Buffer<int>(b, 4);
@@ -231,7 +183,6 @@ TileView TileMap::view() const {
   v.capacity = capacity_;
   v.max_tiles = max_tiles_;
   v.count = count_.data();
-  v.warps = warp_masks_ ? count_.data() + v.tiles() : nullptr;
   v.particle = particle_.data();
   v.entry = entry_.data();
   v.partial = const_cast<double*>(partial_.data());
@@ -242,7 +193,7 @@ TileView TileMap::view() const {
   return v;
 }
 
-void TileMap::build(const Exec& ex, const SphereView& p, double max_radius, bool warp_masks) {
+void TileMap::build(const Exec& ex, const SphereView& p, double max_radius) {
   if (ex.backend() != backend_)
     throw ConfigError(std::string("TileMap::build: tiles live on ") + to_string(backend_) + " but the Exec runs on " +
                       to_string(ex.backend()));
@@ -266,8 +217,7 @@ void TileMap::build(const Exec& ex, const SphereView& p, double max_radius, bool
   }
   if (dim == 2) axis_max_[2] = 1;
   max_tiles_ = axis_max_[0] * axis_max_[1] * axis_max_[2];
-  for_each(ex, count_.size(), ZeroInts{count_.data()});  // counts and warp masks
-  warp_masks_ = warp_masks;
+  for_each(ex, count_.size(), ZeroInts{count_.data()});
   built_particles_ = p.n;
   if (p.n == 0) return;
   partial_.reserve_discard(backend_, p.n * max_tiles_ * 6);  // grows only: no allocation in a steady time loop
@@ -277,12 +227,6 @@ void TileMap::build(const Exec& ex, const SphereView& p, double max_radius, bool
   k.count = count_.data();
   k.particle = particle_.data();
   k.entry = entry_.data();
-  k.warps = warp_masks ? count_.data() + k.tv.tiles() : nullptr;
-  // The kernel's cell offsets carry a rounding of a few units of its
-  // precision times the largest axis (float: 2^-24 each; PsmFusedKernel::rel);
-  // 1e-6 per cell of the largest axis plus 1e-3 is far above it.
-  k.reach = (dim == 3 ? 0.86602540378443865 : 0.70710678118654752) + 1e-3 +
-            1e-6 * std::max({gv_.nx, gv_.ny, gv_.nz});
   k.dim = dim;
   k.B = B;
   k.mx = axis_max_[0];
@@ -419,17 +363,6 @@ void TileMap::total_eps(const Exec& ex, const SphereView& p, FractionMethod meth
     else
       launch_tile_eps<2, FractionMethod::Linear>(ex, tv, p, table, table_values, linear_normalised, K_, box, out);
   }
-}
-
-std::vector<int> TileMap::counts_host() const {
-  std::vector<int> v = count_.to_vector();
-  v.resize(v.size() / 2);
-  return v;
-}
-
-std::vector<int> TileMap::warp_masks_host() const {
-  const std::vector<int> v = count_.to_vector();
-  return std::vector<int>(v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
 }
 
 MemoryUse TileMap::memory_use() const {

@@ -13,8 +13,6 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
-#include <cstring>
-#include <tuple>
 #include <string>
 #include <vector>
 
@@ -206,111 +204,6 @@ TEST_P(PsmFused, CrowdedTileMatchesMapped) {
   EXPECT_LT(ft[1], 1e-5);
   EXPECT_LT(df, 1e-8);
   for (std::size_t i = 0; i < 12; ++i) EXPECT_GT(std::abs(ff[6 * i]), 0.0) << "particle " << i;
-}
-
-// Plain warps (PsmOptions::plain_warps, imb/psm_fused.hpp): a warp whose row
-// of cells the tile's warp mask leaves out collides plainly without the
-// overlap and force steps. The same bits as with every warp running them,
-// populations and forces, when the mask is conservative; a mask that left out
-// a row a candidate reaches would drop that row's solid term (a difference of
-// the order of the solid velocity). A suspension of spheres far apart (most
-// rows of a tile with candidates out of every sphere's reach), moving, plus a
-// cluster of small spheres whose tiles list more than one warp stages (all
-// warps run), on grids no side of which is a multiple of the tile; 3D fp64,
-// 3D fp32 (the kernel's offsets rounded in float) and 2D.
-TEST_P(PsmFused, PlainWarpsGiveSameBits) {
-  struct Case {
-    int dim;
-    lbm::Precision prec;
-    imb::FractionMethod method;
-  };
-  for (const Case cs : {Case{3, lbm::Precision::FP64, imb::FractionMethod::Table},
-                        Case{3, lbm::Precision::FP32, imb::FractionMethod::Linear},
-                        Case{2, lbm::Precision::FP64, imb::FractionMethod::Linear}}) {
-    const bool d3 = cs.dim == 3;
-    const long nx = 71, ny = d3 ? 26 : 45, nz = d3 ? 23 : 1;
-    std::vector<test::PsmSphere> s;
-    // Sparse spheres on a jittered lattice (a deterministic sequence), y >= 8.5.
-    unsigned seed = 12345u;
-    auto rnd = [&seed] {
-      seed = seed * 1664525u + 1013904223u;
-      return static_cast<double>(seed >> 8) / 16777216.0;
-    };
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 2; ++j)
-        for (int k = 0; k < (d3 ? 2 : 1); ++k) {
-          test::PsmSphere p;
-          p.x = 4.0 + 23.0 * i + 3.0 * rnd();
-          p.y = 12.0 + (d3 ? 8.0 : 16.0) * j + 2.0 * rnd();
-          p.z = d3 ? 4.0 + 11.5 * k + 2.0 * rnd() : 0.5;
-          p.r = 2.0 + 1.5 * rnd();
-          p.vx = 0.02 * (rnd() - 0.5);
-          p.vy = 0.02 * (rnd() - 0.5);
-          p.vz = d3 ? 0.02 * (rnd() - 0.5) : 0.0;
-          p.wz = 2e-3 * (rnd() - 0.5);
-          p.wx = d3 ? 2e-3 * (rnd() - 0.5) : 0.0;
-          s.push_back(p);
-        }
-    // The cluster: small spheres 2 apart (y < 6.5, z < 4.5), straddling tile
-    // faces, so that some tiles list 60 of them.
-    for (double y = 1.6; y < 6.5; y += 2.0)
-      for (double z = 1.6; z < (d3 ? 4.5 : 2.0); z += 2.0)
-        for (double x = 33.0; x < 62.0; x += 2.0) s.push_back({x, y, d3 ? z : 0.5, 0.7, 0.003, -0.002, 0, 0, 0, 1e-3});
-    auto go = [&](int plain) {
-      imb::PsmOptions opt;
-      opt.map.method = cs.method;
-      opt.map.table = &table(cs.dim);
-      opt.pipeline = imb::PsmPipeline::Fused;
-      opt.tile_capacity = imb::kFusedMaxCapacity;
-      opt.plain_warps = plain;
-      auto setup = test::psm_box(nx, ny, nz, 0.6, 1e-3, {2e-6, -1e-6, d3 ? 5e-7 : 0.0});
-      setup.precision = cs.prec;
-      test::PsmScene scene(setup, GetParam(), 4, s, opt, {0.002, 0.001, d3 ? -0.001 : 0.0});
-      int plain_rows = 0, rows = 0, full_tiles = 0;
-      for (int step = 0; step < 12; ++step) {
-        auto m = s;
-        for (auto& p : m) {
-          p.x += p.vx * step;
-          p.y += p.vy * step;
-          p.z += p.vz * step;
-        }
-        scene.set_particles(m);
-        scene.map();
-        if (step == 0 && plain == 1) {
-          const auto counts = scene.coupling().tile_map()->counts_host();
-          const auto masks = scene.coupling().tile_map()->warp_masks_host();
-          for (std::size_t t = 0; t < counts.size(); ++t) {
-            if (counts[t] == 0) continue;
-            if (counts[t] > 32) ++full_tiles;
-            for (int w = 0; w < 8; ++w) {
-              ++rows;
-              plain_rows += ((masks[t] >> w) & 1) == 0 ? 1 : 0;
-            }
-          }
-        }
-        scene.step();
-      }
-      EXPECT_FALSE(scene.coupling().overflow().overflow) << scene.coupling().overflow().message;
-      return std::tuple{scene.forces(), scene.solver().populations(), plain_rows, rows, full_tiles};
-    };
-    const auto [f_off, p_off, pr_off, r_off, ft_off] = go(0);
-    const auto [f_on, p_on, plain_rows, rows, full_tiles] = go(1);
-    const std::string what = std::to_string(cs.dim) + "D " + lbm::to_string(cs.prec) + " " + imb::to_string(cs.method);
-    std::printf("%s: %zu particles, %d of %d rows of tiles with candidates plain, %d tiles with > 32 candidates\n",
-                what.c_str(), s.size(), plain_rows, rows, full_tiles);
-    EXPECT_GT(plain_rows, rows / 5) << what;  // the path is taken
-    EXPECT_LT(plain_rows, rows) << what;
-    EXPECT_GT(full_tiles, 0) << what;         // and tiles where every warp stages and runs
-    ASSERT_EQ(f_on.size(), f_off.size());
-    ASSERT_EQ(p_on.size(), p_off.size());
-    std::size_t df = 0, dp = 0;
-    for (std::size_t i = 0; i < f_on.size(); ++i) df += std::memcmp(&f_on[i], &f_off[i], sizeof(double)) != 0 ? 1 : 0;
-    for (std::size_t i = 0; i < p_on.size(); ++i) dp += std::memcmp(&p_on[i], &p_off[i], sizeof(double)) != 0 ? 1 : 0;
-    EXPECT_EQ(df, 0u) << what << ": force components differ (largest " << max_diff(f_on, f_off) << ")";
-    EXPECT_EQ(dp, 0u) << what << ": populations differ (largest " << max_diff(p_on, p_off) << ")";
-    for (std::size_t i = 0; i < s.size(); ++i)
-      EXPECT_GT(std::abs(f_on[6 * i]) + std::abs(f_on[6 * i + 1]), 0.0) << what << " particle " << i;
-  }
 }
 
 INSTANTIATE_TEST_SUITE_P(Backends, PsmFused, ::testing::ValuesIn(lbdem::test::backends()), lbdem::test::backend_name);

@@ -51,11 +51,6 @@ struct PsmOptions {
   MapOptions map;  // fraction method, max radius, table
   PsmPipeline pipeline = PsmPipeline::Auto;
   int tile_capacity = 64;  // fused: candidate particles per tile (overflow is reported)
-  // Fused: warps whose row of cells no candidate can reach collide plainly
-  // without waiting for the candidates (imb/psm_fused.hpp; the same bits
-  // either way). 1 on, 0 off, -1: the environment variable
-  // LBDEM_PSM_PLAIN_WARPS (0 or 1, read once), off where it is not set.
-  int plain_warps = -1;
   // The fluid's body force F stands for a mean pressure gradient, which acts
   // on the particles' volume too: each particle also receives B_k F from
   // every cell it covers (psm_particle_force), the part the (1 - B) weighting
@@ -80,8 +75,6 @@ struct PsmOptions {
 // ConfigError (naming the key; `slots_key` is K's) if Fused is asked for where
 // it does not apply.
 PsmPipeline resolve_pipeline(const PsmOptions& o, int K, const std::string& slots_key = "coupling.slots");
-// PsmOptions::plain_warps resolved (ConfigError for a bad LBDEM_PSM_PLAIN_WARPS).
-bool resolve_plain_warps(const PsmOptions& o);
 const char* to_string(PsmPipeline p);
 
 class PsmCoupling {
@@ -122,8 +115,6 @@ class PsmCoupling {
 
   // The per-cell slots of the mapped pipeline (valid after a mapped map()).
   const CellSlots& slots() const;
-  // The fused pipeline's tile lists (null before a fused map()).
-  const TileMap* tile_map() const { return tiles_.get(); }
   // Total solid fraction per cell (host copy, for output and diagnostics): the
   // mapped pipeline's slots, or, in the fused pipeline, a map made for it.
   std::vector<double> solid_fraction_host(const PsmParticles& p, const PsmOptions& opt);
@@ -164,7 +155,6 @@ class PsmCoupling {
   PsmPipeline pipeline_ = PsmPipeline::Auto;  // of the last map()
   Parts parts_;                               // of the last map()'s pipeline
   bool parts_ready_ = false;
-  bool plain_warps_ = false;  // the last map() made warp masks (resolve_plain_warps)
   Parts compute_parts() const;
   Exec ex_;
   Buffer<double> stage_;  // output staging (solid_fraction_box)

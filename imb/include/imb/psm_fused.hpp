@@ -18,10 +18,6 @@
 //      halves of the six values: warp_sum6_exchange), then the warps in order,
 //      into the particle's entry for this tile. TileMap::finish adds a
 //      particle's entries in order.
-// Plain warps (TileView::warps, on with LBDEM_PSM_PLAIN_WARPS=1): a warp
-// whose row no candidate can reach skips steps 2 and 4; it takes the plain
-// collision, as it would after finding no slot, without waiting for the
-// candidates, and the force sums leave out its zeros (x + 0 = x).
 // The mapped pipeline writes per-cell slots and a per-(slot, cell) force array
 // that a gather reads back; here nothing per cell leaves the kernel but the
 // populations.
@@ -80,7 +76,6 @@ struct PsmFusedKernel : PsmLatticeFields<T> {
   using Lat::src, Lat::dst, Lat::g, Lat::flags, Lat::bt, Lat::omega_p, Lat::omega_m, Lat::F, Lat::G, Lat::tm,
       Lat::weight;
   int K;  // slots per cell in use (<= kFusedMaxSlots)
-  bool plain_warps = false;  // the tile map's warp masks pick the warps that run steps 2 and 4
   TileView tv;
   CellBox tiles;  // the tiles this launch updates (a box in tile coordinates; PsmCoupling::parts)
   int own_lo[3] = {0, 0, 0}, own_hi[3] = {0, 0, 0};  // the owned cells [lo, hi) in storage coordinates
@@ -131,15 +126,6 @@ struct PsmFusedKernel : PsmLatticeFields<T> {
   LBDEM_HD int candidates(Index tile) const {
     const int c = tv.count[tile];
     return c < tv.capacity ? c : tv.capacity;
-  }
-
-  // The warps of a tile with nc candidates that run the overlap and force
-  // steps: those its warp mask marks; all of them without masks, or with more
-  // candidates than one warp stages (the device's staging by several warps).
-  static constexpr unsigned kAllWarps = (1u << kWarps) - 1u;
-  LBDEM_HD unsigned psm_warps(Index tile, int nc) const {
-    const unsigned m = plain_warps ? static_cast<unsigned>(tv.warps[tile]) : kAllWarps;
-    return nc <= 32 ? m : kAllWarps;
   }
 
   // Thread tid's offsets from its tile's first cell: a warp is one x row of
@@ -337,7 +323,6 @@ void run_fused_host(const Kern& k) {
     const auto tile = k.tile_id(tl);
     FusedCand<R> cand[kFusedMaxCapacity];
     const int nc = k.candidates(tl);
-    const unsigned psm = nc > 0 ? k.psm_warps(tl, nc) : 0u;
     for (int i = 0; i < nc; ++i) k.load_candidate(tile, i, cand[k.rank(tl, nc, i)]);  // in particle-index order
     FusedSolid<R> sol[256];
     R eps_store[256][kFusedMaxSlots];
@@ -364,7 +349,7 @@ void run_fused_host(const Kern& k) {
       lbm::Neighbours nb;
       R f[Kern::kQ];
       k.load(x, y, z, cell, nb, f);
-      if ((psm >> (t / 32)) & 1u) k.overlap(cx[t], cy[t], cz[t], cell, cand, nc, sol[t]);
+      if (nc > 0) k.overlap(cx[t], cy[t], cz[t], cell, cand, nc, sol[t]);
       k.collide_store(cell, nb, f, sol[t], sol[t].m == 0, rho[t], u[t]);
     }
     for (int c0 = 0; c0 < nc; c0 += Kern::kForceChunk) {

@@ -61,11 +61,6 @@ struct TileView {
   int capacity = 0;
   int max_tiles = 0;              // entries per particle (tiles its box can touch)
   const int* count = nullptr;     // per tile: candidates that wanted in (> capacity: overflow)
-  // Per tile: bit w set if warp w's row of cells (TileShape: a warp is one x
-  // row) may overlap a listed candidate; null when build() made no masks.
-  // Conservative: a cleared bit means no candidate's ball of radius R plus a
-  // cell's half diagonal reaches a cell centre of the row (TileMap::build).
-  const int* warps = nullptr;
   const int* particle = nullptr;  // [tile * capacity + i]
   const int* entry = nullptr;     // [tile * capacity + i]: particle * max_tiles + its tile number
   double* partial = nullptr;      // [entry * 6 + a]: force (0..2) and torque (3..5) from that tile
@@ -88,9 +83,8 @@ class TileMap {
   TileMap(Backend b, const Grid& grid, int K, int capacity = 64, int overflow_log = 1024);
 
   // Rebuilds the candidate lists from the particles (asynchronous on the device).
-  // max_radius <= 0 computes it (a synchronous reduction). warp_masks: also
-  // the per-tile masks of the warps a candidate may reach (TileView::warps).
-  void build(const Exec& ex, const SphereView& p, double max_radius, bool warp_masks = false);
+  // max_radius <= 0 computes it (a synchronous reduction).
+  void build(const Exec& ex, const SphereView& p, double max_radius);
   // Sums each particle's tile entries (fixed order) into out (plus buoyancy).
   void finish(const Exec& ex, const SphereView& p, const ForceOut& out) const;
 
@@ -107,10 +101,6 @@ class TileMap {
   // table_values: the table on the backend (method table). Asynchronous.
   void total_eps(const Exec& ex, const SphereView& p, FractionMethod method, const FractionTable* table,
                  const float* table_values, bool linear_normalised, const CellBox& box, double* out) const;
-  // Host copies of the per-tile candidate counts and warp masks (TileView::warps;
-  // zeros when the last build made none), tiles x-fastest. Synchronises.
-  std::vector<int> counts_host() const;
-  std::vector<int> warp_masks_host() const;
   // Bytes of each buffer held, by component (psm_memory()).
   MemoryUse memory_use() const;
 
@@ -128,7 +118,7 @@ class TileMap {
   int ntx_ = 1, nty_ = 1, ntz_ = 1;
   int max_tiles_ = 0;
   int axis_max_[3] = {1, 1, 1};
-  Buffer<int> count_, particle_, entry_;  // count_: per tile the count, then per tile the warp mask
+  Buffer<int> count_, particle_, entry_;
   Buffer<double> partial_;
   Buffer<int> flags_;  // [0] cell slot surplus, [1] tile surplus, [2] radius too large, [3] its particle
   Buffer<Index> log_cell_;
@@ -137,7 +127,6 @@ class TileMap {
   Buffer<int> log_tile_particle_;
   std::shared_ptr<Scratch> scratch_;
   Index built_particles_ = 0;
-  bool warp_masks_ = false;
 };
 
 }  // namespace lbdem::imb
