@@ -122,10 +122,10 @@ void issue_fused_step(const Exec& ex, const State& s, StatusRecord* rec, StatusR
 // kick-drift (dem/README.md, "Fused sub-steps"): the particle path on one rank
 // (a decomposed step refreshes the ghosts between the kick-drift and the
 // forces; the pair path's forces are several kernels), where the
-// environment variable LBDEM_DEM_FUSED_SUBSTEPS is 1. Off by default: on the
-// host the particles are the same bit for bit either way, but on the GPU the
-// frictional path's state differs from the two kernels' (frictionless is the
-// same), and until that is explained a default must not change the answer.
+// environment variable LBDEM_DEM_FUSED_SUBSTEPS is 1. Off by default. The
+// particles are the same bit for bit either way: on the GPU too, since the
+// kernels are compiled without contraction into fused multiply-adds
+// (dem/CMakeLists.txt; with it the frictional state had differed).
 bool fused_apply(const DemSystem::Impl& m) {
   const char* env = std::getenv("LBDEM_DEM_FUSED_SUBSTEPS");
   bool on = false;
