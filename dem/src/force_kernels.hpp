@@ -114,21 +114,55 @@ LBDEM_HD LBDEM_FORCEINLINE void list_contacts(const State& s, Index i, const Rea
   }
 }
 
+// Particle i's own values that its contact sums read: position and radius,
+// predicted velocity and 1/m, predicted angular velocity and 1/I (zero
+// without friction). Every particle-path force kernel loads them here.
+struct ParticleLoad {
+  Real4 p, v, w;
+};
+template <bool Friction>
+LBDEM_HD LBDEM_FORCEINLINE ParticleLoad load_particle(const State& s, Index i) {
+  ParticleLoad l{s.pos[i], s.vpr[i], Real4{0, 0, 0, 0}};
+  if constexpr (Friction) l.w = s.wpr[i];
+  return l;
+}
+
+// Stores particle i's force and torque sums (the torque with friction only)
+// and returns them in f and t, the records a kick-drift takes.
+template <bool Friction>
+LBDEM_HD LBDEM_FORCEINLINE void store_forces(const State& s, Index i, const Vec3d& F, const Vec3d& T, Real4& f,
+                                             Real4& t) {
+  f = Real4{F.x, F.y, F.z, 0.0};
+  t = Real4{0, 0, 0, 0};
+  s.frc[i] = f;
+  if constexpr (Friction) {
+    t = Real4{T.x, T.y, T.z, 0.0};
+    s.trq[i] = t;
+  }
+}
+
+// Particle i's whole force evaluation on one thread (walls, body force,
+// coupling input, then its list in order), stored, and returned in f and t;
+// returns the particle's position as loaded. The body of ForceParticle and
+// the force part of ForceKickDrift.
+template <bool Friction>
+LBDEM_HD LBDEM_FORCEINLINE Real4 particle_sum(const State& s, Index i, Real4& f, Real4& t) {
+  const ParticleLoad l = load_particle<Friction>(s, i);
+  Vec3d F, T;
+  particle_forces<Friction>(s, i, l.p, l.v, l.w, F, T);
+  list_contacts<Friction>(s, i, l.p, l.v, l.w, s.ncount[i], 0, 1, F, T);
+  store_forces<Friction>(s, i, F, T, f, t);
+  return l.p;
+}
+
 // Particle-parallel: particle i sums all its contacts over its full list.
 // Deterministic: fixed summation order, no atomics.
 template <bool Friction>
 struct ForceParticle {
   State s;
   LBDEM_HD void operator()(Index i) const {
-    const Real4 p = s.pos[i];
-    const Real4 v = s.vpr[i];
-    Real4 w{0, 0, 0, 0};
-    if constexpr (Friction) w = s.wpr[i];
-    Vec3d F, T;
-    particle_forces<Friction>(s, i, p, v, w, F, T);
-    list_contacts<Friction>(s, i, p, v, w, s.ncount[i], 0, 1, F, T);
-    s.frc[i] = Real4{F.x, F.y, F.z, 0.0};
-    if constexpr (Friction) s.trq[i] = Real4{T.x, T.y, T.z, 0.0};
+    Real4 f, t;
+    (void)particle_sum<Friction>(s, i, f, t);
   }
 };
 
@@ -141,27 +175,19 @@ struct ForceParticle {
 // (pos_out, vpr_out, wpr_out), which the store then swaps in. Every other
 // array the kick-drift writes (vel, omg) is particle i's own and read by no
 // force of another particle. The arithmetic is that of the two kernels run
-// one after the other: the same bits.
+// one after the other (the same inline functions: particle_sum, then
+// KickDrift::step), and the kernel translation units are compiled without
+// contraction of a * b + c into one fused multiply-add (dem/CMakeLists.txt):
+// with it, the device compiler chooses which products to fuse from each
+// kernel's whole body, so the same expressions in the fused and the separate
+// kernels could round differently. The same bits.
 template <bool Friction>
 struct ForceKickDrift {
   KickDrift<Friction> k;
   Real4 *pos_out, *vpr_out, *wpr_out;
   LBDEM_HD void operator()(Index i) const {
-    const State& s = k.s;
-    const Real4 p = s.pos[i];
-    const Real4 v = s.vpr[i];
-    Real4 w{0, 0, 0, 0};
-    if constexpr (Friction) w = s.wpr[i];
-    Vec3d F, T;
-    particle_forces<Friction>(s, i, p, v, w, F, T);
-    list_contacts<Friction>(s, i, p, v, w, s.ncount[i], 0, 1, F, T);
-    const Real4 f{F.x, F.y, F.z, 0.0};
-    Real4 t{0, 0, 0, 0};
-    s.frc[i] = f;
-    if constexpr (Friction) {
-      t = Real4{T.x, T.y, T.z, 0.0};
-      s.trq[i] = t;
-    }
+    Real4 f, t;
+    const Real4 p = particle_sum<Friction>(k.s, i, f, t);
     k.step(i, p, f, t, pos_out, vpr_out, wpr_out);
   }
 };
@@ -184,12 +210,9 @@ __device__ __forceinline__ void lanes_forces(const State& s, Index n, Index i, i
   F = Vec3d{};
   T = Vec3d{};
   if (i < n) {  // no early return: every lane of the warp takes part in the shuffles
-    const Real4 p = s.pos[i];
-    const Real4 v = s.vpr[i];
-    Real4 w{0, 0, 0, 0};
-    if constexpr (Friction) w = s.wpr[i];
-    if (lane == 0) particle_forces<Friction>(s, i, p, v, w, F, T);
-    list_contacts<Friction>(s, i, p, v, w, s.ncount[i], lane, L, F, T);
+    const ParticleLoad l = load_particle<Friction>(s, i);
+    if (lane == 0) particle_forces<Friction>(s, i, l.p, l.v, l.w, F, T);
+    list_contacts<Friction>(s, i, l.p, l.v, l.w, s.ncount[i], lane, L, F, T);
   }
 #pragma unroll
   for (int off = L / 2; off > 0; off >>= 1) {
@@ -212,8 +235,8 @@ __global__ void __launch_bounds__(256) force_lanes_kernel(const State s, Index n
   Vec3d F, T;
   lanes_forces<Friction, L>(s, n, i, lane, F, T);
   if (i < n && lane == 0) {
-    s.frc[i] = Real4{F.x, F.y, F.z, 0.0};
-    if constexpr (Friction) s.trq[i] = Real4{T.x, T.y, T.z, 0.0};
+    Real4 f, tq;
+    store_forces<Friction>(s, i, F, T, f, tq);
   }
 }
 
@@ -229,15 +252,9 @@ __global__ void __launch_bounds__(256) force_lanes_kick_drift_kernel(const Force
   Vec3d F, T;
   lanes_forces<Friction, L>(s, n, i, lane, F, T);
   if (i < n && lane == 0) {
-    const Real4 f{F.x, F.y, F.z, 0.0};
-    Real4 tq{0, 0, 0, 0};
-    s.frc[i] = f;
-    if constexpr (Friction) {
-      tq = Real4{T.x, T.y, T.z, 0.0};
-      s.trq[i] = tq;
-    }
-    const Real4 p = s.pos[i];
-    fk.k.step(i, p, f, tq, fk.pos_out, fk.vpr_out, fk.wpr_out);
+    Real4 f, tq;
+    store_forces<Friction>(s, i, F, T, f, tq);
+    fk.k.step(i, s.pos[i], f, tq, fk.pos_out, fk.vpr_out, fk.wpr_out);
   }
 }
 #endif
@@ -249,14 +266,12 @@ struct PairInit {
   State s;
   int* ccount;
   LBDEM_HD void operator()(Index i) const {
-    const Real4 p = s.pos[i];
-    const Real4 v = s.vpr[i];
-    Real4 w{0, 0, 0, 0};
-    if constexpr (Friction) w = s.wpr[i];
+    const ParticleLoad l = load_particle<Friction>(s, i);
+    const Real4& p = l.p;
     Vec3d F, T;
-    particle_forces<Friction>(s, i, p, v, w, F, T);
-    s.frc[i] = Real4{F.x, F.y, F.z, 0.0};
-    if constexpr (Friction) s.trq[i] = Real4{T.x, T.y, T.z, 0.0};
+    particle_forces<Friction>(s, i, l.p, l.v, l.w, F, T);
+    Real4 f, t;
+    store_forces<Friction>(s, i, F, T, f, t);
     int c = 0;
     const int cnt = s.ncount[i];
     for (int q = 0; q < cnt; ++q) {

@@ -68,8 +68,9 @@ void NeighbourList::set_geometry(const Box& box, const std::vector<double>& r, d
   }
 }
 
-void NeighbourList::allocate(Backend be, Index np, bool with_history, bool with_pairs, int capacity,
+void NeighbourList::allocate(const Exec& ex, Index np, bool with_history, bool with_pairs, int capacity,
                              bool ghost_cells) {
+  const Backend be = ex.backend();
   n = np;
   history = with_history;
   pair_path = with_pairs;
@@ -85,15 +86,15 @@ void NeighbourList::allocate(Backend be, Index np, bool with_history, bool with_
   perm = Buffer<int>(be, n);
   cell_start = Buffer<int>(be, total);
   cell_end = Buffer<int>(be, total);
-  cell_start.fill_zero();
-  cell_end.fill_zero();
+  cell_start.fill_zero(ex);
+  cell_end.fill_zero(ex);
   ncount = Buffer<int>(be, n);
   if (history) ncount_prev = Buffer<int>(be, n);
   ccount = Buffer<int>(be, n + 1);
-  ccount.fill_zero();
+  ccount.fill_zero(ex);
   coffs = Buffer<int>(be, n + 1);
   flags = Buffer<int>(be, 2);
-  flags.fill_zero();
+  flags.fill_zero(ex);
 }
 
 void NeighbourList::resize(Backend be, Index np) {
@@ -171,8 +172,8 @@ void NeighbourList::rebuild(const Exec& ex, ParticleStore& store, const State& p
     // bits a cell index can use.
     // With ghosts the record count changes from build to build: clear all.
     if (ghost_off > 0) {
-      cell_start.fill_zero();
-      cell_end.fill_zero();
+      cell_start.fill_zero(ex);
+      cell_end.fill_zero(ex);
     } else if (have_cells) {
       launch(ex, n, ClearCells{key_sorted.data(), cell_start.data(), cell_end.data()});
     }
@@ -210,12 +211,14 @@ void NeighbourList::rebuild(const Exec& ex, ParticleStore& store, const State& p
     }
     // The one blocking read of a build: a list that overflowed must be
     // rebuilt larger before any force uses it. The flags stay zero otherwise.
+    // (The copy is on the legacy queue: ex's build is waited for first.)
     int f[2];
+    ex.synchronize();
     flags.copy_to_host(f, 2);
     if (!f[0]) break;
     if (attempt > 4) throw ResourceError("DEM: neighbour list kept overflowing");
     cap = ((static_cast<int>(f[1] * 1.25) + 7) / 8) * 8;
-    flags.fill_zero();
+    flags.fill_zero(ex);
   }
   if (gid_order) {
     State s = physics;

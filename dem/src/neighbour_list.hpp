@@ -32,8 +32,9 @@ class NeighbourList {
   // compacted pair array of the pair path. `capacity`: list slots per particle.
   // `ghost_cells`: a decomposed run's store holds ghosts behind the owned
   // records; they are sorted into a second set of cells (keys offset by the
-  // cell count) so that the cell sort keeps the owned records first.
-  void allocate(Backend be, Index n, bool history, bool pair_path, int capacity, bool ghost_cells = false);
+  // cell count) so that the cell sort keeps the owned records first. The
+  // counters are zeroed on ex's queue, before the builds that use them.
+  void allocate(const Exec& ex, Index n, bool history, bool pair_path, int capacity, bool ghost_cells = false);
   // A decomposed run: the arrays for a store of n records (owned and ghosts),
   // grown where needed before a build.
   void resize(Backend be, Index n);

@@ -48,7 +48,8 @@ void upload_vector(Buffer<T>& b, Backend be, const std::vector<T>& v, Index n) {
 
 }  // namespace
 
-void ParticleStore::upload(Backend be, const HostParticles& hp, const Box& box, const StoreLayout& lay) {
+void ParticleStore::upload(const Exec& ex, const HostParticles& hp, const Box& box, const StoreLayout& lay) {
+  const Backend be = ex.backend();
   layout = lay;
   n = n_owned = hp.size();
   std::vector<Real4> p(n), v(n), w(n), zero(n, Real4{0, 0, 0, 0});
@@ -82,7 +83,7 @@ void ParticleStore::upload(Backend be, const HostParticles& hp, const Box& box, 
   omg2 = Buffer<Real4>(be, n);
   frc2 = Buffer<Real4>(be, n);
   trq2 = Buffer<Real4>(be, n);
-  for (auto* b : {&pos2, &vel2, &omg2, &frc2, &trq2}) b->fill_zero();
+  for (auto* b : {&pos2, &vel2, &omg2, &frc2, &trq2}) b->fill_zero(ex);
   upload_vector(frco, be, zero, n);
   upload_vector(trqo, be, zero, n);
   upload_vector(vpr, be, v, n);
@@ -104,7 +105,7 @@ void ParticleStore::upload(Backend be, const HostParticles& hp, const Box& box, 
   if (layout.wall_histories > 0) {
     const Index nw = n * layout.wall_histories;
     whist = Buffer<Vec3d>(be, nw);
-    whist.fill_zero();
+    whist.fill_zero(ex);
     whist2 = Buffer<Vec3d>(be, nw);
   }
 }

@@ -42,7 +42,8 @@ class ParticleStore {
   // Copies the particles to the backend: positions wrapped into the box,
   // 1/m and 1/I in the w components. Throws ConfigError for a non-positive
   // mass, or ids missing or not unique.
-  void upload(Backend be, const HostParticles& hp, const Box& box, const StoreLayout& layout);
+  // The arrays nothing copies into are zeroed on ex's queue.
+  void upload(const Exec& ex, const HostParticles& hp, const Box& box, const StoreLayout& layout);
   // A decomposed run's records (owned first, then ghosts): the arrays grow to
   // hold them (with head room, never shrinking), the contents are replaced.
   void load(Backend be, const HostState& h);

@@ -32,7 +32,7 @@ void RebuildScheduler::init(const Exec& e, bool ahead, double skin_m, double dt_
   dt = dt_s;
   safety = safety_factor;
   status = Buffer<StatusRecord>(ex.backend(), kRing + 1);
-  status.fill_zero();
+  status.fill_zero(ex);
   if (ex.on_device()) {
 #if defined(LBDEM_HAVE_CUDA)
     LBDEM_CUDA_CHECK(cudaMallocHost(reinterpret_cast<void**>(&mirror), sizeof(StatusRecord) * kRing));
@@ -155,7 +155,7 @@ void RebuildScheduler::take_report(long t, long due) {
 
 void RebuildScheduler::zero_slot(long q) {
   ex.synchronize();
-  backend_memset(ex.backend(), slot(q), 0, sizeof(StatusRecord));
+  backend_memset_on(ex, slot(q), 0, sizeof(StatusRecord));
 }
 
 void RebuildScheduler::initial_report(const State& st, Index count, long step) {
@@ -189,7 +189,7 @@ double RebuildScheduler::predicted_displacement(long t) const {
 void RebuildScheduler::reset() {
   ex.synchronize();
   npending = 0;
-  status.fill_zero();
+  status.fill_zero(ex);
   known = false;
   stale_error.clear();
 }

@@ -122,10 +122,10 @@ void issue_fused_step(const Exec& ex, const State& s, StatusRecord* rec, StatusR
 // kick-drift (dem/README.md, "Fused sub-steps"): the particle path on one rank
 // (a decomposed step refreshes the ghosts between the kick-drift and the
 // forces; the pair path's forces are several kernels), where the
-// environment variable LBDEM_DEM_FUSED_SUBSTEPS is 1. Off by default: on the
-// host the particles are the same bit for bit either way, but on the GPU the
-// frictional path's state differs from the two kernels' (frictionless is the
-// same), and until that is explained a default must not change the answer.
+// environment variable LBDEM_DEM_FUSED_SUBSTEPS is 1. Off by default. The
+// particles are the same bit for bit either way: on the GPU too, since the
+// kernels are compiled without contraction into fused multiply-adds
+// (dem/CMakeLists.txt; with it the frictional state had differed).
 bool fused_apply(const DemSystem::Impl& m) {
   const char* env = std::getenv("LBDEM_DEM_FUSED_SUBSTEPS");
   bool on = false;
@@ -174,7 +174,6 @@ DemSystem::DemSystem(Exec ex, DemParams params, const HostParticles& hp, const D
                       " is not 1, 2, 4, 8 or 16 (threads per particle of the force kernel)");
   const DemParams& p = m.p;
   const Material& mat = p.material;
-  const Backend be = ex.backend();
   validate(p, hp);
   const bool decomposed = domain.decomposed();
   if (decomposed && p.path == ForcePath::Pair)
@@ -195,12 +194,12 @@ DemSystem::DemSystem(Exec ex, DemParams params, const HostParticles& hp, const D
     m.comm = domain.comm;
     m.domain = std::make_unique<DomainExchange>();
     m.domain->init(domain, m.box, m.lists.cutoff, ex, p.external_forcing);
-    m.store.upload(be, m.domain->select_owned(hp), m.box, layout);
+    m.store.upload(ex, m.domain->select_owned(hp), m.box, layout);
   } else {
-    m.store.upload(be, hp, m.box, layout);
+    m.store.upload(ex, hp, m.box, layout);
   }
   // Neighbour list.
-  m.lists.allocate(be, m.store.size(), p.friction, p.path == ForcePath::Pair,
+  m.lists.allocate(ex, m.store.size(), p.friction, p.path == ForcePath::Pair,
                    p.neighbour_capacity > 0 ? p.neighbour_capacity : 32, decomposed);
   m.lists.gid_order = p.contact_order == ContactOrder::GlobalId;
   // Rebuild scheduler.

@@ -32,6 +32,7 @@ DemStats DemSystem::stats() const {
   const Index n = m.lists.rows;  // the owned particles' rows
   if (n > 0) {
     std::vector<int> c(static_cast<std::size_t>(n));  // the rows only: the buffer may hold more, never written
+    m.ex.synchronize();  // the copy is on the legacy queue
     m.lists.ncount.copy_to_host(c.data(), n);
     double sum = 0;
     for (Index i = 0; i < n; ++i) sum += c[i];
@@ -109,6 +110,7 @@ std::vector<std::pair<std::int64_t, std::int64_t>> DemSystem::neighbour_pairs() 
   std::vector<std::pair<std::int64_t, std::int64_t>> out;
   const Index n = m.store.size();
   if (n == 0) return out;
+  m.ex.synchronize();  // the copies are on the legacy queue
   std::vector<int> nbr = m.lists.nbr.to_vector(), cnt = m.lists.ncount.to_vector();
   std::vector<std::int64_t> gid = m.store.gid.to_vector();
   for (Index i = 0; i < m.lists.rows; ++i)
@@ -125,6 +127,7 @@ std::vector<std::pair<std::int64_t, std::int64_t>> DemSystem::contact_pairs() co
   std::vector<std::pair<std::int64_t, std::int64_t>> out;
   const Index n = m.store.size();
   if (n == 0) return out;
+  m.ex.synchronize();  // the copies are on the legacy queue
   std::vector<int> nbr = m.lists.nbr.to_vector(), cnt = m.lists.ncount.to_vector();
   std::vector<std::int64_t> gid = m.store.gid.to_vector();
   std::vector<Real4> pos = m.store.pos.to_vector();

@@ -10,13 +10,18 @@
 // rebuilds, reports read), over runs of coupled-step-long advance() calls
 // with many list rebuilds, with and without friction. The host instances
 // run everywhere; the CUDA instances (every lane count of the force kernel,
-// with and without sub-step graphs) where a GPU is usable.
+// with and without sub-step graphs) where a GPU is usable. The device kernels
+// round every operation as written (no contraction into fused multiply-adds,
+// dem/CMakeLists.txt), so there too the fused and separate kernels must agree
+// bit for bit, with friction as without.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <map>
 #include <string>
 #include <tuple>
 #include <vector>
@@ -191,11 +196,6 @@ class DemFusedSubsteps : public ::testing::TestWithParam<std::tuple<Backend, boo
 TEST_P(DemFusedSubsteps, SameStateBitwiseAsTwoKernelsPerSubstep) {
   const auto [backend, friction] = GetParam();
   if (backend == Backend::Cuda && !test::gpu_available()) GTEST_SKIP() << cuda_unavailable_reason();
-  // On the GPU the frictional fused state differed from the two kernels' (one
-  // H200, ff170c8; frictionless the same bits): why is not known yet, which
-  // is why fusing is off by default. Skipped there, not hidden: the message says it.
-  if (backend == Backend::Cuda && friction)
-    GTEST_SKIP() << "fused frictional sub-steps differ from two kernels on the GPU (unexplained; off by default)";
   const Bed bed(friction);
   const int calls = 8;
   const long steps = 101;
@@ -242,11 +242,6 @@ TEST_P(DemFusedSubsteps, SameStateBitwiseAsTwoKernelsPerSubstep) {
 TEST_P(DemFusedSubsteps, ShortCallsSameStateBitwise) {
   const auto [backend, friction] = GetParam();
   if (backend == Backend::Cuda && !test::gpu_available()) GTEST_SKIP() << cuda_unavailable_reason();
-  // On the GPU the frictional fused state differed from the two kernels' (one
-  // H200, ff170c8; frictionless the same bits): why is not known yet, which
-  // is why fusing is off by default. Skipped there, not hidden: the message says it.
-  if (backend == Backend::Cuda && friction)
-    GTEST_SKIP() << "fused frictional sub-steps differ from two kernels on the GPU (unexplained; off by default)";
   const Bed bed(friction);
   for (long steps : {1L, 2L, 3L, 17L}) {
     const int calls = static_cast<int>(300 / steps) + 1;
@@ -265,11 +260,6 @@ TEST_P(DemFusedSubsteps, ShortCallsSameStateBitwise) {
 TEST_P(DemFusedSubsteps, LargeBedSameStateBitwise) {
   const auto [backend, friction] = GetParam();
   if (backend == Backend::Cuda && !test::gpu_available()) GTEST_SKIP() << cuda_unavailable_reason();
-  // On the GPU the frictional fused state differed from the two kernels' (one
-  // H200, ff170c8; frictionless the same bits): why is not known yet, which
-  // is why fusing is off by default. Skipped there, not hidden: the message says it.
-  if (backend == Backend::Cuda && friction)
-    GTEST_SKIP() << "fused frictional sub-steps differ from two kernels on the GPU (unexplained; off by default)";
   const Bed bed(friction, 2);
   ASSERT_GT(bed.h.size(), 4096);
   const BedRun ref = run(backend, bed, bed.p, "0", 2, 101);
@@ -277,6 +267,113 @@ TEST_P(DemFusedSubsteps, LargeBedSameStateBitwise) {
   expect_same(fused, ref, "large bed");
   EXPECT_EQ(fused.stats.fused_steps, 2 * 100);
   EXPECT_GE(ref.stats.rebuilds, 1);
+}
+
+namespace {
+
+// The state after one advance() call of k sub-steps (sub-steps 2..k fused
+// with LBDEM_DEM_FUSED_SUBSTEPS=1), its particles and its checkpoint bytes.
+struct CallState {
+  std::vector<unsigned char> bytes;
+  HostParticles h;
+  DemStats stats;
+};
+CallState one_call(Backend b, const Bed& bed, const DemParams& p, const char* fused, long k) {
+  const FusedEnv env(fused);
+  DemSystem s(Exec(b), p, bed.h);
+  write_coupling(s, 0);
+  s.advance(k);
+  CallState c;
+  Bytes out;
+  s.save_state(out);
+  c.bytes = std::move(out.b);
+  c.h = s.download();
+  c.stats = s.stats();
+  return c;
+}
+
+// Largest differences of a's particles from b's (matched by id): position
+// over the diameter, velocity over b's largest speed, angular velocity over
+// b's largest.
+struct Diff {
+  double x = 0, v = 0, w = 0;
+  double max() const { return std::max(x, std::max(v, w)); }
+};
+Diff largest_difference(const HostParticles& a, const HostParticles& b) {
+  std::map<std::int64_t, std::size_t> at;
+  for (std::size_t k = 0; k < b.id.size(); ++k) at[b.id[k]] = k;
+  double vmax = 0, wmax = 0;
+  for (std::size_t k = 0; k < b.id.size(); ++k) {
+    vmax = std::max(vmax, norm(b.v[k]));
+    wmax = std::max(wmax, norm(b.w[k]));
+  }
+  Diff d;
+  for (std::size_t k = 0; k < a.id.size(); ++k) {
+    const std::size_t j = at.at(a.id[k]);
+    d.x = std::max(d.x, norm(a.x[k] - b.x[j]) / (2 * b.r[j]));
+    if (vmax > 0) d.v = std::max(d.v, norm(a.v[k] - b.v[j]) / vmax);
+    if (wmax > 0) d.w = std::max(d.w, norm(a.w[k] - b.w[j]) / wmax);
+  }
+  return d;
+}
+
+}  // namespace
+
+// Where the fused sub-steps first leave the two kernels' bits, and by how
+// much: one advance() call of k sub-steps each way for k = 2..24 (every
+// sub-step) and then every 8th up to 120, with a skin of 1 % of the diameter
+// so that the list is rebuilt (particles reordered, histories handed over)
+// every few sub-steps from the start. Prints the first k whose state differs
+// (or none) and the largest relative difference of positions, velocities and
+// angular velocities. The states must be the same bits (the kernels round
+// every operation as written); should they not be, the second assertion says
+// which kind of difference it is: up to k = 24 (less than a collision time,
+// dt = t_c / 50, before contacts amplify differences chaotically) a rounding
+// difference of fp64 (unit roundoff 1.1e-16, a few hundred operations per
+// sub-step) stays many orders below 1e-12 relative, while an operation on the
+// wrong half step or twin array (a torque, a predictor, a history) is of the
+// order of dt times a rate, 1e-4 or more.
+TEST_P(DemFusedSubsteps, FirstDifferingSubstep) {
+  const auto [backend, friction] = GetParam();
+  if (backend == Backend::Cuda && !test::gpu_available()) GTEST_SKIP() << cuda_unavailable_reason();
+  const Bed bed(friction);
+  const std::vector<int> lanes = backend == Backend::Cuda ? std::vector<int>{1, 4} : std::vector<int>{1};
+  std::vector<long> ks;
+  for (long k = 2; k <= 24; ++k) ks.push_back(k);
+  for (long k = 32; k <= 120; k += 8) ks.push_back(k);
+  for (int l : lanes) {
+    DemParams p = bed.p;
+    p.skin = 0.01 * 1.2e-3;
+    p.force_lanes = l;
+    long first = 0;
+    Diff early, all;
+    long rebuilds = 0;
+    for (long k : ks) {
+      const CallState ref = one_call(backend, bed, p, "0", k);
+      const CallState fused = one_call(backend, bed, p, "1", k);
+      ASSERT_EQ(fused.stats.fused_steps, k - 1);
+      rebuilds = ref.stats.rebuilds;
+      const Diff d = largest_difference(fused.h, ref.h);
+      if (k <= 24) {
+        early.x = std::max(early.x, d.x);
+        early.v = std::max(early.v, d.v);
+        early.w = std::max(early.w, d.w);
+      }
+      all.x = std::max(all.x, d.x);
+      all.v = std::max(all.v, d.v);
+      all.w = std::max(all.w, d.w);
+      if (first == 0 && fused.bytes != ref.bytes) first = k;
+    }
+    const std::string what = std::string(to_string(backend)) + (friction ? ", friction" : ", no friction") +
+                             ", lanes " + std::to_string(l);
+    std::printf("%s: first sub-step whose fused state differs: %s; largest relative difference up to 24 sub-steps: "
+                "x %.3g, v %.3g, w %.3g; up to 120: x %.3g, v %.3g, w %.3g (%ld rebuilds in 120)\n",
+                what.c_str(), first ? std::to_string(first).c_str() : "none", early.x, early.v, early.w, all.x, all.v,
+                all.w, rebuilds);
+    EXPECT_GE(rebuilds, 10) << what;
+    EXPECT_EQ(first, 0) << what << ": the fused state first differs after " << first << " sub-steps";
+    EXPECT_LE(early.max(), 1e-12) << what << ": more than a rounding difference (an ordering error)";
+  }
 }
 
 // The pair path (several kernels per force evaluation) is never fused, and
