@@ -146,9 +146,9 @@ Result run(const Options& o, Backend b, int threads) {
 
   if (b == Backend::Host) omp_set_num_threads(threads);
   Exec ex(b);
-  // LBDEM_OVERLAP_LAUNCHES=1: overlapped kernel launches (core/exec.hpp), as the bed scene.
+  // Overlapped kernel launches (core/exec.hpp) unless LBDEM_OVERLAP_LAUNCHES=0, as the bed scene.
   const char* overlap = std::getenv("LBDEM_OVERLAP_LAUNCHES");
-  ex.set_overlap_launches(overlap && std::strcmp(overlap, "1") == 0);
+  ex.set_overlap_launches(!(overlap && std::strcmp(overlap, "0") == 0));
   dem::DemSystem dem(ex, dp, init);
   // Lagged forces (cfd/lagged_coupling.hpp): the gas on a second queue.
   const Lanes lanes;
@@ -312,7 +312,7 @@ int main(int argc, char** argv) {
        << o.deposition << ", pressure solve " << o.pressure << ", DEM sub-step graphs " << (o.dem_graphs ? "on" : "off")
        << ", forces " << o.coupling << "\",\n  \"pressure_solver\": \"" << o.pressure
        << "\",\n  \"force_coupling\": \"" << o.coupling << "\",\n  \"overlap_launches\": "
-       << (std::getenv("LBDEM_OVERLAP_LAUNCHES") && std::strcmp(std::getenv("LBDEM_OVERLAP_LAUNCHES"), "1") == 0 ? "true" : "false")
+       << (std::getenv("LBDEM_OVERLAP_LAUNCHES") && std::strcmp(std::getenv("LBDEM_OVERLAP_LAUNCHES"), "0") == 0 ? "false" : "true")
        << ",\n  \"dem_substep_graphs\": "
        << (o.dem_graphs ? "true" : "false") << ",\n  \"runs\": [\n";
     md << "# CFD-DEM coupled step, Yu et al. 2024 Sec. 5.2 system\n\n"

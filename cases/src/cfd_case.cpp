@@ -303,10 +303,11 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
       opt.restart, comm);
   halo::prepare_output_on_writer(ck, true, comm, opt.overwrite, c.outdir);
   Exec ex(backend);
-  // LBDEM_OVERLAP_LAUNCHES=1: the gas's and the DEM's small kernels launched
-  // overlapped (core/exec.hpp; the same results).
+  // The gas's and the DEM's small kernels launched overlapped (core/exec.hpp;
+  // the same results bit for bit); LBDEM_OVERLAP_LAUNCHES=0 launches them one
+  // after the other.
   const char* overlap = std::getenv("LBDEM_OVERLAP_LAUNCHES");
-  ex.set_overlap_launches(overlap && std::strcmp(overlap, "1") == 0);
+  ex.set_overlap_launches(!(overlap && std::strcmp(overlap, "0") == 0));
   dem::DemSystem dem(ex, c.dem, c.particles);
   // Lagged forces: the gas on a second queue beside the DEM's (one queue on the host).
   // LBDEM_LAGGED_ONE_QUEUE=1 keeps the gas on the DEM's queue (the same

@@ -122,19 +122,19 @@ void issue_fused_step(const Exec& ex, const State& s, StatusRecord* rec, StatusR
 // kick-drift (dem/README.md, "Fused sub-steps"): the particle path on one rank
 // (a decomposed step refreshes the ghosts between the kick-drift and the
 // forces; the pair path's forces are several kernels), where the
-// environment variable LBDEM_DEM_FUSED_SUBSTEPS is 1. Off by default. The
-// particles are the same bit for bit either way: on the GPU too, since the
+// environment variable LBDEM_DEM_FUSED_SUBSTEPS is not 0. On by default: the
+// particles are the same bit for bit either way, on the GPU too, since the
 // kernels are compiled without contraction into fused multiply-adds
 // (dem/CMakeLists.txt; with it the frictional state had differed).
 bool fused_apply(const DemSystem::Impl& m) {
   const char* env = std::getenv("LBDEM_DEM_FUSED_SUBSTEPS");
-  bool on = false;
+  bool on = true;
   if (env) {
-    if (std::strcmp(env, "1") == 0) on = true;
-    else if (std::strcmp(env, "0") != 0)
+    if (std::strcmp(env, "0") == 0) on = false;
+    else if (std::strcmp(env, "1") != 0)
       throw ConfigError(std::string("LBDEM_DEM_FUSED_SUBSTEPS: '") + env +
-                        "' is not 0 or 1 (1: fuse each DEM sub-step's forces with the next kick-drift; "
-                        "0: two kernels per sub-step, the default)");
+                        "' is not 0 or 1 (1: fuse each DEM sub-step's forces with the next kick-drift, the default; "
+                        "0: two kernels per sub-step)");
   }
   return on && !m.decomposed() && m.p.path == ForcePath::Particle;
 }
