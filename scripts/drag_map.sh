@@ -6,7 +6,7 @@
 # Sangani & Acrivos (1982); and the dense array, chi 0.8685 (phi 0.343, spheres nearly touching), against
 # Zick & Homsy (1982). One JSON, one heat-map PNG per weighting.
 #
-#   scripts/drag_map.sh BIN OUTDIR PART...     PART: host | host-hi | gpu-a | gpu-b | gpu-c | gpu-d | gpu-e | gpu-lam | merge | plot
+#   scripts/drag_map.sh BIN OUTDIR PART...     PART: host | host-hi | host-2d | gpu-a | gpu-b | gpu-c | gpu-d | gpu-e | gpu-lam | merge | plot
 #
 #   BIN     lbdem_bench_psm (host build for `host`, the CUDA build for the gpu parts)
 #   OUTDIR  receives drag_map_<part>_<k>.{json,md,log}; each JSON is rewritten after every run, so a
@@ -20,6 +20,11 @@
 #         exact fp64. About 20 min of one CPU core (the dense array: 1 min).
 # host-hi d/l 4, 6, 8, 10 x tau {1.25, 1.5} (the shipped suspensions run at tau 1.24): ntw exact fp64,
 #         chi 0.5. About 10 min of one CPU core.
+# host-2d fixed disks in square arrays (D2Q9; the 2D map, bench/results/drag_map_2d_host.md): d/l 8, 10, 16,
+#         20 x tau {0.52, 0.6, 0.8, 1.0, 1.25, 1.5} at chi 0.3 and d/l 8 ... 30 at chi 0.5, the disk centre on a
+#         cell corner and on a cell centre: ntw exact fp64, against Sangani & Acrivos's square arrays of
+#         cylinders; and the shipped 2D suspensions' point (d/l 10, tau 0.86928) exact and table, fp64 and
+#         fp32. Two sweeps side by side, one thread each (OMP_NUM_THREADS=1): about 25 min on 2 CPU cores.
 # gpu-a   d/l 16, 20, 30 x every tau: ntw exact fp64, nt exact fp64; ntw table fp64 and exact fp32 at
 #         d/l 16 and 20 (fp32 is not a validation precision past d/l 20). About 7 min on an H200.
 # gpu-b   d/l 50 x tau 0.52 ... 1.0: ntw exact fp64. About 4 min on an H200.
@@ -40,7 +45,7 @@
 #   scripts/drag_map.sh build-cuda/bench/imb/lbdem_bench_psm $OUT gpu-d
 # then, here: copy the JSONs beside the host ones and run `merge plot`.
 set -uo pipefail
-if [ $# -lt 3 ]; then sed -n 2,38p "$0"; exit 2; fi
+if [ $# -lt 3 ]; then sed -n 2,46p "$0"; exit 2; fi
 bin="$1"
 out="$2"
 shift 2
@@ -89,6 +94,16 @@ for p in "${parts[@]}"; do
       limit=${DRAG_MAP_LIMIT:-3300}
       run drag_map_host_hi host 3300 --d 4,6,8,10 --tau 1.5,1.25 --weights ntw --methods exact --precisions fp64
       ;;
+    host-2d)
+      limit=${DRAG_MAP_LIMIT:-3300}
+      export OMP_NUM_THREADS=1
+      two=(--dim 2 --offset 0,0.5 --tau 0.52,0.6,0.8,1.0,1.25,1.5 --weights ntw --methods exact --precisions fp64)
+      run drag_map_2d_chi05 host 3300 "${two[@]}" --chi 0.5 --d 8,10,16,20,30 &
+      run drag_map_2d_chi03 host 3300 "${two[@]}" --chi 0.3 --d 8,10,16,20
+      wait
+      run drag_map_2d_suspension host 300 --dim 2 --chi 0.3 --offset 0,0.5 --d 10 --tau 0.86928 --weights ntw \
+        --methods exact,table --precisions fp64,fp32
+      ;;
     gpu-d)
       run drag_map_gpu_d1 cuda 200 --d 16,20,30 --tau 1.5,1.25,1.0,0.8,0.6 --weights ntw --methods exact --precisions fp64
       run drag_map_gpu_d2 cuda 300 --d 50 --tau 1.5,1.25,1.0,0.8 --weights ntw --methods exact --precisions fp64
@@ -131,6 +146,6 @@ PY
     plot)
       /usr/bin/python3 "$here/scripts/plot_drag_map.py" "$out/drag_map.json" "$out" || echo "plot: failed (python3-matplotlib missing?)"
       ;;
-    *) echo "drag_map: unknown part $p (host, host-hi, gpu-a, gpu-b, gpu-c, gpu-d, gpu-e, gpu-lam, merge, plot)"; exit 2 ;;
+    *) echo "drag_map: unknown part $p (host, host-hi, host-2d, gpu-a, gpu-b, gpu-c, gpu-d, gpu-e, gpu-lam, merge, plot)"; exit 2 ;;
   esac
 done

@@ -163,6 +163,7 @@ int sweep(int argc, char** argv) {
                       jnum(imb::kZickHomsyChiTolerance) + " of a dense point tabulated by Zick & Homsy (1982): " +
                       points);
   }
+  if (dim == 2) reference = "Sangani & Acrivos (1982), square arrays of cylinders";  // run_fixed_sphere's 2D reference
   const Backend b = resolve_backend(backend);
   std::vector<imb::FractionTable> tables;
   tables.reserve(1);

@@ -118,7 +118,7 @@ int run_fixed_sphere(const Config& root, const RunOptions& opt) {
     for (const auto& w : lbm::storage_warnings(fl, s.re_p * nu / s.diameter, s.diameter / s.chi, double(s.max_steps)))
       spdlog::warn("{}: {}", root.source(), w);
   }
-  if (halo::Comm::world().root())  // 2D: "no estimate (2D ...)"
+  if (halo::Comm::world().root())  // 2D: the 2D map (fixed disks)
     imb::report_expected_drag_error(imb::drag_query(s.diameter, s.tau, s.collision, s.magic, po, s.precision, s.dim),
                                     max_drag_error, opt.validate_only, opt.quiet);
   const auto psm = imb::psm_settings(root, imb::drag_query(s.diameter, s.tau, s.collision, s.magic, po, s.precision, s.dim),

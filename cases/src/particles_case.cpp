@@ -405,7 +405,7 @@ int run_particles(const Config& root, const RunOptions& opt) {
     domain = imb::coupled_domain(root.source(), c.setup, c.dim, c.dem, c.particles.r, c.parallel, comm, c.coupling.keys);
     c.dem.contact_order = dem::ContactOrder::GlobalId;
   }
-  if (writer)  // 2D: "no estimate (2D ...)"
+  if (writer)  // 2D: the 2D map (fixed disks)
     imb::report_expected_drag_error(imb::drag_query(2 * c.particles.r[0], c.setup.tau, c.setup.collision, c.setup.magic,
                                                     c.coupling.psm, c.setup.precision, c.dim),
                                     c.max_drag_error, opt.validate_only, opt.quiet);

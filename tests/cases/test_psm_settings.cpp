@@ -125,19 +125,43 @@ TEST_F(PsmSettingsCli, EvenRelaxationIsRecordedAndRefusedWithSuperposition) {
   EXPECT_NE(r.out.find("even_relaxation"), std::string::npos) << r.out;
 }
 
-// 2D scenes (disks) are outside the drag map: `check` says so instead of
-// printing nothing (the shipped 2D suspension and a 2D fixed-disk array).
-TEST_F(PsmSettingsCli, CheckSaysNoEstimateIn2D) {
-  auto r = run(std::string("check ") + LBDEM_SOURCE_DIR + "/cases/suspension/suspension_2d_small.yaml");
+// 2D scenes (disks) get the 2D map's estimate (fixed disks in square arrays,
+// imb/drag_error.hpp): the shipped 2D suspensions (d/l 10, tau 0.86928, table
+// fractions, fp32) and the shipped fixed-disk array (d/l 20, tau 0.52), told
+// without a warning (no published bar in 2D) unless psm.max_expected_drag_error
+// is set; outside the map "no estimate" says so.
+TEST_F(PsmSettingsCli, CheckEstimatesIn2D) {
+  for (const char* c : {"/cases/suspension/suspension_2d_small.yaml", "/cases/fixed_disk.yaml"}) {
+    const auto r = run(std::string("check ") + LBDEM_SOURCE_DIR + c);
+    EXPECT_EQ(r.code, 0) << c << "\n" << r.out;
+    EXPECT_NE(r.out.find("expected drag error at d/l = "), std::string::npos) << c << "\n" << r.out;
+    EXPECT_NE(r.out.find("% (fixed disk in a square array, chi 0.3"), std::string::npos) << c << "\n" << r.out;
+    EXPECT_NE(r.out.find("no published bar in 2D"), std::string::npos) << c << "\n" << r.out;
+    EXPECT_EQ(r.out.find("no estimate"), std::string::npos) << c << "\n" << r.out;
+    EXPECT_EQ(r.out.find("above psm.max_expected_drag_error"), std::string::npos) << c << "\n" << r.out;
+  }
+  auto disk = [](double d, const std::string& extra) {
+    return "scene: fixed_sphere\nunits: lattice\ngeometry: {dim: 2, diameter: " + std::to_string(d) +
+           ", chi: 0.3}\nfluid: {tau: 0.8}\nsteady: {tolerance: 1.0e-14, max_steps: 20}\n"
+           "output: {directory: unused}\n" + extra;
+  };
+  auto r = run("check " + write_case(disk(40, ""), "big.yaml"));
   EXPECT_EQ(r.code, 0) << r.out;
-  EXPECT_NE(r.out.find("expected drag error"), std::string::npos) << r.out;
-  EXPECT_NE(r.out.find("no estimate (2D"), std::string::npos) << r.out;
-  r = run("check " + write_case("scene: fixed_sphere\nunits: lattice\ngeometry: {dim: 2, diameter: 8, chi: 0.5}\n"
-                                "fluid: {tau: 0.8}\nsteady: {tolerance: 1.0e-14, max_steps: 20}\n"
-                                "output: {directory: unused}\n",
-                                "disk.yaml"));
+  EXPECT_NE(r.out.find("no estimate (outside the 2D map (d/l 8-20"), std::string::npos) << r.out;
+  // A limit of the user's own applies in 2D: d/l 10, tau 0.8 expects +1.33 % (corner) > 0.5 %.
+  r = run("check " + write_case(disk(10, "psm: {max_expected_drag_error: 0.005}\n"), "limit.yaml"));
   EXPECT_EQ(r.code, 0) << r.out;
-  EXPECT_NE(r.out.find("no estimate (2D"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("above psm.max_expected_drag_error = 0.50%"), std::string::npos) << r.out;
+}
+
+// The full-size 2D suspension (the first paper's box), checked against a GPU
+// node's memory (this machine may hold less): the same estimate as the small box.
+TEST_F(PsmSettingsCli, CheckEstimatesForTheFullSize2DSuspension) {
+  const auto r = run(std::string("check --memory 80GiB ") + LBDEM_SOURCE_DIR + "/cases/suspension/suspension_2d.yaml");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("expected drag error at d/l = 10, tau = 0.86928: +"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("% (fixed disk in a square array, chi 0.3"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("no estimate"), std::string::npos) << r.out;
 }
 
 // The particle scene: the warning at check and the record in summary.json,

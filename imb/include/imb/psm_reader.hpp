@@ -20,7 +20,8 @@ namespace lbdem::imb {
 // fluid.magic: auto (the default) marks Lambda for the resolution rule
 // (psm_magic_auto, set once the particle diameter is known).
 constexpr double kMagicAuto = -1.0;
-// psm.max_expected_drag_error when not given: the half Table 1 bar at the scene's d/l.
+// psm.max_expected_drag_error when not given: the half Table 1 bar at the scene's d/l
+// (3D; in 2D, where no bar is published, no limit: the estimate is told, not warned about).
 constexpr double kMaxDragErrorBar = -1.0;
 
 // fluid.collision (default `def`) and fluid.magic (Lambda, or kMagicAuto).
@@ -46,10 +47,10 @@ void read_psm(const Config& ps, PsmOptions& o, int& slots, double& max_drag_erro
 // The expected drag error of the scene as set up (imb/drag_error.hpp), told at
 // `lbdem check` (validate_only) and at the start of a run (unless quiet); a
 // warning when it is above psm.max_expected_drag_error (default: half the
-// first paper's Table 1 error at this d/l).
+// first paper's Table 1 error at this d/l in 3D; none in 2D).
 void report_expected_drag_error(const DragErrorQuery& q, double max_drag_error, bool validate_only, bool quiet);
 
-// The drag query of a scene of dimension dim (2: disks, no estimate).
+// The drag query of a scene of dimension dim (2: disks, the 2D map).
 DragErrorQuery drag_query(double d, double tau, lbm::CollisionKind coll, double magic, const PsmOptions& o,
                           lbm::Precision prec, int dim);
 
