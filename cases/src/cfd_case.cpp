@@ -665,6 +665,7 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
         .set("max_courant", std::max(max_courant_seen, last_courant))
         .set("max_mass_imbalance", std::max(max_imbalance, last_imbalance))
         .set("dem_steps", st.steps)
+        .set("dem_fused_steps", st.fused_steps)
         .set("dem_rebuilds", st.rebuilds)
         .set("dem_report_reads", st.status_reads)
         .set("dem_report_waits", st.status_waits)

@@ -155,6 +155,9 @@ TEST_F(CfdScene, SmallBedWritesItsOutputAndBalancesTheGas) {
   EXPECT_NE(summary.find("\"particles\": 190"), std::string::npos) << summary;
   EXPECT_NE(summary.find("\"interrupted\": false"), std::string::npos);
   EXPECT_EQ(summary.find("\"statistics_samples\": 0,"), std::string::npos) << summary;
+  // One rank, the particle path: every sub-step but the first of each gas step runs fused (the default).
+  EXPECT_NE(summary.find("\"dem_fused_steps\": "), std::string::npos) << summary;
+  EXPECT_EQ(summary.find("\"dem_fused_steps\": 0,"), std::string::npos) << summary;
 }
 
 TEST_F(CfdScene, WatchdogStopsAtTheCourantLimitNamingTheKeys) {
