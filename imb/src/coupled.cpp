@@ -54,13 +54,16 @@ CoupledSolver::CoupledSolver(lbm::LbmSolver& fluid, dem::DemSystem& dem, const C
 
 CoupledSolver::~CoupledSolver() = default;
 
-PsmParticles CoupledSolver::particle_view() {
-  // The DEM's records are Real4 (x, y, z, w): read them in place with stride 4.
-  const dem::ParticleView v = ranks_.halo ? dem_.held_view() : dem_.view();
+namespace {
+
+// The DEM's records are Real4 (x, y, z, w): the PSM reads them in place with
+// stride 4 (z only in 3D). No particles: no arrays.
+PsmParticles psm_particles(const dem::ParticleView& v, int dim) {
   PsmParticles p;
+  if (v.n == 0) return p;
   p.x = &v.pos_r->x;
   p.y = &v.pos_r->y;
-  p.z = dim_ == 3 ? &v.pos_r->z : nullptr;
+  p.z = dim == 3 ? &v.pos_r->z : nullptr;
   p.r = &v.pos_r->w;
   p.vx = &v.vel_im->x;
   p.vy = &v.vel_im->y;
@@ -70,8 +73,13 @@ PsmParticles CoupledSolver::particle_view() {
   p.wz = &v.omega_ii->z;
   p.n = v.n;
   p.stride = 4;
-  if (v.n == 0) p = PsmParticles{};
   return p;
+}
+
+}  // namespace
+
+PsmParticles CoupledSolver::particle_view() {
+  return psm_particles(ranks_.halo ? dem_.held_view() : dem_.view(), dim_);
 }
 
 void CoupledSolver::map() {
@@ -114,17 +122,8 @@ void CoupledSolver::fluid_step(const dem::ParticleView& v) {
 // (same queue as the gather: ordered after it, no host round trip).
 void CoupledSolver::add_wall_lubrication(const dem::ParticleView& v) {
   if (!p_.wall_lubrication.applied || v.n == 0 || v.ext_force == nullptr) return;
-  PsmParticles p;
-  p.x = &v.pos_r->x;
-  p.y = &v.pos_r->y;
-  p.z = &v.pos_r->z;
-  p.r = &v.pos_r->w;
-  p.vx = &v.vel_im->x;
-  p.vy = &v.vel_im->y;
-  p.vz = &v.vel_im->z;
-  p.n = v.n;
-  p.stride = 4;
-  imb::add_wall_lubrication(Exec(fluid_.backend()), p_.wall_lubrication.k, p, v.n, &v.ext_force->x, 4);
+  imb::add_wall_lubrication(fluid_.exec(lbm::Lane::Main), p_.wall_lubrication.k, psm_particles(v, 3), v.n,
+                            &v.ext_force->x, 4);
 }
 
 // 3. Remap the particles (possibly reordered by a neighbour-list rebuild) to cells.
