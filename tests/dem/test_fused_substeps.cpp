@@ -32,6 +32,7 @@
 #include "core/error.hpp"
 #include "dem/init.hpp"
 #include "dem/system.hpp"
+#include "dem_test_util.hpp"
 
 using namespace lbdem;
 using namespace lbdem::dem;
@@ -77,47 +78,8 @@ class FusedEnv {
 // changes between calls: wall and particle contacts, a rebuild every ~70
 // sub-steps, reports every few. ~560 particles (the host runs them on one
 // thread); scale 2: ~4,500 (on the host's threads).
-struct Bed {
-  DemParams p;
-  HostParticles h;
-  explicit Bed(bool friction, double scale = 1) {
-    const double X = 0.012 * scale, Y = 0.006 * scale, Z = 0.03 * scale;
-    RandomPackingSpec spec;
-    spec.lo = {0, 0, 0};
-    spec.hi = {X, Y, 0.02 * scale};
-    spec.periodic = {false, false, false};
-    spec.solid_fraction = 0.35;
-    spec.r_min = spec.r_max = 0.6e-3;
-    spec.density = 1000;
-    spec.seed = 11;
-    h = random_packing(spec);
-    std::uint64_t z = 987654321;
-    auto uniform = [&z] {
-      z = z * 6364136223846793005ULL + 1442695040888963407ULL;
-      return static_cast<double>(z >> 11) * (1.0 / 9007199254740992.0) * 2.0 - 1.0;
-    };
-    for (auto& v : h.v) v = {0.3 * uniform(), 0.3 * uniform(), 0.3 * uniform()};
-    if (friction) {
-      h.w.resize(h.v.size());
-      for (auto& w : h.w) w = {300 * uniform(), 300 * uniform(), 300 * uniform()};
-    }
-    p.lo = {0, 0, 0};
-    p.hi = {X, Y, Z};
-    for (int a = 0; a < 3; ++a) {
-      Vec3d n{0, 0, 0};
-      n[a] = 1;
-      p.walls.push_back(Wall{{0, 0, 0}, n});
-      n[a] = -1;
-      p.walls.push_back(Wall{{X, Y, Z}, n});
-    }
-    p.material.stiffness = p.material.wall_stiffness = 800;
-    p.material.restitution = p.material.wall_restitution = 0.97;
-    p.material.friction = p.material.wall_friction = friction ? 0.1 : 0.0;
-    p.friction = friction;
-    p.gravity = {0, 0, -9.80665};
-    p.external_forcing = true;
-    p.dt = min_collision_time(p, h) / 50;
-  }
+struct Bed : lbdem::dem::test::MovingBed {
+  explicit Bed(bool friction, double scale = 1) : MovingBed(friction, 11, 987654321, scale, friction) {}
 };
 
 // Coupling input of call c: an upward force of (0.4 + 0.2 (c % 2)) times each
@@ -195,7 +157,7 @@ class DemFusedSubsteps : public ::testing::TestWithParam<std::tuple<Backend, boo
 // sub-step graphs (the reference: every kernel launched on its own).
 TEST_P(DemFusedSubsteps, SameStateBitwiseAsTwoKernelsPerSubstep) {
   const auto [backend, friction] = GetParam();
-  if (backend == Backend::Cuda && !test::gpu_available()) GTEST_SKIP() << cuda_unavailable_reason();
+  if (backend == Backend::Cuda && !lbdem::test::gpu_available()) GTEST_SKIP() << cuda_unavailable_reason();
   const Bed bed(friction);
   const int calls = 8;
   const long steps = 101;
@@ -241,7 +203,7 @@ TEST_P(DemFusedSubsteps, SameStateBitwiseAsTwoKernelsPerSubstep) {
 // call that ends on a rebuild, against two kernels per sub-step.
 TEST_P(DemFusedSubsteps, ShortCallsSameStateBitwise) {
   const auto [backend, friction] = GetParam();
-  if (backend == Backend::Cuda && !test::gpu_available()) GTEST_SKIP() << cuda_unavailable_reason();
+  if (backend == Backend::Cuda && !lbdem::test::gpu_available()) GTEST_SKIP() << cuda_unavailable_reason();
   const Bed bed(friction);
   for (long steps : {1L, 2L, 3L, 17L}) {
     const int calls = static_cast<int>(300 / steps) + 1;
@@ -259,7 +221,7 @@ TEST_P(DemFusedSubsteps, ShortCallsSameStateBitwise) {
 // particles' positions and predictors race with no write.
 TEST_P(DemFusedSubsteps, LargeBedSameStateBitwise) {
   const auto [backend, friction] = GetParam();
-  if (backend == Backend::Cuda && !test::gpu_available()) GTEST_SKIP() << cuda_unavailable_reason();
+  if (backend == Backend::Cuda && !lbdem::test::gpu_available()) GTEST_SKIP() << cuda_unavailable_reason();
   const Bed bed(friction, 2);
   ASSERT_GT(bed.h.size(), 4096);
   const BedRun ref = run(backend, bed, bed.p, "0", 2, 101);
@@ -335,7 +297,7 @@ Diff largest_difference(const HostParticles& a, const HostParticles& b) {
 // order of dt times a rate, 1e-4 or more.
 TEST_P(DemFusedSubsteps, FirstDifferingSubstep) {
   const auto [backend, friction] = GetParam();
-  if (backend == Backend::Cuda && !test::gpu_available()) GTEST_SKIP() << cuda_unavailable_reason();
+  if (backend == Backend::Cuda && !lbdem::test::gpu_available()) GTEST_SKIP() << cuda_unavailable_reason();
   const Bed bed(friction);
   const std::vector<int> lanes = backend == Backend::Cuda ? std::vector<int>{1, 4} : std::vector<int>{1};
   std::vector<long> ks;

@@ -19,6 +19,7 @@
 #include "core/buffer.hpp"
 #include "dem/init.hpp"
 #include "dem/system.hpp"
+#include "dem_test_util.hpp"
 
 using namespace lbdem;
 using namespace lbdem::dem;
@@ -30,45 +31,8 @@ namespace {
 // with an upward coupling force of 0.4-0.6 times the weight that changes
 // between calls: contacts, wall friction, rebuilds (one per ~70 sub-steps)
 // and reports (one per ~3) at the rates of a bubbling bed's fast particles.
-struct Bed {
-  DemParams p;
-  HostParticles h;
-  Bed(bool friction, bool graphs) {
-    RandomPackingSpec spec;
-    spec.lo = {0, 0, 0};
-    spec.hi = {0.012, 0.006, 0.02};
-    spec.periodic = {false, false, false};
-    spec.solid_fraction = 0.35;
-    spec.r_min = spec.r_max = 0.6e-3;
-    spec.density = 1000;
-    spec.seed = 7;
-    h = random_packing(spec);
-    // Random velocities up to 0.3 m/s per axis (a bubbling bed's particle
-    // speeds): some 16 half-skins in the run, so lists are rebuilt often.
-    std::uint64_t z = 12345;
-    auto uniform = [&z] {
-      z = z * 6364136223846793005ULL + 1442695040888963407ULL;
-      return static_cast<double>(z >> 11) * (1.0 / 9007199254740992.0) * 2.0 - 1.0;
-    };
-    for (auto& v : h.v) v = {0.3 * uniform(), 0.3 * uniform(), 0.3 * uniform()};
-    p.lo = {0, 0, 0};
-    p.hi = {0.012, 0.006, 0.03};
-    for (int a = 0; a < 3; ++a) {
-      Vec3d n{0, 0, 0};
-      n[a] = 1;
-      p.walls.push_back(Wall{{0, 0, 0}, n});
-      n[a] = -1;
-      p.walls.push_back(Wall{{0.012, 0.006, 0.03}, n});
-    }
-    p.material.stiffness = p.material.wall_stiffness = 800;
-    p.material.restitution = p.material.wall_restitution = 0.97;
-    p.material.friction = p.material.wall_friction = friction ? 0.1 : 0.0;
-    p.friction = friction;
-    p.gravity = {0, 0, -9.80665};
-    p.external_forcing = true;
-    p.dt = min_collision_time(p, h) / 50;
-    p.substep_graphs = graphs;
-  }
+struct Bed : lbdem::dem::test::MovingBed {
+  Bed(bool friction, bool graphs) : MovingBed(friction, 7, 12345) { p.substep_graphs = graphs; }
 };
 
 // Coupling input of call c: an upward force of (0.4 + 0.2 * (c % 2)) times
@@ -128,7 +92,7 @@ void compare(const BedRun& a, const BedRun& b) {
 class DemSubstepGraphs : public ::testing::TestWithParam<bool> {};
 
 TEST_P(DemSubstepGraphs, CudaGraphsGiveTheSameParticlesBitwise) {
-  if (!test::gpu_available()) GTEST_SKIP() << cuda_unavailable_reason();
+  if (!lbdem::test::gpu_available()) GTEST_SKIP() << cuda_unavailable_reason();
   const bool friction = GetParam();
   const BedRun with = run_bed(Backend::Cuda, friction, true);
   const BedRun without = run_bed(Backend::Cuda, friction, false);
