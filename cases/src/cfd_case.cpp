@@ -444,6 +444,14 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
     const dem::HostParticles hp = dem.gather();
     dem::write_particle_snapshot(particle_writer, step, t, hp);
   };
+  // The statistics window [statistics.start, the case file's end] is cut into
+  // statistics.blocks equal spans (the case's end, not --steps: a chain of
+  // shorter runs and a straight run put each sample in the same block);
+  // block_at(b, i): where block b's sums of x cell i are.
+  const double stats_window = c.case_steps * c.gas.dt - c.stats_start;
+  auto block_at = [&](int b, int i) {
+    return static_cast<std::size_t>(b) * static_cast<std::size_t>(g.n[0]) + static_cast<std::size_t>(i);
+  };
   // The standard error of a profile's time average at x cell i from its
   // batch means (the blocks that hold samples there; nan below two):
   // sqrt(var(block means) / blocks). Blocks much longer than the bed's
@@ -452,7 +460,7 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
     double m = 0, m2 = 0;
     int k = 0;
     for (int b = 0; b < c.stats_blocks; ++b) {
-      const std::size_t at = static_cast<std::size_t>(b) * static_cast<std::size_t>(g.n[0]) + static_cast<std::size_t>(i);
+      const std::size_t at = block_at(b, i);
       if (pr.bcount[at] <= 0) continue;
       const double x = pr.bsum[at] / pr.bcount[at];
       ++k;
@@ -475,13 +483,10 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
     avg_height += b.height;
     ++samples;
     if (c.profiles.empty()) return;
-    // The sample's block: the window [statistics.start, the case file's end]
-    // cut into equal spans (the case's end, not --steps: a chain of shorter
-    // runs and a straight run put each sample in the same block).
-    const double window = c.case_steps * c.gas.dt - c.stats_start;
     const int nb = c.stats_blocks;
-    const int blk = window > 0 ? std::clamp(static_cast<int>(std::floor((t - c.stats_start) / window * nb)), 0, nb - 1) : 0;
-    const std::size_t boff = static_cast<std::size_t>(blk) * static_cast<std::size_t>(g.n[0]);
+    const int blk =
+        stats_window > 0 ? std::clamp(static_cast<int>(std::floor((t - c.stats_start) / stats_window * nb)), 0, nb - 1) : 0;
+    const std::size_t boff = block_at(blk, 0);
     eps_host = gas.gas_fraction().to_vector();
     for (Profile& pr : c.profiles) {
       if (pr.quantity == ProfileQuantity::VoidFraction) {
@@ -618,11 +623,11 @@ int run_cfd_case(const Config& root, const RunOptions& opt) {
       if (blocks_known) {  // each block's own means: how stationary the averages are
         std::ostringstream bcsv;
         bcsv << "quantity,height,x,block,t_start,t_end,value,samples\n";
-        const double span = (c.case_steps * c.gas.dt - c.stats_start) / c.stats_blocks;
+        const double span = stats_window / c.stats_blocks;
         for (const Profile& pr : c.profiles)
           for (int b = 0; b < c.stats_blocks; ++b)
             for (int i = 0; i < g.n[0]; ++i) {
-              const std::size_t at = static_cast<std::size_t>(b) * static_cast<std::size_t>(g.n[0]) + static_cast<std::size_t>(i);
+              const std::size_t at = block_at(b, i);
               const double n = pr.bcount[at];
               bcsv << (pr.quantity == ProfileQuantity::VoidFraction ? "void_fraction" : "particle_velocity_z") << ","
                    << num(pr.height) << "," << num(g.origin[0] + (i + 0.5) * h) << "," << b << ","
